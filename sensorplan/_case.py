@@ -1,0 +1,90 @@
+"""A case: the bridge, its EI mesh and nominal EI, the vehicle, sensors, noise and sweep."""
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ._forward import expand_ei, influence_lines
+from ._loads import LoadSweep, Vehicle
+from ._noise import NoiseModel
+from ._sensors import SensorLayout
+from ._structure import Bridge, Mesh
+
+__all__ = ["Case"]
+
+
+@dataclass(frozen=True, eq=False)
+class Case:
+    """Everything needed to predict what the sensors see.
+
+    Parameters
+    ----------
+    bridge : Bridge
+    mesh : Mesh
+    ei : array_like
+        Nominal EI [N m^2]: scalar, one per span or one per element.
+    vehicle : Vehicle
+    sensors : SensorLayout
+    noise : NoiseModel, optional
+        Defaults to the sensors' ``noise_std`` with independent noise.
+    sweep : LoadSweep, optional
+        Defaults to moving the whole vehicle across in 0.25 m steps.
+    name : str
+    """
+
+    bridge: Bridge
+    mesh: Mesh
+    ei: np.ndarray
+    vehicle: Vehicle
+    sensors: SensorLayout
+    noise: NoiseModel = None
+    sweep: LoadSweep = None
+    name: str = "case"
+
+    def __post_init__(self):
+        self.mesh.check_fits(self.bridge)
+        self.bridge.check_on_bridge(self.sensors.positions, "positions", "SensorLayout")
+        ei = expand_ei(self.bridge, self.mesh, self.ei)
+        ei.setflags(write=False)
+        object.__setattr__(self, "ei", ei)
+        if self.noise is None and self.sensors.noise_std is not None:
+            object.__setattr__(self, "noise", NoiseModel(self.sensors.noise_std))
+        if self.noise is not None and self.noise.n_sensors != self.sensors.n_sensors:
+            from ._errors import ConfigError
+
+            raise ConfigError(
+                f"The noise model has {self.noise.n_sensors} standard deviations for "
+                f"{self.sensors.n_sensors} sensors.")
+        if self.sweep is None:
+            object.__setattr__(self, "sweep", LoadSweep.covering(self.bridge, self.vehicle, 0.25))
+
+    @property
+    def n_elements(self):
+        return self.mesh.n_elements
+
+    def with_mesh(self, mesh):
+        """The same case on another EI mesh (nominal EI re-sampled at element midpoints)."""
+        ei = self.ei_at(mesh.midpoints)
+        return replace(self, mesh=mesh, ei=ei)
+
+    def with_sensors(self, sensors, noise=None):
+        """The same case with other sensors (noise std taken from ``sensors`` if not given)."""
+        if noise is None and sensors.noise_std is None and self.noise is not None:
+            noise = NoiseModel(np.full(sensors.n_sensors, float(np.median(self.noise.std))),
+                               self.noise.correlation_length)
+        return replace(self, sensors=sensors, noise=noise)
+
+    def ei_at(self, x):
+        """Nominal EI at positions ``x`` [m]."""
+        return self.ei[self.mesh.element_of(x)]
+
+    def influence_lines(self, ei=None, *, sensors=None, positions=None, bridge=None):
+        """Influence lines of the case (any argument overrides the case's own)."""
+        return influence_lines(
+            self.bridge if bridge is None else bridge,
+            self.mesh,
+            self.ei if ei is None else ei,
+            self.sensors if sensors is None else sensors,
+            self.vehicle,
+            self.sweep.positions if positions is None else positions,
+        )

@@ -1,0 +1,198 @@
+"""Case configuration files (TOML) and the embedded examples.
+
+Non-SI units are accepted only here, through keys with an explicit suffix,
+and converted on entry: ``noise_std_mm_per_m`` and ``noise_std_urad`` for
+tiltmeters, ``noise_std_mm`` for deflection sensors.
+"""
+
+import math
+import tomllib
+from importlib import resources
+from pathlib import Path
+
+from ._case import Case
+from ._errors import ConfigError
+from ._loads import LoadSweep, Vehicle
+from ._noise import NoiseModel
+from ._sensors import SensorLayout
+from ._structure import Bridge, Mesh
+
+__all__ = ["load_case", "case_from_dict", "example_case", "EXAMPLES"]
+
+EXAMPLES = ("simply-supported", "openlab-like", "three-span")
+
+_KEYS = {
+    "bridge": {"spans", "ei", "elements", "element_length", "rotational_springs",
+               "vertical_springs"},
+    "vehicle": {"axle_offsets", "axle_loads"},
+    "sensors": {"names", "positions", "kinds", "noise_std", "noise_std_mm_per_m",
+                "noise_std_urad", "noise_std_mm"},
+    "loads": {"start", "stop", "step"},
+    "noise": {"correlation_length"},
+    "case": {"name"},
+}
+_REQUIRED = {"bridge": {"spans", "ei"}, "vehicle": {"axle_offsets", "axle_loads"},
+             "sensors": {"positions"}}
+_TILT_UNITS = {"noise_std_mm_per_m": 1e-3, "noise_std_urad": 1e-6}
+_DEFLECTION_UNITS = {"noise_std_mm": 1e-3}
+
+
+def load_case(path):
+    """Read a case from a TOML file.
+
+    Errors name the file, the section and the field, in one line.
+    """
+    path = Path(path)
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: file not found. Give the path of a TOML case file.") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot read the file ({exc}).") from None
+    return case_from_toml(text, source=str(path), name=path.stem)
+
+
+def case_from_toml(text, *, source="config", name="case"):
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{source}: not valid TOML ({exc}).") from None
+    return case_from_dict(data, source=source, name=name)
+
+
+def example_case(name):
+    """One of the embedded examples: ``simply-supported``, ``openlab-like``, ``three-span``."""
+    if name not in EXAMPLES:
+        raise ConfigError(f"Unknown example {name!r}. Choose one of: {', '.join(EXAMPLES)}.")
+    text = resources.files("sensorplan.examples").joinpath(f"{name}.toml").read_text("utf-8")
+    return case_from_toml(text, source=f"example {name}", name=name)
+
+
+def example_text(name):
+    """The TOML text of an embedded example (to copy and edit)."""
+    example_case(name)
+    return resources.files("sensorplan.examples").joinpath(f"{name}.toml").read_text("utf-8")
+
+
+def _section(data, name, source):
+    value = data.get(name, {})
+    if not isinstance(value, dict):
+        raise ConfigError(f"{source}: [{name}] must be a table (a [{name}] section).")
+    unknown = set(value) - _KEYS[name]
+    if unknown:
+        raise ConfigError(
+            f"{source}: [{name}] has an unknown key {sorted(unknown)[0]!r}; "
+            f"expected one of {', '.join(sorted(_KEYS[name]))}.")
+    missing = _REQUIRED.get(name, set()) - set(value)
+    if missing:
+        raise ConfigError(f"{source}: [{name}] is missing the required key {sorted(missing)[0]!r}.")
+    return value
+
+
+def _inf(value):
+    """TOML has inf; also accept the strings "inf" / "infinity"."""
+    if isinstance(value, list):
+        return [_inf(v) for v in value]
+    if isinstance(value, str) and value.strip().lower() in {"inf", "infinity", "+inf"}:
+        return math.inf
+    return value
+
+
+def case_from_dict(data, *, source="config", name="case"):
+    """Build a :class:`Case` from a parsed TOML document."""
+    unknown = set(data) - set(_KEYS)
+    if unknown:
+        raise ConfigError(
+            f"{source}: unknown section [{sorted(unknown)[0]}]; expected "
+            f"{', '.join('[' + k + ']' for k in _KEYS)}.")
+    section = "bridge"
+    try:
+        b = _section(data, "bridge", source)
+        bridge = Bridge(b["spans"], _inf(b.get("rotational_springs")), _inf(b.get("vertical_springs")))
+        if "elements" in b and "element_length" in b:
+            raise ConfigError("give either 'elements' or 'element_length', not both.")
+        if "element_length" in b:
+            mesh = Mesh.from_length(bridge, b["element_length"])
+        else:
+            mesh = Mesh.uniform(bridge, b.get("elements", 10 * bridge.n_spans))
+        ei = b["ei"]
+        section = "vehicle"
+        v = _section(data, "vehicle", source)
+        vehicle = Vehicle(v["axle_offsets"], v["axle_loads"])
+        section = "sensors"
+        s = _section(data, "sensors", source)
+        sensors = _sensors(s, bridge)
+        section = "noise"
+        n = _section(data, "noise", source)
+        noise = None
+        if sensors.noise_std is not None:
+            noise = NoiseModel(sensors.noise_std, n.get("correlation_length", 0.0))
+        elif "correlation_length" in n:
+            raise ConfigError("'correlation_length' needs a noise standard deviation in [sensors].")
+        section = "loads"
+        lo = _section(data, "loads", source)
+        sweep = None
+        if lo:
+            missing = {"start", "stop", "step"} - set(lo)
+            if missing:
+                raise ConfigError(f"the key {sorted(missing)[0]!r} is missing (give start, stop and step).")
+            sweep = LoadSweep.from_range(lo["start"], lo["stop"], lo["step"])
+        section = "case"
+        name = _section(data, "case", source).get("name", name)
+        section = "bridge"
+        return Case(bridge, mesh, ei, vehicle, sensors, noise, sweep, str(name))
+    except ConfigError as exc:
+        message = str(exc)
+        if message.startswith(source):
+            raise
+        raise ConfigError(f"{source}: [{section}] {message}") from None
+
+
+def _sensors(s, bridge):
+    positions = s["positions"]
+    if not isinstance(positions, list):
+        positions = [positions]
+    kinds = s.get("kinds")
+    layout = SensorLayout(positions, kinds, s.get("names"))
+    bridge.check_on_bridge(layout.positions, "positions", "SensorLayout")
+    given = [k for k in ("noise_std", *_TILT_UNITS, *_DEFLECTION_UNITS) if k in s]
+    if len(given) > 1:
+        raise ConfigError(f"give the noise in one key only; got {', '.join(given)}.")
+    if not given:
+        return layout
+    key = given[0]
+    factor = 1.0
+    if key in _TILT_UNITS:
+        if any(k != "rotation" for k in layout.kinds):
+            raise ConfigError(f"'{key}' applies to tiltmeters only; use 'noise_std' in SI units "
+                              "(rad, m) for mixed sensor kinds.")
+        factor = _TILT_UNITS[key]
+    elif key in _DEFLECTION_UNITS:
+        if any(k != "deflection" for k in layout.kinds):
+            raise ConfigError(f"'{key}' applies to deflection sensors only; use 'noise_std' in SI "
+                              "units (rad, m) for mixed sensor kinds.")
+        factor = _DEFLECTION_UNITS[key]
+    raw = s[key]
+    try:
+        values = [float(x) * factor for x in (raw if isinstance(raw, list) else [raw])]
+    except (TypeError, ValueError):
+        raise ConfigError(f"The '{key}' parameter must be a number or a list of numbers. "
+                          f"Got {raw!r} instead.") from None
+    if len(values) == 1:
+        values = values * layout.n_sensors
+    layout = SensorLayout(layout.positions, layout.kinds, layout.names, values)
+    _check_noise_units(layout, key)
+    return layout
+
+
+def _check_noise_units(layout, key):
+    """Reject noise levels that only make sense in another unit (a unit slip)."""
+    for name, kind, std in zip(layout.names, layout.kinds, layout.noise_std):
+        if kind == "rotation" and std > 1e-2:
+            raise ConfigError(
+                f"The '{key}' of sensor {name} is {std:g} rad, far above any tiltmeter noise. "
+                "Give it in rad, or use 'noise_std_mm_per_m' / 'noise_std_urad'.")
+        if kind == "deflection" and std > 0.05:
+            raise ConfigError(
+                f"The '{key}' of sensor {name} is {std:g} m, far above any deflection noise. "
+                "Give it in m, or use 'noise_std_mm'.")

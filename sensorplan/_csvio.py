@@ -1,0 +1,152 @@
+"""CSV files of crossings: ``crossing,position_m,<sensor...>[,load_factor]``.
+
+Values are in rad (rotation) or m (deflection).  Reading validates columns,
+sensor names, numbers, NaNs, increasing positions within a crossing and
+magnitudes that look like a unit slip; every error names the row or column.
+Writing is atomic: the file appears complete or not at all.
+"""
+
+import csv
+import io
+import math
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ._crossings import Crossing, Crossings
+from ._errors import DataError
+
+__all__ = ["read_crossings", "write_crossings", "atomic_write_text"]
+
+# Plausibility limits per reading (a traffic crossing never tilts a bridge by
+# 0.02 rad = 20 mm/m, nor deflects it by 1 m): larger values are unit slips.
+_LIMITS = {"rotation": (0.02, "rad", "mm/m or micro-radians given as rad? Convert to rad"),
+           "deflection": (1.0, "m", "mm given as m? Convert to m")}
+
+
+def atomic_write_text(path, text):
+    """Write ``text`` to ``path`` through a temporary file and a rename."""
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    directory.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def write_crossings(path, crossings):
+    """Write crossings to a CSV file (atomically)."""
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    with_factor = any(np.any(c.load_factor != 1.0) for c in crossings)
+    header = ["crossing", "position_m", *crossings.sensor_names]
+    writer.writerow(header + (["load_factor"] if with_factor else []))
+    for c in crossings:
+        for k in range(c.n_loads):
+            row = [c.label, repr(float(c.positions[k]))] + [repr(float(v)) for v in c.values[:, k]]
+            if with_factor:
+                row.append(repr(float(c.load_factor[k])))
+            writer.writerow(row)
+    atomic_write_text(path, buf.getvalue())
+
+
+def read_crossings(path, sensors=None):
+    """Read crossings from ``path``.
+
+    Parameters
+    ----------
+    path : str or Path
+    sensors : SensorLayout, optional
+        When given, every sensor column must be one of its names and the
+        magnitudes are checked against each sensor's kind.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise DataError(f"{path}: file not found.") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DataError(f"{path}: cannot read the file ({exc}).") from None
+    return parse_crossings(text, sensors, source=str(path))
+
+
+def parse_crossings(text, sensors=None, *, source="data"):
+    rows = [r for r in csv.reader(io.StringIO(text)) if r and any(cell.strip() for cell in r)]
+    if not rows:
+        raise DataError(f"{source}: the file is empty; expected a header "
+                        "'crossing,position_m,<sensor names>'.")
+    header = [h.strip() for h in rows[0]]
+    for required in ("crossing", "position_m"):
+        if required not in header:
+            raise DataError(f"{source}: missing column '{required}'; the header must start "
+                            "'crossing,position_m,' followed by one column per sensor.")
+    if len(set(header)) != len(header):
+        dup = next(h for h in header if header.count(h) > 1)
+        raise DataError(f"{source}: column '{dup}' appears twice.")
+    sensor_cols = [h for h in header if h not in ("crossing", "position_m", "load_factor")]
+    if not sensor_cols:
+        raise DataError(f"{source}: no sensor column; add one column per sensor name.")
+    if sensors is not None:
+        unknown = [h for h in sensor_cols if h not in sensors.names]
+        if unknown:
+            raise DataError(f"{source}: column '{unknown[0]}' is not a sensor of the case; "
+                            f"sensor names are {', '.join(sensors.names)}.")
+    col = {h: i for i, h in enumerate(header)}
+    groups = {}
+    for line, row in enumerate(rows[1:], start=2):
+        if len(row) != len(header):
+            raise DataError(f"{source}: row {line} has {len(row)} fields, the header has {len(header)}.")
+        label = row[col["crossing"]].strip()
+        if not label:
+            raise DataError(f"{source}: row {line}, column 'crossing' is empty.")
+        numbers = [_number(row[col[h]], source, line, h)
+                   for h in ["position_m", *sensor_cols]
+                   + (["load_factor"] if "load_factor" in col else [])]
+        groups.setdefault(label, []).append(numbers)
+    if not groups:
+        raise DataError(f"{source}: the file has a header but no data rows.")
+    out = []
+    n_s = len(sensor_cols)
+    for label, data in groups.items():
+        arr = np.array(data)
+        pos = arr[:, 0]
+        if np.any(np.diff(pos) <= 0.0):
+            raise DataError(f"{source}: positions of crossing '{label}' must be strictly increasing; "
+                            "sort the rows of each crossing by position_m.")
+        factor = arr[:, 1 + n_s] if "load_factor" in col else np.ones(pos.size)
+        if np.any(factor <= 0.0):
+            raise DataError(f"{source}: column 'load_factor' of crossing '{label}' must be positive.")
+        out.append(Crossing(label, pos, arr[:, 1:1 + n_s].T.copy(), factor))
+    crossings = Crossings(tuple(sensor_cols), tuple(out))
+    if sensors is not None:
+        _check_magnitudes(crossings, sensors, source)
+    return crossings
+
+
+def _number(cell, source, line, column):
+    try:
+        value = float(cell)
+    except ValueError:
+        raise DataError(f"{source}: row {line}, column '{column}': {cell.strip()!r} is not a number.") from None
+    if math.isnan(value) or math.isinf(value):
+        raise DataError(f"{source}: row {line}, column '{column}' is {cell.strip() or 'empty'}; "
+                        "remove the row or fill in the value.")
+    return value
+
+
+def _check_magnitudes(crossings, sensors, source):
+    for i, name in enumerate(crossings.sensor_names):
+        kind = sensors.kinds[sensors.names.index(name)]
+        limit, unit, hint = _LIMITS[kind]
+        peak = max(float(np.max(np.abs(c.values[i]))) for c in crossings)
+        if peak > limit:
+            raise DataError(f"{source}: column '{name}' reaches {peak:g} {unit}, implausible for a "
+                            f"{kind} sensor ({hint}).")

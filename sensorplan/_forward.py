@@ -1,0 +1,315 @@
+"""Exact forward model: influence lines of rotation and deflection, with Jacobians.
+
+The beam is released into a free body loaded by the point actions (axle
+loads, or the unit couple / unit force of a sensor) and by the support
+reactions X: a vertical force R_i at every support and a couple C_i at every
+support with a rotational spring (0 < k <= inf).  The reactions follow from
+the principle of minimum complementary energy (force method)
+
+    min_X  1/2 int M(s)^2 v(s) ds + 1/2 sum_u c_u X_u^2     s.t. equilibrium,
+
+where M = M_0 + sum_u X_u b_u is the free-body moment (sagging positive),
+v = 1/EI is piecewise constant and c_u = 1/k_u is the compliance of the
+spring carrying X_u (0 when rigid).  It is a small equality-constrained
+quadratic programme, solved exactly once for all load positions at once.
+
+With the actual (indeterminate) moment diagrams M(s; z) of the load and m_r(s)
+of the unit action conjugate to the sensor reading (unit couple for a
+rotation, unit force for a deflection), the unit-load theorem gives
+
+    y_r(z) = int m_r M v ds + sum_u c_u X_u^r X_u^z,
+
+and, because both diagrams are the actual ones, the same element integrals
+are the exact Jacobian: dy/dv_j = A_(r,z),j = int_element_j m_r M ds and
+dy/dc_u = X_u^r X_u^z (the adjoint identity).  y is homogeneous of degree 1
+in (v, c).
+
+Signs: w(x) downward, theta = dw/dx, x from the left end.  Under a sagging
+load a tiltmeter near a span's left support reads positive.
+"""
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import scipy.linalg
+
+from ._diagrams import RAMP, STEP, element_products, end_value_and_slope, point_actions
+from ._errors import ConfigError
+from ._loads import LoadSweep, Vehicle
+from ._sensors import SensorLayout
+from ._structure import Bridge, Mesh
+from ._validation import as_float_array
+
+__all__ = ["InfluenceLines", "influence_lines", "bending_moments", "support_reactions",
+           "expand_ei"]
+
+PARAMETERISATIONS = ("compliance", "ei", "log_ei")
+
+
+@dataclass(frozen=True, eq=False)
+class InfluenceLines:
+    """Predicted influence lines and their exact Jacobians.
+
+    Attributes
+    ----------
+    predictions : ndarray, shape (n_sensors, n_loads)
+        Sensor readings [rad or m] for each reference-axle position.
+    kernel : ndarray, shape (n_sensors, n_loads, n_elements)
+        Element integrals A = dy/dv with v = 1/EI (compliance Jacobian) [unit * N m^2].
+    spring_kernel : ndarray, shape (n_sensors, n_loads, n_springs)
+        dy/dc for the spring compliances c = 1/k of ``bridge.spring_parameters``.
+    ei : ndarray, shape (n_elements,)
+        The EI [N m^2] the lines were computed for.
+    spring_stiffness : ndarray, shape (n_springs,)
+    """
+
+    bridge: Bridge
+    mesh: Mesh
+    sensors: SensorLayout
+    vehicle: Vehicle
+    positions: np.ndarray
+    ei: np.ndarray
+    spring_stiffness: np.ndarray
+    predictions: np.ndarray
+    kernel: np.ndarray
+    spring_kernel: np.ndarray
+
+    @property
+    def n_sensors(self):
+        return self.predictions.shape[0]
+
+    @property
+    def n_loads(self):
+        return self.predictions.shape[1]
+
+    @property
+    def n_elements(self):
+        return self.ei.size
+
+    @property
+    def n_springs(self):
+        return self.spring_stiffness.size
+
+    def jacobian(self, parameterisation="log_ei", *, springs=False):
+        """Jacobian of the predictions, shape (n_sensors, n_loads, n_params).
+
+        Parameters
+        ----------
+        parameterisation : {"compliance", "ei", "log_ei"}
+            Derivative with respect to v = 1/EI [1/(N m^2)], EI [N m^2] or
+            log EI (dimensionless), by the chain rules
+            dy/dEI = -dy/dv / EI^2 and dy/dlog EI = -dy/dv / EI.
+        springs : bool
+            Append the derivatives with respect to the log stiffnesses of the
+            elastic springs (dy/dlog k = -dy/dc / k).
+        """
+        jac = self.kernel * _chain_factor(self.ei, parameterisation)
+        if springs:
+            jac = np.concatenate([jac, self.spring_log_jacobian], axis=2)
+        return jac
+
+    @cached_property
+    def spring_log_jacobian(self):
+        """dy/dlog k for the elastic springs, shape (n_sensors, n_loads, n_springs)."""
+        return -self.spring_kernel / self.spring_stiffness
+
+
+def _chain_factor(ei, parameterisation):
+    if parameterisation == "compliance":
+        return np.ones_like(ei)
+    if parameterisation == "ei":
+        return -1.0 / ei**2
+    if parameterisation == "log_ei":
+        return -1.0 / ei
+    raise ConfigError(
+        f"The 'parameterisation' parameter must be one of {PARAMETERISATIONS}. "
+        f"Got {parameterisation!r} instead.")
+
+
+def expand_ei(bridge, mesh, ei):
+    """EI per element from a scalar, one value per span, or one per element."""
+    arr = np.atleast_1d(np.asarray(ei, dtype=float))
+    if arr.size == 1:
+        arr = np.full(mesh.n_elements, float(arr[0]))
+    elif arr.size == bridge.n_spans and arr.size != mesh.n_elements:
+        arr = mesh.span_values(bridge, arr)
+    elif arr.size != mesh.n_elements:
+        raise ConfigError(
+            f"The 'ei' parameter must be a scalar, one value per span ({bridge.n_spans}) or one "
+            f"per element ({mesh.n_elements}). Got {arr.size} values instead.")
+    arr = as_float_array(arr, "ei", "the forward model")
+    if np.any(arr <= 0.0):
+        raise ConfigError("The 'ei' parameter of the forward model must be positive everywhere. "
+                          f"Got a minimum of {arr.min()!r} instead.")
+    return arr
+
+
+class _ForceMethod:
+    """Support reactions by minimum complementary energy, for one bridge and EI."""
+
+    def __init__(self, bridge, mesh, ei):
+        self.bridge = bridge
+        self.edges = mesh.edges
+        self.length = bridge.length
+        self.v = 1.0 / ei
+        xs = bridge.support_positions
+        n_sup = xs.size
+        rot = np.asarray(bridge.rotational_springs)
+        vert = np.asarray(bridge.vertical_springs)
+        has_couple = rot > 0.0
+        # Unknowns: R_i for every support, then C_i where a rotational restraint exists.
+        self.kind = np.concatenate([np.full(n_sup, RAMP), np.full(has_couple.sum(), STEP)])
+        self.where = np.concatenate([xs, xs[has_couple]])
+        self.support = np.concatenate([np.arange(n_sup), np.nonzero(has_couple)[0]])
+        stiffness = np.concatenate([vert, rot[has_couple]])
+        self.compliance = 1.0 / stiffness  # 0 for rigid restraints
+        # Scale couples by the length so that all unknowns have comparable size.
+        self.scale = np.where(self.kind == STEP, self.length, 1.0)
+        n_u = self.kind.size
+        self.basis = point_actions(self.edges, np.broadcast_to(self.where, (n_u, n_u)),
+                                   np.diag(self.scale), np.broadcast_to(self.kind, (n_u, n_u)))
+        # Map each elastic spring parameter of the bridge to its unknown.
+        self.spring_unknown = []
+        for i, kind in bridge.spring_parameters:
+            want = RAMP if kind == "vertical" else STEP
+            self.spring_unknown.append(int(np.nonzero((self.support == i) & (self.kind == want))[0][0]))
+        self.spring_unknown = np.array(self.spring_unknown, dtype=int)
+        # Energy matrix and equilibrium rows (scaled).
+        bb = element_products(self.edges, self.basis, self.basis) @ self.v
+        self.v_ref = float(np.mean(self.v))
+        ref = self.v_ref * self.length**3
+        energy = bb + np.diag(self.compliance * self.scale**2)
+        value_row = np.where(self.kind == RAMP, self.length - self.where, self.scale)
+        slope_row = np.where(self.kind == RAMP, 1.0, 0.0)
+        constraints = np.vstack([slope_row, value_row / self.length])
+        kkt = np.zeros((n_u + 2, n_u + 2))
+        kkt[:n_u, :n_u] = energy / ref
+        kkt[:n_u, n_u:] = constraints.T
+        kkt[n_u:, :n_u] = constraints
+        self.ref = ref
+        self.n_u = n_u
+        try:
+            self.lu = scipy.linalg.lu_factor(kkt, check_finite=True)
+        except (ValueError, np.linalg.LinAlgError) as exc:  # pragma: no cover - defensive
+            raise ConfigError(f"The bridge is not stable (singular equilibrium): {exc}") from exc
+        cond = np.linalg.cond(kkt)
+        if not np.isfinite(cond) or cond > 1e13:
+            raise ConfigError(
+                "The bridge is unstable or nearly so (the force-method system is singular, "
+                f"condition number {cond:.2e}). Check the support springs.")
+
+    def solve(self, positions, weights, kinds):
+        """Actual diagrams and reactions for free-body atoms (n_funcs, n_actions)."""
+        free = point_actions(self.edges, positions, weights, kinds)
+        g = element_products(self.edges, self.basis, free) @ self.v  # (n_u, n_funcs)
+        value, slope = end_value_and_slope(self.length, positions, weights, kinds)
+        rhs = np.vstack([-g / self.ref, -slope[None, :], -value[None, :] / self.length])
+        sol = scipy.linalg.lu_solve(self.lu, rhs)
+        x_scaled = sol[: self.n_u]  # (n_u, n_funcs)
+        left = free.left + x_scaled.T @ self.basis.left
+        right = free.right + x_scaled.T @ self.basis.right
+        reactions = x_scaled * self.scale[:, None]  # physical R [N] and C [N m]
+        return free.plus_linear(left - free.left, right - free.right), reactions
+
+
+def _sensor_actions(sensors):
+    kinds = np.array([STEP if k == "rotation" else RAMP for k in sensors.kinds])
+    weights = np.where(kinds == STEP, 1.0, -1.0)  # unit couple / unit downward force
+    return sensors.positions[:, None], weights[:, None], kinds[:, None]
+
+
+def _load_actions(bridge, vehicle, positions):
+    axles = vehicle.axle_positions(positions)
+    on = (axles >= 0.0) & (axles <= bridge.length)
+    weights = np.where(on, -np.asarray(vehicle.axle_loads)[None, :], 0.0)
+    axles = np.where(on, axles, 0.0)
+    return axles, weights, np.full(axles.shape, RAMP)
+
+
+def _check_inputs(bridge, mesh, sensors, positions):
+    mesh.check_fits(bridge)
+    if sensors is not None:
+        bridge.check_on_bridge(sensors.positions, "positions", "SensorLayout")
+    positions = positions.positions if isinstance(positions, LoadSweep) else positions
+    return as_float_array(positions, "positions", "the load sweep")
+
+
+def influence_lines(bridge, mesh, ei, sensors, vehicle, positions):
+    """Influence lines of ``sensors`` for ``vehicle`` at reference-axle ``positions``.
+
+    Parameters
+    ----------
+    bridge : Bridge
+    mesh : Mesh
+        Element mesh of EI; its edges must include every support.
+    ei : float or array_like
+        EI [N m^2]: scalar, one per span, or one per element.
+    sensors : SensorLayout
+    vehicle : Vehicle
+    positions : LoadSweep or array_like
+        Reference (front) axle positions [m].
+
+    Returns
+    -------
+    InfluenceLines
+        Predictions and exact Jacobians (exact for piecewise-constant EI).
+
+    Examples
+    --------
+    >>> from sensorplan import Bridge, Mesh, SensorLayout, Vehicle
+    >>> bridge = Bridge(spans=(20.0,))
+    >>> lines = influence_lines(bridge, Mesh.uniform(bridge, 10), 1e10,
+    ...                         SensorLayout([0.0]), Vehicle.point_load(1e5), [10.0])
+    >>> # closed form P L^2 / (16 EI) for a central load on a simple span
+    >>> bool(abs(lines.predictions[0, 0] - 1e5 * 20.0**2 / (16 * 1e10)) < 1e-15)
+    True
+    """
+    positions = _check_inputs(bridge, mesh, sensors, positions)
+    ei = expand_ei(bridge, mesh, ei)
+    method = _ForceMethod(bridge, mesh, ei)
+    load_diagrams, load_reactions = method.solve(*_load_actions(bridge, vehicle, positions))
+    sensor_diagrams, sensor_reactions = method.solve(*_sensor_actions(sensors))
+    kernel = element_products(mesh.edges, sensor_diagrams, load_diagrams)
+    c = method.compliance
+    springs = method.spring_unknown
+    spring_kernel = sensor_reactions[springs].T[:, None, :] * load_reactions[springs].T[None, :, :]
+    predictions = kernel @ method.v + np.einsum(
+        "ur,u,uk->rk", sensor_reactions, c, load_reactions)
+    for arr in (kernel, spring_kernel, predictions):
+        arr.setflags(write=False)
+    return InfluenceLines(bridge, mesh, sensors, vehicle, positions, ei,
+                          bridge.spring_stiffness(), predictions, kernel, spring_kernel)
+
+
+def bending_moments(bridge, mesh, ei, vehicle, positions, x):
+    """Actual bending moment [N m] (sagging positive) at ``x`` for each load position.
+
+    Returns an array of shape (n_loads, len(x)); at a support couple the
+    value right of the support is returned.
+    """
+    positions = _check_inputs(bridge, mesh, None, positions)
+    method = _ForceMethod(bridge, mesh, expand_ei(bridge, mesh, ei))
+    diagrams, _ = method.solve(*_load_actions(bridge, vehicle, positions))
+    return diagrams.evaluate(mesh.edges, x)
+
+
+def support_reactions(bridge, mesh, ei, vehicle, positions):
+    """Support reactions for each load position.
+
+    Returns ``(forces, couples)``: upward vertical reactions [N] of shape
+    (n_loads, n_supports) and support couples [N m] of shape
+    (n_loads, n_supports) (zero at pins).  A couple is the jump it causes in
+    the sagging moment, left to right.
+    """
+    positions = _check_inputs(bridge, mesh, None, positions)
+    method = _ForceMethod(bridge, mesh, expand_ei(bridge, mesh, ei))
+    _, reactions = method.solve(*_load_actions(bridge, vehicle, positions))
+    n_sup = bridge.support_positions.size
+    forces = np.zeros((positions.size, n_sup))
+    couples = np.zeros((positions.size, n_sup))
+    for u in range(method.n_u):
+        target = forces if method.kind[u] == RAMP else couples
+        target[:, method.support[u]] = reactions[u]
+    return forces, couples

@@ -1,0 +1,89 @@
+"""Sensors: tiltmeters (rotation [rad]) and deflection sensors [m]."""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._errors import ConfigError
+from ._validation import as_float_array, as_float_tuple
+
+__all__ = ["SensorLayout", "SENSOR_KINDS"]
+
+SENSOR_KINDS = ("rotation", "deflection")
+_UNITS = {"rotation": "rad", "deflection": "m"}
+
+
+@dataclass(frozen=True, eq=False)
+class SensorLayout:
+    """A set of sensors on the bridge.
+
+    Parameters
+    ----------
+    positions : array_like
+        Sensor positions [m] from the left end.
+    kinds : sequence of str, optional
+        ``"rotation"`` (default, reads rad, positive when the deck dips to the
+        right) or ``"deflection"`` (reads m, positive downwards).
+    names : sequence of str, optional
+        Defaults to ``S1, S2, ...``.
+    noise_std : float or sequence of float, optional
+        Noise standard deviation of each sensor in its unit (rad or m).
+    """
+
+    positions: np.ndarray
+    kinds: tuple = None
+    names: tuple = None
+    noise_std: tuple = None
+
+    def __post_init__(self):
+        pos = as_float_array(self.positions, "positions", "SensorLayout")
+        n = pos.size
+        kinds = ("rotation",) * n if self.kinds is None else tuple(self.kinds)
+        if isinstance(self.kinds, str):
+            kinds = (self.kinds,) * n
+        if len(kinds) != n or any(k not in SENSOR_KINDS for k in kinds):
+            raise ConfigError(
+                f"The 'kinds' parameter of SensorLayout must list {n} entries, each 'rotation' "
+                f"or 'deflection'. Got {self.kinds!r} instead.")
+        names = tuple(f"S{i + 1}" for i in range(n)) if self.names is None else tuple(
+            str(name) for name in self.names)
+        if len(names) != n or len(set(names)) != n or any(not name.strip() for name in names):
+            raise ConfigError(
+                f"The 'names' parameter of SensorLayout must list {n} distinct, non-empty names. "
+                f"Got {self.names!r} instead.")
+        noise = None
+        if self.noise_std is not None:
+            noise = as_float_tuple(self.noise_std, "noise_std", "SensorLayout", length=n,
+                                   low=0.0, low_open=True)
+        object.__setattr__(self, "positions", pos)
+        object.__setattr__(self, "kinds", kinds)
+        object.__setattr__(self, "names", names)
+        object.__setattr__(self, "noise_std", noise)
+
+    @property
+    def n_sensors(self):
+        return self.positions.size
+
+    @property
+    def units(self):
+        """Unit of each sensor's reading."""
+        return tuple(_UNITS[k] for k in self.kinds)
+
+    def subset(self, index):
+        """The sensors at ``index`` (sequence of int) as a new layout."""
+        index = [int(i) for i in np.atleast_1d(index)]
+        return SensorLayout(
+            self.positions[index],
+            tuple(self.kinds[i] for i in index),
+            tuple(self.names[i] for i in index),
+            None if self.noise_std is None else tuple(self.noise_std[i] for i in index),
+        )
+
+    @classmethod
+    def candidates(cls, positions, kind="rotation", noise_std=None):
+        """Candidate sensors of one kind, named by position in m (e.g. ``"12.5"``)."""
+        positions = np.atleast_1d(np.asarray(positions, dtype=float))
+        names = tuple(f"{x:g}" for x in positions)
+        if len(set(names)) != len(names):
+            names = tuple(f"{x:.6g}" for x in positions)
+        return cls(positions, (kind,) * positions.size, names, noise_std)

@@ -1,0 +1,1 @@
+"""Embedded example cases (TOML files)."""
