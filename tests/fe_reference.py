@@ -16,12 +16,36 @@ import numpy as np
 def _element_stiffness(ei, h):
     # Standard Hermite beam element (e.g. Przemieniecki, Theory of Matrix
     # Structural Analysis, 1968, eq. 5.111), DOFs (w1, t1, w2, t2).
+    ei = np.longdouble(ei)
+    h = np.longdouble(h)
     return ei / h**3 * np.array([
         [12.0, 6 * h, -12.0, 6 * h],
         [6 * h, 4 * h * h, -6 * h, 2 * h * h],
         [-12.0, -6 * h, 12.0, -6 * h],
         [6 * h, 2 * h * h, -6 * h, 4 * h * h],
-    ])
+    ], dtype=np.longdouble)
+
+
+def _key(x):
+    # One rounding for node positions and their look-ups.
+    out = np.round(np.asarray(x, dtype=float), 12)
+    return float(out) if out.ndim == 0 else out
+
+
+def _refined_solve(k, f):
+    # Soft springs next to very short, stiff elements make K ill-conditioned;
+    # so K is assembled in extended precision (longdouble) and the solution is
+    # refined iteratively with residuals in extended precision, which restores
+    # the accuracy the comparison needs.
+    # restores the accuracy the comparison needs.
+    k_ext = k.astype(np.longdouble)
+    f_ext = f.astype(np.longdouble)
+    k64 = k_ext.astype(float)
+    x = np.linalg.solve(k64, f_ext.astype(float)).astype(np.longdouble)
+    for _ in range(6):
+        r = f_ext - k_ext @ x
+        x = x + np.linalg.solve(k64, r.astype(float)).astype(np.longdouble)
+    return x.astype(float)
 
 
 def fe_response(spans, ei_edges, ei_values, rot_springs, vert_springs, loads, sensors):
@@ -39,22 +63,22 @@ def fe_response(spans, ei_edges, ei_values, rot_springs, vert_springs, loads, se
     supports = np.concatenate([[0.0], np.cumsum(spans)])
     length = supports[-1]
     points = list(ei_edges) + list(supports) + [p for p, _ in loads] + [p for p, _ in sensors]
-    nodes = np.unique(np.round(np.array(points, dtype=float), 12))
+    nodes = np.unique(_key(np.array(points, dtype=float)))
     n = nodes.size
-    k = np.zeros((2 * n, 2 * n))
+    k = np.zeros((2 * n, 2 * n), dtype=np.longdouble)
     for e in range(n - 1):
-        h = nodes[e + 1] - nodes[e]
+        h = np.longdouble(nodes[e + 1]) - np.longdouble(nodes[e])
         mid = 0.5 * (nodes[e] + nodes[e + 1])
         idx = min(np.searchsorted(ei_edges, mid, side="right") - 1, len(ei_values) - 1)
         dofs = [2 * e, 2 * e + 1, 2 * e + 2, 2 * e + 3]
         k[np.ix_(dofs, dofs)] += _element_stiffness(ei_values[idx], h)
     f = np.zeros(2 * n)
-    node_of = {round(float(x), 12): i for i, x in enumerate(nodes)}
+    node_of = {float(x): i for i, x in enumerate(nodes)}
     for p, force in loads:
-        f[2 * node_of[round(float(p), 12)]] += force
+        f[2 * node_of[_key(p)]] += force
     fixed = []
     for x, kr, kv in zip(supports, rot_springs, vert_springs):
-        i = node_of[round(float(x), 12)]
+        i = node_of[_key(x)]
         if math.isinf(kv):
             fixed.append(2 * i)
         else:
@@ -65,9 +89,9 @@ def fe_response(spans, ei_edges, ei_values, rot_springs, vert_springs, loads, se
             k[2 * i + 1, 2 * i + 1] += kr
     free = np.setdiff1d(np.arange(2 * n), fixed)
     u = np.zeros(2 * n)
-    u[free] = np.linalg.solve(k[np.ix_(free, free)], f[free])
+    u[free] = _refined_solve(k[np.ix_(free, free)], f[free])
     out = []
     for p, kind in sensors:
-        i = node_of[round(float(p), 12)]
+        i = node_of[_key(p)]
         out.append(u[2 * i + 1] if kind == "rotation" else u[2 * i])
     return np.array(out)
