@@ -150,3 +150,13 @@ def _check_magnitudes(crossings, sensors, source):
         if peak > limit:
             raise DataError(f"{source}: column '{name}' reaches {peak:g} {unit}, implausible for a "
                             f"{kind} sensor ({hint}).")
+
+
+def write_table(path, header, columns):
+    """Write named columns of numbers to a CSV file (atomically)."""
+    buf = io.StringIO()
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(header)
+    for row in zip(*columns):
+        writer.writerow([repr(float(v)) for v in row])
+    atomic_write_text(path, buf.getvalue())

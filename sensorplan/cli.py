@@ -18,7 +18,18 @@ _EPILOG_SIMULATE = """example:
 """
 
 
+_EPILOG_INFORMATIVENESS = """example:
+  sensorplan informativeness --example simply-supported --positions 0,5,10,15,20 --out out/info
+"""
+
+
+def _add_common_arguments(parser):
+    parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
+
+
 def _add_case_arguments(parser):
+    _add_common_arguments(parser)
     group = parser.add_mutually_exclusive_group(required=True)
     group.add_argument("--config", type=Path, help="case file (TOML)")
     group.add_argument("--example", help="embedded example: simply-supported, openlab-like, three-span")
@@ -49,12 +60,62 @@ def _cmd_simulate(args, out):
     return 0
 
 
+def _parse_positions(text):
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated positions in m, e.g. 2.5,5,10; got {text!r}") from None
+    if not values:
+        raise argparse.ArgumentTypeError("give at least one position in m")
+    return values
+
+
+def _cmd_informativeness(args, out):
+    from ._csvio import write_table
+    from ._fisher import fisher_blocks, identifiability
+    from ._prior import GMRFPrior
+    from ._sensors import SensorLayout
+
+    case = _load(args)
+    sensors = None
+    if args.positions is not None:
+        case.bridge.check_on_bridge(args.positions, "positions", "--positions")
+        sensors = SensorLayout.candidates(args.positions)
+    blocks = fisher_blocks(case, sensors=sensors, parameterisation=args.parameterisation,
+                           n_crossings=args.crossings)
+    log_blocks = fisher_blocks(case, sensors=sensors, parameterisation="log_ei",
+                               n_crossings=args.crossings)
+    ident = identifiability(log_blocks, prior_precision=GMRFPrior().precision(case.n_elements))
+    outdir = Path(args.out)
+    csv_path = outdir / "informativeness.csv"
+    header = ["x_left_m", "x_right_m", *blocks.sensors.names]
+    write_table(csv_path, header, [case.mesh.edges[:-1], case.mesh.edges[1:], *blocks.curves])
+    figures = _informativeness_figures(case, blocks, ident, outdir)
+    out(blocks.summary())
+    out(ident.summary())
+    out(f"curves ({args.parameterisation}, unit {blocks.unit}) written to {csv_path}")
+    out("figures: " + ", ".join(str(p) for p in figures))
+    return 0
+
+
+def _informativeness_figures(case, blocks, ident, outdir):
+    from . import plotting
+
+    supports = case.bridge.support_positions
+    return [
+        plotting.save_figure(plotting.plot_informativeness(blocks, supports=supports),
+                             outdir / "informativeness.png"),
+        plotting.save_figure(plotting.plot_spectrum(ident), outdir / "spectrum.png"),
+        plotting.save_figure(plotting.plot_eigenvectors(ident, supports=supports),
+                             outdir / "eigenvectors.png"),
+    ]
+
+
 def build_parser():
     parser = argparse.ArgumentParser(
         prog="sensorplan",
         description="Sensor placement and Bayesian EI identification for bridges.")
-    parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
-    parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("simulate", help="write predicted or noisy synthetic crossings (CSV)",
@@ -65,6 +126,18 @@ def build_parser():
     p.add_argument("--seed", type=int, help="random seed (required with --noise)")
     p.add_argument("--out", type=Path, required=True, help="output CSV file")
     p.set_defaults(handler=_cmd_simulate)
+
+    p = sub.add_parser("informativeness", help="Fisher informativeness curves and identifiability",
+                       epilog=_EPILOG_INFORMATIVENESS,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    _add_case_arguments(p)
+    p.add_argument("--positions", type=_parse_positions,
+                   help="candidate tiltmeter positions in m, e.g. 2.5,5,10 (default: the case's sensors)")
+    p.add_argument("--crossings", type=int, default=1, help="number of crossings (default 1)")
+    p.add_argument("--parameterisation", choices=["ei", "log_ei", "compliance"], default="ei",
+                   help="parameters of the curves (default ei, as in the paper)")
+    p.add_argument("--out", type=Path, default=Path("sensorplan-out"), help="output folder")
+    p.set_defaults(handler=_cmd_informativeness)
     return parser
 
 

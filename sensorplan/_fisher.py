@@ -1,0 +1,278 @@
+"""Fisher information: per-sensor blocks, informativeness curves, identifiability.
+
+For sensor i with Jacobian J_i (n_loads x n_params), noise standard
+deviation sigma_i and within-crossing correlation Gamma_i, the Fisher
+information of one crossing is I^(i) = J_i^T Gamma_i^{-1} J_i / sigma_i^2
+(paper eq. fisher-sum); n independent crossings multiply it by n.  Gamma_i^{-1}
+is applied through the bidiagonal AR(1) whitening of :class:`NoiseModel`,
+never as a dense inverse.  Parameterisations follow the paper's chain rule
+(eq. fisher-ei): dy/dEI = -dy/dv / EI^2, dy/dlog EI = -dy/dv / EI.
+"""
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from ._errors import ConfigError
+from ._forward import influence_lines
+
+__all__ = ["FisherBlocks", "fisher_blocks", "Identifiability", "identifiability"]
+
+_UNITS = {"compliance": "(N m^2)^2 / unit^2", "ei": "1 / (N m^2)^2", "log_ei": "dimensionless"}
+
+
+@dataclass(frozen=True, eq=False)
+class FisherBlocks:
+    """Per-sensor Fisher information blocks.
+
+    Attributes
+    ----------
+    blocks : ndarray, shape (n_sensors, n_params, n_params)
+        I^(i) for each sensor, for ``n_crossings`` crossings.
+    parameterisation : str
+        ``"compliance"``, ``"ei"`` or ``"log_ei"`` for the element parameters.
+    n_elements, n_springs : int
+        The parameters are the elements, then (optionally) the spring
+        log-stiffnesses of ``bridge.spring_parameters``.
+    sensors : SensorLayout
+    edges : ndarray
+        Element edges [m].
+    """
+
+    blocks: np.ndarray
+    parameterisation: str
+    n_elements: int
+    n_springs: int
+    sensors: object
+    edges: np.ndarray
+    n_crossings: int
+
+    @property
+    def n_sensors(self):
+        return self.blocks.shape[0]
+
+    @property
+    def n_params(self):
+        return self.blocks.shape[1]
+
+    def total(self, weights=None):
+        """Sum of the blocks weighted by ``weights`` (default all ones)."""
+        if weights is None:
+            return self.blocks.sum(axis=0)
+        weights = np.asarray(weights, dtype=float)
+        if weights.shape != (self.n_sensors,):
+            raise ConfigError(f"The 'weights' parameter must have {self.n_sensors} entries. "
+                              f"Got shape {weights.shape} instead.")
+        return np.tensordot(weights, self.blocks, axes=1)
+
+    @cached_property
+    def curves(self):
+        """Informativeness curves: diag of I^(i) per element, shape (n_sensors, n_elements)."""
+        idx = np.arange(self.n_elements)
+        return self.blocks[:, idx, idx]
+
+    def peaks(self):
+        """Midpoint [m] of the element where each sensor's curve peaks."""
+        mid = 0.5 * (self.edges[1:] + self.edges[:-1])
+        return mid[np.argmax(self.curves, axis=1)]
+
+    @property
+    def unit(self):
+        return _UNITS[self.parameterisation]
+
+    def subset(self, index):
+        index = np.atleast_1d(index)
+        return FisherBlocks(self.blocks[index], self.parameterisation, self.n_elements,
+                            self.n_springs, self.sensors.subset(index), self.edges, self.n_crossings)
+
+    def summary(self):
+        lines = [f"Fisher information ({self.parameterisation}, {self.n_crossings} crossing(s), "
+                 f"{self.n_elements} elements, {self.n_springs} springs)"]
+        for name, x, peak, top in zip(self.sensors.names, self.sensors.positions, self.peaks(),
+                                      self.curves.max(axis=1)):
+            lines.append(f"  {name:>10s} at {x:8.3f} m: curve peaks at {peak:8.3f} m ({top:.3e})")
+        return "\n".join(lines)
+
+    def to_dict(self):
+        return {
+            "parameterisation": self.parameterisation,
+            "n_crossings": self.n_crossings,
+            "edges_m": self.edges.tolist(),
+            "sensors": list(self.sensors.names),
+            "positions_m": self.sensors.positions.tolist(),
+            "curves": self.curves.tolist(),
+            "peaks_m": self.peaks().tolist(),
+        }
+
+
+def fisher_blocks(case, *, sensors=None, noise=None, ei=None, parameterisation="log_ei",
+                  springs=False, n_crossings=1, chunk_size=64):
+    """Per-sensor Fisher information blocks for ``case``.
+
+    Parameters
+    ----------
+    case : Case
+        Bridge, mesh, nominal EI, vehicle and load sweep.
+    sensors : SensorLayout, optional
+        Sensors or candidate positions (default: the case's sensors).
+    noise : NoiseModel, optional
+        Must match ``sensors`` (default: the case's noise, or a noise model
+        built from ``sensors.noise_std``).
+    ei : array_like, optional
+        EI at which to evaluate (default: the nominal).
+    parameterisation : {"compliance", "ei", "log_ei"}
+    springs : bool
+        Append the spring log-stiffnesses as extra (nuisance) parameters.
+    n_crossings : int
+        Number of independent crossings.
+    chunk_size : int
+        Sensors per forward evaluation (bounds the memory).
+    """
+    sensors = case.sensors if sensors is None else sensors
+    noise = _resolve_noise(case, sensors, noise)
+    if int(n_crossings) != n_crossings or n_crossings < 1:
+        raise ConfigError(f"The 'n_crossings' parameter must be a positive integer. Got {n_crossings!r} instead.")
+    positions = case.sweep.positions
+    n_springs = len(case.bridge.spring_parameters) if springs else 0
+    n_params = case.mesh.n_elements + n_springs
+    blocks = np.empty((sensors.n_sensors, n_params, n_params))
+    for start in range(0, sensors.n_sensors, chunk_size):
+        index = np.arange(start, min(start + chunk_size, sensors.n_sensors))
+        chunk = sensors.subset(index)
+        lines = influence_lines(case.bridge, case.mesh, case.ei if ei is None else ei, chunk,
+                                case.vehicle, positions)
+        white = noise.subset(index).whiten(lines.jacobian(parameterisation, springs=springs), positions)
+        blocks[index] = np.matmul(white.transpose(0, 2, 1), white)
+    blocks *= n_crossings
+    blocks = 0.5 * (blocks + blocks.transpose(0, 2, 1))
+    blocks.setflags(write=False)
+    return FisherBlocks(blocks, parameterisation, case.mesh.n_elements, n_springs, sensors,
+                        case.mesh.edges, int(n_crossings))
+
+
+def _resolve_noise(case, sensors, noise):
+    from ._noise import NoiseModel
+
+    if noise is not None:
+        if noise.n_sensors != sensors.n_sensors:
+            raise ConfigError(f"The noise model has {noise.n_sensors} entries for "
+                              f"{sensors.n_sensors} sensors.")
+        return noise
+    if sensors is case.sensors and case.noise is not None:
+        return case.noise
+    corr = 0.0 if case.noise is None else case.noise.correlation_length
+    if sensors.noise_std is not None:
+        return NoiseModel(sensors.noise_std, corr)
+    if case.noise is not None:
+        return NoiseModel(np.full(sensors.n_sensors, float(np.median(case.noise.std))), corr)
+    raise ConfigError("No noise level is known for the sensors; set noise_std in [sensors].")
+
+
+@dataclass(frozen=True, eq=False)
+class Identifiability:
+    """Eigen-analysis of the total information and its split against a prior.
+
+    Attributes
+    ----------
+    eigenvalues : ndarray (n_params,)
+        Eigenvalues of the total information, largest first.
+    eigenvectors : ndarray (n_params, n_params)
+        Columns are the matching directions (fields along the bridge for the
+        element part).
+    threshold : float
+        Eigenvalues >= threshold * largest count towards :attr:`effective_rank`.
+    data_precision, prior_precision : ndarray (n_params,) or None
+        Per-parameter split of the posterior precision diagonal.
+    """
+
+    eigenvalues: np.ndarray
+    eigenvectors: np.ndarray
+    threshold: float
+    edges: np.ndarray
+    n_elements: int
+    data_precision: np.ndarray = None
+    prior_precision: np.ndarray = None
+    data_dof: float = None
+
+    @property
+    def effective_rank(self):
+        """Number of eigenvalues above ``threshold`` times the largest."""
+        top = self.eigenvalues[0] if self.eigenvalues.size else 0.0
+        return int(np.sum(self.eigenvalues >= self.threshold * top)) if top > 0 else 0
+
+    @property
+    def condition_number(self):
+        low = self.eigenvalues[-1]
+        return np.inf if low <= 0 else float(self.eigenvalues[0] / low)
+
+    def well_informed(self, count=3):
+        """The ``count`` best-informed directions (columns)."""
+        return self.eigenvectors[:, :count]
+
+    def poorly_informed(self, count=3):
+        """The ``count`` least-informed directions (columns), least first."""
+        return self.eigenvectors[:, ::-1][:, :count]
+
+    @property
+    def data_share(self):
+        """Fraction of each parameter's posterior precision that comes from the data."""
+        if self.data_precision is None:
+            return None
+        return self.data_precision / (self.data_precision + self.prior_precision)
+
+    def summary(self):
+        lines = [f"Identifiability: effective rank {self.effective_rank} of {self.eigenvalues.size} "
+                 f"(threshold {self.threshold:g} of the largest eigenvalue)",
+                 f"  eigenvalues: largest {self.eigenvalues[0]:.3e}, smallest {self.eigenvalues[-1]:.3e}"]
+        if self.data_dof is not None:
+            lines.append(f"  parameters determined by the data (trace I Q^-1): {self.data_dof:.2f}")
+        return "\n".join(lines)
+
+    def to_dict(self):
+        out = {"eigenvalues": self.eigenvalues.tolist(), "effective_rank": self.effective_rank,
+               "threshold": self.threshold}
+        if self.data_precision is not None:
+            out.update(data_precision=self.data_precision.tolist(),
+                       prior_precision=self.prior_precision.tolist(),
+                       data_dof=self.data_dof)
+        return out
+
+
+def identifiability(information, *, prior_precision=None, threshold=1e-6, edges=None,
+                    n_elements=None):
+    """Eigen-analysis of a total information matrix.
+
+    Parameters
+    ----------
+    information : ndarray (n_params, n_params) or FisherBlocks
+        Total Fisher information (FisherBlocks are summed).
+    prior_precision : ndarray (n_params, n_params), optional
+        Gives the per-parameter split of the posterior precision into data
+        and prior parts and the effective number of parameters determined by
+        the data, trace(I (I + Q_prior)^{-1}).
+    threshold : float
+        Relative eigenvalue threshold of the effective rank.
+    """
+    if isinstance(information, FisherBlocks):
+        edges = information.edges if edges is None else edges
+        n_elements = information.n_elements if n_elements is None else n_elements
+        information = information.total()
+    information = np.asarray(information, dtype=float)
+    n = information.shape[0]
+    vals, vecs = np.linalg.eigh(0.5 * (information + information.T))
+    order = np.argsort(vals)[::-1]
+    vals = np.clip(vals[order], 0.0, None)
+    vecs = vecs[:, order]
+    # Fix the sign of each direction so that its largest component is positive.
+    flip = np.sign(vecs[np.argmax(np.abs(vecs), axis=0), np.arange(n)])
+    vecs = vecs * np.where(flip == 0, 1.0, flip)
+    data = prior = dof = None
+    if prior_precision is not None:
+        prior_precision = np.asarray(prior_precision, dtype=float)
+        data = np.diag(information).copy()
+        prior = np.diag(prior_precision).copy()
+        post = information + prior_precision
+        dof = float(np.trace(np.linalg.solve(post, information)))
+    return Identifiability(vals, vecs, float(threshold), edges, n if n_elements is None else n_elements,
+                           data, prior, dof)

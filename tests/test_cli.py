@@ -1,0 +1,86 @@
+"""Command line: every command on every embedded example, through main([...])."""
+
+import csv
+
+import numpy as np
+import pytest
+
+from sensorplan._config import EXAMPLES, example_case
+from sensorplan._csvio import read_crossings
+from sensorplan.cli import main
+
+
+@pytest.mark.parametrize("example", EXAMPLES)
+def test_simulate_writes_readable_crossings(example, tmp_path, capsys):
+    out = tmp_path / "sim.csv"
+    assert main(["simulate", "--example", example, "--crossings", "3", "--noise", "--seed", "4",
+                 "--out", str(out)]) == 0
+    case = example_case(example)
+    data = read_crossings(out, case.sensors)
+    assert len(data) == 3 and data.sensor_names == case.sensors.names
+    clean = case.influence_lines().predictions
+    noise = data.crossings[0].values - clean
+    assert 0.5 < np.std(noise) / np.median(case.noise.std) < 1.5
+    assert "wrote 3 noisy synthetic crossing(s)" in capsys.readouterr().out
+    # without noise the file holds the exact predictions
+    assert main(["simulate", "--example", example, "--out", str(out), "--quiet"]) == 0
+    np.testing.assert_allclose(read_crossings(out, case.sensors).crossings[0].values, clean, rtol=1e-15)
+    assert capsys.readouterr().out == ""
+
+
+def test_simulate_is_reproducible_from_seed(tmp_path):
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    for path in (a, b):
+        assert main(["simulate", "--example", "three-span", "--noise", "--seed", "9",
+                     "--out", str(path)]) == 0
+    assert a.read_text() == b.read_text()
+
+
+def test_simulate_noise_needs_seed(tmp_path, capsys):
+    assert main(["simulate", "--example", "openlab-like", "--noise", "--out",
+                 str(tmp_path / "x.csv")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--seed" in err[0]
+    assert not (tmp_path / "x.csv").exists()
+
+
+@pytest.mark.parametrize("example", EXAMPLES)
+def test_informativeness_writes_curves_and_figures(example, tmp_path, capsys):
+    assert main(["informativeness", "--example", example, "--out", str(tmp_path)]) == 0
+    case = example_case(example)
+    with open(tmp_path / "informativeness.csv") as fh:
+        rows = list(csv.reader(fh))
+    assert rows[0] == ["x_left_m", "x_right_m", *case.sensors.names]
+    assert len(rows) == case.n_elements + 1
+    np.testing.assert_allclose([float(r[0]) for r in rows[1:]], case.mesh.edges[:-1])
+    for name in ("informativeness.png", "spectrum.png", "eigenvectors.png"):
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    printed = capsys.readouterr().out
+    for name in case.sensors.names:
+        assert name in printed and "peaks at" in printed
+
+
+def test_informativeness_positions_name_columns_by_position(tmp_path, capsys):
+    assert main(["informativeness", "--example", "simply-supported", "--positions", "2.5,5,10",
+                 "--out", str(tmp_path)]) == 0
+    header = (tmp_path / "informativeness.csv").read_text().splitlines()[0]
+    assert header == "x_left_m,x_right_m,2.5,5,10"
+    out = capsys.readouterr().out
+    assert "2.5 at    2.500 m: curve peaks at" in out
+
+
+def test_informativeness_rejects_positions_off_the_bridge(tmp_path, capsys):
+    assert main(["informativeness", "--example", "simply-supported", "--positions", "5,25",
+                 "--out", str(tmp_path)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "positions" in err[0] and "Traceback" not in err[0]
+    assert not (tmp_path / "informativeness.csv").exists()
+
+
+def test_module_entry_point_help():
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-m", "sensorplan", "simulate", "--help"],
+                          capture_output=True, text=True, check=True)
+    assert "example:" in done.stdout and "sensorplan simulate" in done.stdout

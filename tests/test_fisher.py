@@ -1,0 +1,178 @@
+"""Fisher information: the paper's findings, scaling laws and properties."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import sensorplan as sp
+from sensorplan._case import Case
+from sensorplan._config import example_case
+from sensorplan._fisher import fisher_blocks, identifiability
+from sensorplan._noise import NoiseModel
+from sensorplan._prior import GMRFPrior
+
+
+def simple_case(n_elements=30, load=1e5, sigma=1e-6, length=20.0, step=0.05, ei=1e10):
+    bridge = sp.Bridge((length,))
+    sweep = sp.LoadSweep.from_range(0.0, length, step)
+    return Case(bridge, sp.Mesh.uniform(bridge, n_elements), ei, sp.Vehicle.point_load(load),
+                sp.SensorLayout([length / 4], noise_std=sigma), sweep=sweep)
+
+
+def test_paper_single_span_quarter_point_sensor():
+    # Paper, Fig. FisherInformation: the curve of a sensor at x/L = 1/4 is low
+    # left of the sensor, jumps at the sensor and peaks to its right.
+    case = simple_case(40)  # the sensor at 5 m sits on an element edge
+    blocks = fisher_blocks(case, parameterisation="ei")
+    curve = blocks.curves[0]
+    mid = case.mesh.midpoints / 20.0
+    left, right = curve[mid < 0.25], curve[mid > 0.25]
+    assert curve.argmax() == np.argmax(np.where(mid > 0.25, curve, -1))
+    assert left.max() < 0.5 * right.max()
+    j = case.mesh.element_of(5.0)  # first element right of the sensor
+    assert curve[j] > 2.0 * curve[j - 1]
+
+
+@pytest.mark.parametrize("n_elements", [20, 30, 45])
+def test_paper_maxima_near_thirds(n_elements):
+    # Paper, section Fisher information: maxima near x/L = 1/3 for sensors at
+    # x/L < 1/3 and near 2/3 for sensors at x/L > 2/3 (within one element).
+    case = simple_case(n_elements)
+    xs = np.array([0.0, 0.05, 0.1, 0.2, 0.25, 0.3, 0.32, 0.68, 0.7, 0.8, 0.9, 0.95, 1.0]) * 20.0
+    blocks = fisher_blocks(case, sensors=sp.SensorLayout.candidates(xs, noise_std=1e-6),
+                           parameterisation="ei")
+    h = 20.0 / n_elements
+    for x, peak in zip(xs, blocks.peaks()):
+        target = 20.0 / 3 if x < 20.0 / 3 else 40.0 / 3
+        assert abs(peak - target) <= h, (x, peak)
+
+
+def test_information_scales_with_load_noise_and_element_length():
+    base = fisher_blocks(simple_case(), parameterisation="ei").curves
+    scaled = fisher_blocks(simple_case(load=3e5, sigma=2e-6), parameterisation="ei").curves
+    np.testing.assert_allclose(scaled, base * 9.0 / 4.0, rtol=1e-12)
+    # (Delta s)^2 for a fixed span: the element integrals scale with the
+    # element width, so doubling the element count quarters the information
+    # (compared at element midpoints of equal position, where the kernel is
+    # smooth: elements not containing the sensor).
+    coarse = fisher_blocks(simple_case(20), parameterisation="ei").curves[0]
+    fine = fisher_blocks(simple_case(40), parameterisation="ei").curves[0]
+    fine_pairs = 0.5 * (fine[0::2] + fine[1::2])
+    ratio = coarse / fine_pairs
+    # (exact only where the kernel is nearly constant over an element: away
+    # from the supports, where it vanishes quadratically)
+    np.testing.assert_allclose(ratio[3:13], 4.0, rtol=0.02)
+
+
+def two_span_case(n_elements=40):
+    bridge = sp.Bridge((15.0, 15.0))
+    return Case(bridge, sp.Mesh.uniform(bridge, n_elements), 1e10, sp.Vehicle.point_load(1e5),
+                sp.SensorLayout([5.0], noise_std=1e-6),
+                sweep=sp.LoadSweep.from_range(0.0, 30.0, 0.1))
+
+
+def test_paper_two_span_coupling():
+    # Paper, Fig. FisherInformationTwoSpan.
+    case = two_span_case()
+    xs = np.arange(0.0, 1.01, 0.1) * 15.0
+    span1 = fisher_blocks(case, sensors=sp.SensorLayout.candidates(xs, noise_std=1e-6),
+                          parameterisation="ei").curves
+    mid = case.mesh.midpoints
+    in2 = mid > 15.0
+    for x, curve in zip(xs, span1):
+        if 0.0 < x < 15.0:
+            # diminishing but non-zero information beyond the interior support
+            assert np.all(curve[in2] > 0.0)
+            assert curve[in2].max() < curve[~in2].max()
+            # largest right after the support, fading towards the far support
+            assert np.argmax(curve[in2]) == 0
+            tail = curve[in2][int(0.6 * in2.sum()):]
+            assert np.all(np.diff(tail) < 0.0)
+            assert tail[-1] < 1e-3 * curve[in2][0]
+    right_of_support = fisher_blocks(
+        case, sensors=sp.SensorLayout.candidates([15.5], noise_std=1e-6), parameterisation="ei").curves[0]
+    start2 = (mid > 16.0) & (mid < 20.0)  # first third of span 2, right of the sensor's element
+    assert np.all(right_of_support[start2] > span1[:, start2].max(axis=0))
+
+
+def test_blocks_symmetric_psd_and_additive():
+    case = example_case("three-span")
+    blocks = fisher_blocks(case, springs=True, n_crossings=3)
+    assert blocks.n_springs == 2
+    for b in blocks.blocks:
+        np.testing.assert_allclose(b, b.T, rtol=0, atol=1e-12 * np.abs(b).max())
+        assert np.linalg.eigvalsh(b).min() >= -1e-9 * np.abs(b).max()
+    # blocks add across sensors: the information of all sensors computed
+    # jointly from the stacked Jacobian equals the sum of the blocks
+    lines = case.influence_lines()
+    white = case.noise.whiten(lines.jacobian("log_ei", springs=True), case.sweep.positions)
+    joint = 3 * np.einsum("rkn,rkm->nm", white, white)
+    np.testing.assert_allclose(blocks.total(), joint, rtol=1e-10, atol=1e-12 * np.abs(joint).max())
+    np.testing.assert_allclose(blocks.total([1, 0, 1]), blocks.blocks[0] + blocks.blocks[2])
+
+
+def test_crossings_scale_information():
+    case = example_case("openlab-like")
+    one = fisher_blocks(case).blocks
+    ten = fisher_blocks(case, n_crossings=10).blocks
+    np.testing.assert_allclose(ten, 10 * one, rtol=1e-12)
+
+
+@pytest.mark.parametrize("parameterisation", ["ei", "log_ei"])
+def test_parameterisations_equal_finite_differences(parameterisation):
+    # I = J^T J / sigma^2 with J from central differences of the forward map.
+    case = example_case("openlab-like")
+    sigma = case.noise.std
+    blocks = fisher_blocks(case, parameterisation=parameterisation).blocks
+    ei = case.ei.copy()
+    to = np.log if parameterisation == "log_ei" else (lambda e: e)
+    back = np.exp if parameterisation == "log_ei" else (lambda p: p)
+    theta = to(ei)
+    jac = np.empty((case.sensors.n_sensors, case.sweep.n_loads, ei.size))
+    for j in range(ei.size):
+        h = 1e-6 * abs(theta[j])
+        up, down = theta.copy(), theta.copy()
+        up[j] += h
+        down[j] -= h
+        jac[:, :, j] = (case.influence_lines(back(up)).predictions
+                        - case.influence_lines(back(down)).predictions) / (2 * h)
+    for i in range(case.sensors.n_sensors):
+        ref = jac[i].T @ jac[i] / sigma[i] ** 2
+        np.testing.assert_allclose(blocks[i], ref, rtol=1e-5, atol=1e-7 * np.abs(ref).max())
+
+
+@settings(max_examples=25)
+@given(st.floats(0.05, 5.0), st.integers(3, 25), st.integers(0, 1000))
+def test_ar1_information_equals_dense_formula(corr_length, n_loads, seed):
+    rng = np.random.default_rng(seed)
+    positions = np.sort(rng.uniform(0.0, 10.0, n_loads))
+    positions = positions[np.concatenate([[True], np.diff(positions) > 1e-3])]
+    noise = NoiseModel([2e-6, 5e-6], corr_length)
+    jac = rng.normal(size=(2, positions.size, 4))
+    white = noise.whiten(jac, positions)
+    gamma = np.exp(-np.abs(positions[:, None] - positions[None, :]) / corr_length)
+    for i in range(2):
+        dense = jac[i].T @ np.linalg.solve(gamma, jac[i]) / noise.std[i] ** 2
+        np.testing.assert_allclose(white[i].T @ white[i], dense, rtol=1e-8, atol=1e-10 * np.abs(dense).max())
+
+
+def test_identifiability_eigen_analysis_and_prior_split():
+    case = example_case("openlab-like")
+    blocks = fisher_blocks(case, n_crossings=10)
+    prior = GMRFPrior(order=2).precision(case.n_elements)
+    ident = identifiability(blocks, prior_precision=prior, threshold=1e-3)
+    total = blocks.total()
+    # eigen-decomposition reproduces the matrix, values descending
+    recon = ident.eigenvectors @ np.diag(ident.eigenvalues) @ ident.eigenvectors.T
+    np.testing.assert_allclose(recon, total, atol=1e-9 * np.abs(total).max())
+    assert np.all(np.diff(ident.eigenvalues) <= 1e-9 * ident.eigenvalues[0])
+    # two tiltmeters: the data inform only a few directions of 30 elements
+    assert 1 <= ident.effective_rank < case.n_elements
+    # precision split: data + prior = posterior diagonal
+    np.testing.assert_allclose(ident.data_precision + ident.prior_precision, np.diag(total + prior))
+    assert 0.0 < ident.data_dof < case.n_elements
+    share = ident.data_share
+    # elements at the sensors are data dominated, those at the far zero-moment end less so
+    j_sensor = case.mesh.element_of(11.0)
+    assert share[j_sensor] > share[-1]
