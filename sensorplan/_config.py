@@ -188,11 +188,11 @@ def _sensors(s, bridge):
 def _check_noise_units(layout, key):
     """Reject noise levels that only make sense in another unit (a unit slip)."""
     for name, kind, std in zip(layout.names, layout.kinds, layout.noise_std):
-        if kind == "rotation" and std > 1e-2:
+        if kind == "rotation" and std > 1e-3:
             raise ConfigError(
                 f"The '{key}' of sensor {name} is {std:g} rad, far above any tiltmeter noise. "
                 "Give it in rad, or use 'noise_std_mm_per_m' / 'noise_std_urad'.")
-        if kind == "deflection" and std > 0.05:
+        if kind == "deflection" and std > 5e-3:
             raise ConfigError(
                 f"The '{key}' of sensor {name} is {std:g} m, far above any deflection noise. "
                 "Give it in m, or use 'noise_std_mm'.")

@@ -79,7 +79,12 @@ def read_crossings(path, sensors=None):
 
 
 def parse_crossings(text, sensors=None, *, source="data"):
-    rows = [r for r in csv.reader(io.StringIO(text)) if r and any(cell.strip() for cell in r)]
+    reader = csv.reader(io.StringIO(text))
+    try:
+        rows = [r for r in reader if r and any(cell.strip() for cell in r)]
+    except csv.Error as exc:
+        raise DataError(f"{source}: line {reader.line_num}: malformed CSV ({exc}); "
+                        "check for an unbalanced quote.") from None
     if not rows:
         raise DataError(f"{source}: the file is empty; expected a header "
                         "'crossing,position_m,<sensor names>'.")

@@ -130,7 +130,7 @@ def _chain_factor(ei, parameterisation):
 
 def expand_ei(bridge, mesh, ei):
     """EI per element from a scalar, one value per span, or one per element."""
-    arr = np.atleast_1d(np.asarray(ei, dtype=float))
+    arr = as_float_array(ei, "ei", "the forward model")
     if arr.size == 1:
         arr = np.full(mesh.n_elements, float(arr[0]))
     elif arr.size == bridge.n_spans and arr.size != mesh.n_elements:
@@ -139,7 +139,7 @@ def expand_ei(bridge, mesh, ei):
         raise ConfigError(
             f"The 'ei' parameter must be a scalar, one value per span ({bridge.n_spans}) or one "
             f"per element ({mesh.n_elements}). Got {arr.size} values instead.")
-    arr = as_float_array(arr, "ei", "the forward model")
+    arr = np.array(arr, dtype=float)
     if np.any(arr <= 0.0):
         raise ConfigError("The 'ei' parameter of the forward model must be positive everywhere. "
                           f"Got a minimum of {arr.min()!r} instead.")

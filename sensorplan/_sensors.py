@@ -13,6 +13,13 @@ SENSOR_KINDS = ("rotation", "deflection")
 _UNITS = {"rotation": "rad", "deflection": "m"}
 
 
+def _as_tuple(values):
+    try:
+        return tuple(values)
+    except TypeError:
+        return None
+
+
 @dataclass(frozen=True, eq=False)
 class SensorLayout:
     """A set of sensors on the bridge.
@@ -38,19 +45,31 @@ class SensorLayout:
     def __post_init__(self):
         pos = as_float_array(self.positions, "positions", "SensorLayout")
         n = pos.size
-        kinds = ("rotation",) * n if self.kinds is None else tuple(self.kinds)
-        if isinstance(self.kinds, str):
+        if self.kinds is None:
+            kinds = ("rotation",) * n
+        elif isinstance(self.kinds, str):
             kinds = (self.kinds,) * n
-        if len(kinds) != n or any(k not in SENSOR_KINDS for k in kinds):
+        else:
+            kinds = _as_tuple(self.kinds)
+        if kinds is None or len(kinds) != n or any(k not in SENSOR_KINDS for k in kinds):
             raise ConfigError(
                 f"The 'kinds' parameter of SensorLayout must list {n} entries, each 'rotation' "
                 f"or 'deflection'. Got {self.kinds!r} instead.")
-        names = tuple(f"S{i + 1}" for i in range(n)) if self.names is None else tuple(
-            str(name) for name in self.names)
-        if len(names) != n or len(set(names)) != n or any(not name.strip() for name in names):
+        if self.names is None:
+            names = tuple(f"S{i + 1}" for i in range(n))
+        elif isinstance(self.names, str):
+            names = (self.names,)
+        else:
+            names = _as_tuple(self.names)
+            if names is not None and not all(isinstance(x, (str, np.str_)) for x in names):
+                names = None
+        if names is not None:
+            names = tuple(str(x) for x in names)
+        if (names is None or len(names) != n or len(set(names)) != n
+                or any(not name.strip() or name != name.strip() or "," in name for name in names)):
             raise ConfigError(
-                f"The 'names' parameter of SensorLayout must list {n} distinct, non-empty names. "
-                f"Got {self.names!r} instead.")
+                f"The 'names' parameter of SensorLayout must list {n} distinct, non-empty names "
+                f"without commas or surrounding spaces. Got {self.names!r} instead.")
         noise = None
         if self.noise_std is not None:
             noise = as_float_tuple(self.noise_std, "noise_std", "SensorLayout", length=n,

@@ -15,6 +15,8 @@ from ._validation import as_float, as_float_array, as_float_tuple
 
 __all__ = ["Support", "Bridge", "Mesh"]
 
+_MAX_ELEMENTS = 20_000
+
 
 @dataclass(frozen=True)
 class Support:
@@ -211,10 +213,15 @@ class Mesh:
         elements, adjusted so that the total is exactly ``n_elements`` when
         ``n_elements >= n_spans``.
         """
-        if isinstance(n_elements, bool) or int(n_elements) != n_elements or n_elements < bridge.n_spans:
+        try:
+            valid = (not isinstance(n_elements, (bool, str)) and int(n_elements) == n_elements
+                     and bridge.n_spans <= n_elements <= _MAX_ELEMENTS)
+        except (TypeError, ValueError, OverflowError):
+            valid = False
+        if not valid:
             raise ConfigError(
-                f"The 'elements' parameter of Mesh must be an integer >= the number of spans "
-                f"({bridge.n_spans}). Got {n_elements!r} instead.")
+                f"The 'elements' parameter of Mesh must be an integer from the number of spans "
+                f"({bridge.n_spans}) to {_MAX_ELEMENTS}. Got {n_elements!r} instead.")
         counts = _split_count(np.array(bridge.spans), int(n_elements))
         return cls._from_counts(bridge, counts)
 
@@ -223,6 +230,9 @@ class Mesh:
         """Mesh with elements of at most ``element_length`` [m] in every span."""
         h = as_float(element_length, "element_length", "Mesh", low=0.0, low_open=True)
         counts = [max(1, math.ceil(span / h - 1e-9)) for span in bridge.spans]
+        if sum(counts) > _MAX_ELEMENTS:
+            raise ConfigError(f"The 'element_length' parameter of Mesh gives {sum(counts)} elements, "
+                              f"more than {_MAX_ELEMENTS}. Use a longer element length.")
         return cls._from_counts(bridge, counts)
 
     @classmethod

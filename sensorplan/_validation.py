@@ -40,6 +40,8 @@ def as_float(value, name, owner, *, low=None, high=None, low_open=False, allow_i
 
 def as_float_tuple(values, name, owner, *, length=None, **kwargs):
     """Return a tuple of floats, broadcasting a scalar when ``length`` is given."""
+    if isinstance(values, (str, dict)):
+        _fail(name, owner, "a number or a list of numbers", values)
     if np.isscalar(values) or isinstance(values, (int, float)):
         if length is None:
             values = [values]
@@ -58,6 +60,9 @@ def as_float_tuple(values, name, owner, *, length=None, **kwargs):
 
 def as_float_array(values, name, owner, *, ndim=1, allow_empty=False):
     """Return a finite float array of the given dimension (read-only copy)."""
+    if isinstance(values, (bool, np.bool_, str, dict)) or (
+            isinstance(values, (list, tuple)) and any(isinstance(v, (bool, np.bool_, str)) for v in values)):
+        _fail(name, owner, f"a {ndim}-d array of numbers", values)
     try:
         arr = np.array(values, dtype=float)
     except (TypeError, ValueError):
