@@ -23,6 +23,12 @@ _EPILOG_INFORMATIVENESS = """example:
 """
 
 
+_EPILOG_INVERT = """example:
+  sensorplan simulate --example openlab-like --crossings 10 --noise --seed 1 --out data.csv
+  sensorplan invert --example openlab-like --data data.csv --elements 30 --json posterior.json --out out/invert
+"""
+
+
 def _add_common_arguments(parser):
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
@@ -112,6 +118,51 @@ def _informativeness_figures(case, blocks, ident, outdir):
     ]
 
 
+def _cmd_invert(args, out):
+    import json
+    import warnings
+
+    import numpy as np
+
+    from ._csvio import atomic_write_text, read_crossings
+    from ._errors import SensorplanWarning
+    from ._inversion import invert
+    from ._screening import check_data_scale
+    from ._structure import Mesh
+
+    case = _load(args)
+    data = read_crossings(args.data, case.sensors)
+    if args.elements is not None:
+        case = case.with_mesh(Mesh.uniform(case.bridge, args.elements))
+    nominal = case.influence_lines(sensors=case.sensors.subset(
+        [case.sensors.names.index(n) for n in data.sensor_names]), positions=data.crossings[0].positions)
+    check_data_scale(data, dict(zip(data.sensor_names, nominal.predictions)), data.sensor_names,
+                     source=str(args.data))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", SensorplanWarning)
+        result = invert(case, data)
+    for w in caught:
+        print(f"sensorplan invert: warning: {w.message}", file=sys.stderr)
+    outdir = Path(args.out)
+    figures = _invert_figures(case, result, outdir)
+    payload = json.dumps(result.to_dict(), indent=2)
+    json_path = args.json if args.json is not None else outdir / "posterior.json"
+    atomic_write_text(json_path, payload + "\n")
+    out(result.summary())
+    out(f"posterior written to {json_path}; figures: " + ", ".join(str(p) for p in figures))
+    return 0
+
+
+def _invert_figures(case, result, outdir):
+    from . import plotting
+
+    paths = [plotting.save_figure(plotting.plot_ei_posterior(result, supports=case.bridge.support_positions),
+                                  outdir / "ei_posterior.png")]
+    for name in result.sensor_names:
+        paths.append(plotting.save_figure(plotting.plot_fit(result, name), outdir / f"fit_{name}.png"))
+    return paths
+
+
 def build_parser():
     parser = argparse.ArgumentParser(
         prog="sensorplan",
@@ -138,6 +189,15 @@ def build_parser():
                    help="parameters of the curves (default ei, as in the paper)")
     p.add_argument("--out", type=Path, default=Path("sensorplan-out"), help="output folder")
     p.set_defaults(handler=_cmd_informativeness)
+
+    p = sub.add_parser("invert", help="Bayesian identification of EI(x) from crossings (CSV)",
+                       epilog=_EPILOG_INVERT, formatter_class=argparse.RawDescriptionHelpFormatter)
+    _add_case_arguments(p)
+    p.add_argument("--data", type=Path, required=True, help="crossings CSV (crossing,position_m,<sensors>)")
+    p.add_argument("--elements", type=int, help="number of elements of the inversion mesh")
+    p.add_argument("--out", type=Path, default=Path("sensorplan-out"), help="output folder for figures")
+    p.add_argument("--json", type=Path, help="JSON file of the posterior (default OUT/posterior.json)")
+    p.set_defaults(handler=_cmd_invert)
     return parser
 
 

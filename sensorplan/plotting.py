@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["plot_informativeness", "plot_spectrum", "plot_eigenvectors", "save_figure",
+__all__ = ["plot_informativeness", "plot_spectrum", "plot_eigenvectors", "plot_ei_posterior", "plot_fit", "save_figure",
            "mark_bridge"]
 
 
@@ -114,3 +114,48 @@ def save_figure(ax_or_fig, path, *, dpi=130):
             os.unlink(tmp)
         plt.close(fig)
     return path
+
+
+def plot_ei_posterior(result, *, ax=None, supports=None, truth=None):
+    """EI posterior mean with 75 % and 95 % credible bands and the nominal."""
+    ax = _axes(ax)
+    edges = result.edges
+    ci95 = result.credible_interval(0.95)
+    ci75 = result.credible_interval(0.75)
+    ax.stairs(ci95[:, 1], edges, baseline=ci95[:, 0], fill=True, color="C0", alpha=0.2,
+              label="95 % credible")
+    ax.stairs(ci75[:, 1], edges, baseline=ci75[:, 0], fill=True, color="C0", alpha=0.35,
+              label="75 % credible")
+    ax.stairs(result.ei_mean, edges, color="C0", linewidth=1.8, label="posterior mean")
+    ax.stairs(result.ei_nominal, edges, color="0.3", linestyle="--", linewidth=1.0, label="nominal")
+    if truth is not None:
+        truth_edges, truth_values = truth
+        ax.stairs(truth_values, truth_edges, color="k", linewidth=1.2, label="truth")
+    if supports is not None:
+        mark_bridge(ax, supports)
+    ax.set_xlim(edges[0], edges[-1])
+    ax.set_xlabel("position along the bridge x [m]")
+    ax.set_ylabel("EI [N m^2]")
+    ax.set_title("Identified flexural rigidity")
+    ax.legend(fontsize=7, ncol=3)
+    return ax
+
+
+def plot_fit(result, sensor, *, ax=None, level=0.95):
+    """Measured readings of one sensor against the fitted model and its predictive band."""
+    ax = _axes(ax)
+    i = result.sensor_names.index(sensor) if isinstance(sensor, str) else int(sensor)
+    name = result.sensor_names[i]
+    for k, fit in enumerate(result.fits):
+        ax.plot(fit.positions, fit.data[i], ".", color="0.5", markersize=2,
+                label="data" if k == 0 else None)
+    fit = result.fits[0]
+    band = fit.predictive_band(level)
+    ax.fill_between(fit.positions, band[0, i], band[1, i], color="C1", alpha=0.3,
+                    label=f"{int(level * 100)} % predictive")
+    ax.plot(fit.positions, fit.model[i], color="C1", linewidth=1.5, label="model")
+    ax.set_xlabel("reference-axle position [m]")
+    ax.set_ylabel(f"{name} reading")
+    ax.set_title(f"Data vs model: {name}")
+    ax.legend(fontsize=7)
+    return ax

@@ -84,3 +84,43 @@ def test_module_entry_point_help():
     done = subprocess.run([sys.executable, "-m", "sensorplan", "simulate", "--help"],
                           capture_output=True, text=True, check=True)
     assert "example:" in done.stdout and "sensorplan simulate" in done.stdout
+
+
+@pytest.mark.parametrize("example", EXAMPLES)
+def test_invert_writes_json_and_figures(example, tmp_path, capsys):
+    import json
+
+    data = tmp_path / "data.csv"
+    assert main(["simulate", "--example", example, "--crossings", "4", "--noise", "--seed", "2",
+                 "--out", str(data), "--quiet"]) == 0
+    js = tmp_path / "post.json"
+    assert main(["invert", "--example", example, "--data", str(data), "--elements", "12",
+                 "--json", str(js), "--out", str(tmp_path / "fig")]) == 0
+    result = json.loads(js.read_text())
+    for key in ("edges_m", "ei_mean", "ei_ci75", "ei_ci95", "springs", "noise_std", "tau",
+                "log_evidence", "converged", "n_iter", "excluded_crossings"):
+        assert key in result
+    case = example_case(example)
+    assert len(result["edges_m"]) == 13 and len(result["ei_ci95"]) == 12
+    assert result["converged"] is True
+    assert set(result["noise_std"]) == set(case.sensors.names)
+    assert (tmp_path / "fig" / "ei_posterior.png").exists()
+    for name in case.sensors.names:
+        assert (tmp_path / "fig" / f"fit_{name}.png").exists()
+    assert "posterior written to" in capsys.readouterr().out
+
+
+def test_invert_rejects_unit_slip(tmp_path, capsys):
+    data = tmp_path / "data.csv"
+    assert main(["simulate", "--example", "openlab-like", "--out", str(data), "--quiet"]) == 0
+    text = data.read_text().splitlines()
+    # values in mm/m would be 1000 times larger but stay below the absolute limit here:
+    rows = [text[0]] + [",".join(r.split(",")[:2] + [repr(float(v) * 100) for v in r.split(",")[2:]])
+                        for r in text[1:]]
+    data.write_text("\n".join(rows) + "\n")
+    js = tmp_path / "post.json"
+    assert main(["invert", "--example", "openlab-like", "--data", str(data), "--json", str(js),
+                 "--out", str(tmp_path)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "unit slip" in err[0] and "PE1" in err[0]
+    assert not js.exists()

@@ -1,0 +1,379 @@
+"""Bayesian identification of EI(x) (and spring stiffnesses) from crossings.
+
+Model (paper section Bayesian Inference Framework): whitened data
+r = W (y - F(theta)) / std ~ N(0, alpha^2 I), where W applies the AR(1)
+whitening per sensor and crossing, std the configured noise of each sensor
+and alpha a common noise scale; prior theta ~ N(theta_0, Q(tau)^{-1}) with
+Q(tau) = tau S + F (GMRF roughness S on log EI plus the fixed proper part F).
+
+* MAP by Gauss-Newton with a Levenberg-Marquardt safeguard: a step is
+  accepted only if it lowers the negative log posterior, so every iterate
+  decreases the objective.
+* Laplace covariance H^{-1}, H = J^T J / alpha^2 + Q at the MAP; exact for
+  the linear-Gaussian case.
+* Hyperparameters by evidence maximisation: MacKay's fixed-point updates
+  alpha^2 = |r|^2 / (M - gamma), tau = gamma_tau / (d^T S d), which are the
+  stationarity conditions of the Laplace evidence, interleaved with the MAP.
+  Quasi-optimality and GCV choose tau on the linearised problem instead.
+"""
+
+import math
+import warnings
+
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+
+from ._crossings import Crossings
+from ._errors import ConfigError, DataError, SensorplanWarning
+from ._forward import influence_lines
+from ._noise import NoiseModel
+from ._posterior import CrossingFit, PosteriorResult
+from ._prior import GMRFPrior
+from ._screening import screen_crossings
+
+__all__ = ["invert", "HYPER_METHODS"]
+
+HYPER_METHODS = ("evidence", "fixed", "quasi-optimality", "gcv")
+_DEFAULT_STD = {"rotation": 1e-6, "deflection": 1e-4}
+
+
+class _Problem:
+    """Whitened residuals and Jacobians of all crossings for a parameter vector."""
+
+    def __init__(self, case, crossings, *, estimate_springs, parameterisation, mesh=None):
+        self.case = case
+        self.mesh = case.mesh if mesh is None else mesh
+        index = [case.sensors.names.index(n) for n in crossings.sensor_names]
+        self.sensors = case.sensors.subset(index)
+        if case.noise is not None:
+            self.noise = case.noise.subset(index)
+        else:
+            self.noise = NoiseModel([_DEFAULT_STD[k] for k in self.sensors.kinds])
+        self.crossings = crossings
+        self.parameterisation = parameterisation
+        self.n_elements = self.mesh.n_elements
+        self.spring_names = case.bridge.spring_names if estimate_springs else ()
+        self.n_springs = len(self.spring_names)
+        self.n_params = self.n_elements + self.n_springs
+        self.ei_nominal = np.asarray(case.ei_at(self.mesh.midpoints), dtype=float)
+        self.spring_nominal = case.bridge.spring_stiffness() if estimate_springs else np.zeros(0)
+        if parameterisation == "log_ei":
+            self.theta0 = np.concatenate([np.log(self.ei_nominal), np.log(self.spring_nominal)])
+        elif parameterisation == "compliance":
+            if self.n_springs or len(case.bridge.spring_parameters) or case.bridge.n_spans > 1 or any(
+                    k > 0 for k in case.bridge.rotational_springs):
+                raise ConfigError("parameterisation='compliance' is the linear-Gaussian case: it needs a "
+                                  "statically determinate bridge (one pinned span, rigid supports).")
+            self.theta0 = 1.0 / self.ei_nominal
+        else:
+            raise ConfigError(f"The 'parameterisation' parameter must be 'log_ei' or 'compliance'. "
+                              f"Got {parameterisation!r} instead.")
+        self.white_data = [self.noise.whiten(c.values, c.positions) for c in crossings]
+        self.n_data = sum(w.size for w in self.white_data)
+        self.log_det_noise = sum(
+            self.noise.log_det_gamma(c.positions) * self.sensors.n_sensors
+            + 2.0 * c.n_loads * np.sum(np.log(self.noise.std)) for c in crossings)
+        self.n_evaluations = 0
+
+    def split(self, theta):
+        n = self.n_elements
+        if self.parameterisation == "log_ei":
+            ei = np.exp(theta[:n])
+        else:
+            if np.any(theta[:n] <= 0.0):
+                return None, None
+            ei = 1.0 / theta[:n]
+        bridge = self.case.bridge
+        if self.n_springs:
+            bridge = bridge.with_spring_stiffness(np.exp(theta[n:]))
+        return ei, bridge
+
+    def lines(self, theta):
+        """Influence lines per distinct position set (shared between crossings)."""
+        ei, bridge = self.split(theta)
+        if ei is None:
+            return None
+        self.n_evaluations += 1
+        out = {}
+        for c in self.crossings:
+            key = c.positions.tobytes()
+            if key not in out:
+                out[key] = influence_lines(bridge, self.mesh, ei, self.sensors, self.case.vehicle,
+                                           c.positions)
+        return out
+
+    def evaluate(self, theta, *, jacobian=True, raw=False):
+        """Whitened residual (M,) and Jacobian (M, n_params) of y - F(theta)."""
+        lines = self.lines(theta)
+        if lines is None or not np.all(np.isfinite(theta)):
+            return None, None, None
+        res, jac, raw_out = [], [], []
+        for c, wd in zip(self.crossings, self.white_data):
+            ln = lines[c.positions.tobytes()]
+            pred = ln.predictions * c.load_factor[None, :]
+            res.append((wd - self.noise.whiten(pred, c.positions)).ravel())
+            if jacobian or raw:
+                if self.parameterisation == "log_ei":
+                    j = ln.jacobian("log_ei", springs=self.n_springs > 0)
+                else:
+                    j = ln.jacobian("compliance")
+                j = j * c.load_factor[None, :, None]
+                if jacobian:
+                    jac.append(self.noise.whiten(j, c.positions).reshape(-1, self.n_params))
+                if raw:
+                    raw_out.append((pred, j))
+        r = np.concatenate(res)
+        return r, (np.vstack(jac) if jacobian else None), raw_out
+
+
+def _prior_matrices(problem, prior):
+    """Roughness S and fixed part F of the prior precision in the problem's parameters."""
+    n, s = problem.n_elements, problem.n_springs
+    rough = np.zeros((problem.n_params, problem.n_params))
+    rough[:n, :n] = prior.structure(n)
+    fixed = prior.precision(n, s, tau=0.0)
+    if problem.parameterisation == "compliance":
+        # Same quadratic form to first order: d log EI = -d v / v_0.
+        scale = 1.0 / problem.theta0
+        rough = rough * np.outer(scale, scale)
+        fixed = fixed * np.outer(scale, scale)
+    return rough, fixed
+
+
+def _solve_map(problem, theta, alpha, q, theta0, *, max_iter, tol):
+    """Levenberg-Marquardt MAP; returns theta, residual, Jacobian, objective, iterations, converged."""
+    r, jac, _ = problem.evaluate(theta)
+    if r is None:
+        raise DataError("The start point gives an invalid model (non-positive EI).")
+
+    def objective(r_, t_):
+        d = t_ - theta0
+        return 0.5 * (r_ @ r_) / alpha**2 + 0.5 * d @ q @ d
+
+    obj = objective(r, theta)
+    mu = 0.0
+    converged = False
+    it = 0
+    for it in range(1, max_iter + 1):
+        d = theta - theta0
+        grad = -(jac.T @ r) / alpha**2 + q @ d
+        hess = jac.T @ jac / alpha**2 + q
+        diag = np.diag(hess).copy()
+        accepted = False
+        for _ in range(30):
+            try:
+                step = -scipy.linalg.solve(hess + mu * np.diag(diag), grad, assume_a="pos")
+            except (np.linalg.LinAlgError, scipy.linalg.LinAlgError):
+                mu = max(10 * mu, 1e-6)
+                continue
+            trial = theta + step
+            r_t, jac_t, _ = problem.evaluate(trial)
+            if r_t is not None:
+                obj_t = objective(r_t, trial)
+                if obj_t <= obj:
+                    accepted = True
+                    break
+            mu = max(4.0 * mu, 1e-4)
+        if not accepted:
+            # No decrease possible along damped steps: at a (numerical) minimum.
+            converged = float(np.max(np.abs(grad) / np.sqrt(diag))) < 1e-6
+            break
+        decrease = obj - obj_t
+        theta, r, jac, obj = trial, r_t, jac_t, obj_t
+        mu = mu / 3.0 if mu > 1e-8 else 0.0
+        newton_decrement = float(-step @ grad)
+        if newton_decrement < tol * max(1.0, abs(obj)) or decrease <= tol * 1e-3 * max(1.0, abs(obj)):
+            converged = True
+            break
+    return theta, r, jac, obj, it, converged
+
+
+def _log_evidence(problem, r, jac, theta, theta0, alpha, q):
+    d = theta - theta0
+    hess = jac.T @ jac / alpha**2 + q
+    _, logdet_h = np.linalg.slogdet(hess)
+    _, logdet_q = np.linalg.slogdet(q)
+    m = problem.n_data
+    return float(-0.5 * (r @ r) / alpha**2 - 0.5 * d @ q @ d - 0.5 * logdet_h + 0.5 * logdet_q
+                 - m * math.log(alpha) - 0.5 * problem.log_det_noise - 0.5 * m * math.log(2 * math.pi))
+
+
+def _maximise_linear_evidence(jac, y_lin, theta0, rough, fixed, alpha, tau):
+    """(alpha, tau) maximising the evidence of the model linearised at the MAP.
+
+    For y_lin = J theta + e the evidence is Gaussian in closed form, so the
+    two hyperparameters are optimised without new forward evaluations; the
+    outer loop re-linearises until they settle (one pass when F is linear).
+    """
+    jtj = jac.T @ jac
+    jty = jac.T @ y_lin
+    yy = float(y_lin @ y_lin)
+    m = y_lin.size
+
+    def negative(params):
+        a = math.exp(params[0])
+        t = math.exp(params[1])
+        q = t * rough + fixed
+        h = jtj / a**2 + q
+        try:
+            ch = scipy.linalg.cho_factor(h)
+            cq = scipy.linalg.cho_factor(q)
+        except np.linalg.LinAlgError:
+            return 1e300, np.zeros(2)
+        x = scipy.linalg.cho_solve(ch, jty / a**2 + q @ theta0)
+        rr = yy - 2 * x @ jty + x @ jtj @ x
+        d = x - theta0
+        logdet_h = 2 * np.sum(np.log(np.diag(ch[0])))
+        logdet_q = 2 * np.sum(np.log(np.diag(cq[0])))
+        value = -0.5 * rr / a**2 - 0.5 * d @ q @ d - 0.5 * logdet_h + 0.5 * logdet_q - m * math.log(a)
+        # Gradient by the envelope theorem (x is the optimum of the quadratic terms).
+        h_inv_jtj = scipy.linalg.cho_solve(ch, jtj)
+        g_a = rr / a**2 + np.trace(h_inv_jtj) / a**2 - m
+        g_t = t * (-0.5 * d @ rough @ d - 0.5 * np.trace(scipy.linalg.cho_solve(ch, rough))
+                   + 0.5 * np.trace(scipy.linalg.cho_solve(cq, rough)))
+        return -float(value), -np.array([g_a, g_t])
+
+    start = np.array([math.log(alpha), math.log(tau)])
+    best = scipy.optimize.minimize(negative, start, jac=True, method="L-BFGS-B",
+                                   bounds=[(start[0] - 30, start[0] + 30), (math.log(1e-8), math.log(1e14))],
+                                   options={"ftol": 1e-15, "gtol": 1e-10, "maxiter": 500})
+    x = best.x if negative(best.x)[0] <= negative(start)[0] else start
+    return math.exp(x[0]), math.exp(x[1])
+
+
+def _tau_by_criterion(jac, r, theta, theta0, alpha, rough, fixed, method, taus):
+    """Choose tau on the problem linearised at ``theta`` by quasi-optimality or GCV."""
+    # Linearised data: y_lin = J theta + r, model y_lin ~ J theta'.
+    y_lin = r + jac @ theta
+    jtj = jac.T @ jac / alpha**2
+    sols, scores = [], []
+    m = r.size
+    for tau in taus:
+        q = tau * rough + fixed
+        h = jtj + q
+        x = scipy.linalg.solve(h, jac.T @ y_lin / alpha**2 + q @ theta0, assume_a="pos")
+        sols.append(x)
+        if method == "gcv":
+            res = y_lin - jac @ x
+            trace = np.trace(scipy.linalg.solve(h, jtj, assume_a="pos"))
+            scores.append(m * (res @ res) / max(m - trace, 1e-12) ** 2)
+    if method == "gcv":
+        return float(taus[int(np.argmin(scores))])
+    diffs = [np.linalg.norm(sols[i + 1] - sols[i]) for i in range(len(taus) - 1)]
+    return float(taus[int(np.argmin(diffs))])
+
+
+def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisation="log_ei",
+           hyper="evidence", noise_scale=1.0, tau=None, screen=True, mesh=None, start=None,
+           max_iter=100, max_outer=200, tol=1e-10):
+    """Identify EI(x) (and spring stiffnesses) from measured crossings.
+
+    Parameters
+    ----------
+    case : Case
+        Model: bridge, nominal EI, vehicle, sensors, noise model.
+    crossings : Crossings
+        Data; sensor columns must be sensors of ``case``.
+    prior : GMRFPrior, optional
+        Prior on log EI and the spring log-stiffnesses (default ``GMRFPrior()``).
+    estimate_springs : bool
+        Estimate the elastic springs jointly (nuisance parameters).
+    parameterisation : {"log_ei", "compliance"}
+        ``compliance`` is the linear-Gaussian case of a determinate bridge.
+    hyper : {"evidence", "fixed", "quasi-optimality", "gcv"}
+        How the noise scale and tau are chosen.
+    noise_scale, tau : float
+        Start values (``fixed``: the values used).  ``tau`` defaults to the prior's.
+    screen : bool
+        Exclude crossings that do not match the others (with a warning).
+    mesh : Mesh, optional
+        Inversion mesh (default: the case's).
+    start : array_like, optional
+        Start parameters (default: the nominal).
+
+    Returns
+    -------
+    PosteriorResult
+    """
+    if hyper not in HYPER_METHODS:
+        raise ConfigError(f"The 'hyper' parameter must be one of {HYPER_METHODS}. Got {hyper!r} instead.")
+    if not isinstance(crossings, Crossings):
+        raise DataError("The 'crossings' parameter must be a Crossings object (see read_crossings).")
+    prior = GMRFPrior() if prior is None else prior
+    excluded = ()
+    if screen and len(crossings) >= 2:
+        crossings, excluded, reasons = screen_crossings(crossings)
+        for label, reason in zip(excluded, reasons):
+            warnings.warn(f"crossing '{label}' excluded: {reason}", SensorplanWarning, stacklevel=2)
+    if mesh is not None:
+        mesh.check_fits(case.bridge)
+    problem = _Problem(case, crossings, estimate_springs=estimate_springs and bool(case.bridge.spring_names),
+                       parameterisation=parameterisation, mesh=mesh)
+    theta0 = problem.theta0
+    rough, fixed = _prior_matrices(problem, prior)
+    alpha = float(noise_scale)
+    tau_value = prior.tau if tau is None else float(tau)
+    theta = theta0.copy() if start is None else np.asarray(start, dtype=float).copy()
+    total_iter = 0
+    converged = False
+    messages = []
+    n_outer = max_outer if hyper == "evidence" else 1
+    for outer in range(n_outer):
+        q = tau_value * rough + fixed
+        theta, r, jac, obj, it, map_ok = _solve_map(problem, theta, alpha, q, theta0,
+                                                    max_iter=max_iter, tol=tol)
+        total_iter += it
+        if hyper != "evidence":
+            converged = map_ok
+            break
+        new_alpha, new_tau = _maximise_linear_evidence(jac, r + jac @ theta, theta0, rough, fixed,
+                                                       alpha, tau_value)
+        change = max(abs(math.log(new_alpha / alpha)), abs(math.log(new_tau / tau_value)))
+        alpha, tau_value = new_alpha, new_tau
+        if change < 1e-5 and map_ok:
+            converged = True
+            break
+    if hyper in ("quasi-optimality", "gcv"):
+        taus = np.logspace(-4, 10, 57)
+        tau_value = _tau_by_criterion(jac, r, theta, theta0, alpha, rough, fixed, hyper, taus)
+        q = tau_value * rough + fixed
+        theta, r, jac, obj, it, converged = _solve_map(problem, theta, alpha, q, theta0,
+                                                       max_iter=max_iter, tol=tol)
+        total_iter += it
+        hess = jac.T @ jac / alpha**2 + q
+        gamma = float(np.trace(scipy.linalg.solve(hess, jac.T @ jac / alpha**2, assume_a="pos")))
+        alpha = math.sqrt(max(r @ r, 1e-300) / max(problem.n_data - gamma, 1.0))
+    q = tau_value * rough + fixed
+    if hyper == "evidence":
+        # Final MAP and Laplace approximation at the converged hyperparameters.
+        theta, r, jac, obj, it, map_ok = _solve_map(problem, theta, alpha, q, theta0,
+                                                    max_iter=max_iter, tol=tol)
+        total_iter += it
+        converged = converged and map_ok
+    hess = jac.T @ jac / alpha**2 + q
+    covariance = scipy.linalg.inv(hess)
+    covariance = 0.5 * (covariance + covariance.T)
+    log_ev = _log_evidence(problem, r, jac, theta, theta0, alpha, q)
+    if not converged:
+        messages.append("the MAP or the hyperparameter iteration did not converge")
+        warnings.warn("sensorplan invert: the Gauss-Newton / evidence iteration did not converge; "
+                      "results are reported with converged = false.", SensorplanWarning, stacklevel=2)
+    fits = _fits(problem, theta, covariance, alpha)
+    return PosteriorResult(
+        edges=problem.mesh.edges.copy(), theta=theta, covariance=covariance,
+        parameterisation=parameterisation, ei_nominal=problem.ei_nominal,
+        spring_names=tuple(problem.spring_names), spring_nominal=problem.spring_nominal,
+        sensor_names=problem.sensors.names, noise_std=alpha * problem.noise.std, noise_scale=alpha,
+        tau=tau_value, log_evidence=log_ev, converged=bool(converged), n_iter=total_iter,
+        excluded_crossings=tuple(excluded), fits=fits, hyper_method=hyper, messages=tuple(messages))
+
+
+def _fits(problem, theta, covariance, alpha):
+    _, _, raw = problem.evaluate(theta, jacobian=False, raw=True)
+    out = []
+    for c, (pred, jac) in zip(problem.crossings, raw):
+        var = np.einsum("skp,pq,skq->sk", jac, covariance, jac)
+        out.append(CrossingFit(c.label, c.positions, c.values, pred, np.sqrt(np.clip(var, 0, None)),
+                               alpha * problem.noise.std))
+    return tuple(out)
