@@ -1,0 +1,185 @@
+"""The sensor-placement problem: candidates, information blocks, constraints.
+
+Weights w in [0, 1] on the candidates, sum w = R (new sensors), posterior
+precision Q(w) = Q_0 + sum_i w_i I_i with Q_0 = prior precision + blocks of
+fixed (existing) sensors.  Linear side constraints: a cost budget, minimum
+and maximum counts per span, and a minimum spacing (for every candidate i,
+the candidates in [x_i, x_i + spacing) carry at most one sensor: the maximal
+cliques of the interval conflict graph, exact for integer layouts).
+"""
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import scipy.optimize
+
+from ._errors import ConfigError, SolverError
+
+__all__ = ["DesignProblem"]
+
+
+@dataclass(frozen=True, eq=False)
+class DesignProblem:
+    """A placement problem (internal; built by :func:`recommend`)."""
+
+    positions: np.ndarray  # (C,) candidate positions [m]
+    spans: np.ndarray  # (C,) span index of each candidate
+    blocks: np.ndarray  # (C, P, P) information of one sensor at each candidate
+    q0: np.ndarray  # (P, P) prior + fixed sensors
+    criterion: object
+    count: int
+    costs: np.ndarray = None
+    budget: float = None
+    span_min: np.ndarray = None  # (n_spans,)
+    span_max: np.ndarray = None
+    min_spacing: float = 0.0
+    n_spans: int = 1
+
+    def __post_init__(self):
+        c = self.positions.size
+        if not 1 <= self.count <= c:
+            raise ConfigError(f"The 'count' parameter must be between 1 and the number of candidates ({c}). "
+                              f"Got {self.count!r} instead.")
+
+    @property
+    def n_candidates(self):
+        return self.positions.size
+
+    @property
+    def n_params(self):
+        return self.q0.shape[0]
+
+    @cached_property
+    def flat_blocks(self):
+        return self.blocks.reshape(self.n_candidates, -1)
+
+    def precision(self, w):
+        """Q(w) for weights ``w`` (C,)."""
+        return self.q0 + (np.asarray(w, dtype=float) @ self.flat_blocks).reshape(self.q0.shape)
+
+    def layout_precision(self, index):
+        return self.q0 + self.blocks[list(index)].sum(axis=0)
+
+    def utility_of(self, index):
+        return self.criterion.utility(self.layout_precision(index))
+
+    def value_of(self, index):
+        return self.criterion.value(self.layout_precision(index))
+
+    def gradient(self, w):
+        """d utility / d w_i for all candidates."""
+        g = self.criterion.gradient_matrix(self.precision(w))
+        return self.flat_blocks @ g.ravel()
+
+    # -- linear constraints ---------------------------------------------------------------
+    @cached_property
+    def inequalities(self):
+        """(A_ub, b_ub) of the side constraints (without the box and the sum)."""
+        rows, rhs = [], []
+        c = self.n_candidates
+        if self.budget is not None:
+            rows.append(self.costs.copy())
+            rhs.append(self.budget)
+        for s in range(self.n_spans):
+            member = (self.spans == s).astype(float)
+            if self.span_max is not None and self.span_max[s] < self.count:
+                rows.append(member)
+                rhs.append(float(self.span_max[s]))
+            if self.span_min is not None and self.span_min[s] > 0:
+                rows.append(-member)
+                rhs.append(-float(self.span_min[s]))
+        for window in self.spacing_windows:
+            row = np.zeros(c)
+            row[window] = 1.0
+            rows.append(row)
+            rhs.append(1.0)
+        if not rows:
+            return np.zeros((0, c)), np.zeros(0)
+        return np.array(rows), np.array(rhs)
+
+    @cached_property
+    def spacing_windows(self):
+        """Maximal groups of candidates closer than the minimum spacing."""
+        if self.min_spacing <= 0:
+            return []
+        order = np.argsort(self.positions)
+        x = self.positions[order]
+        windows, last_end = [], -1
+        for i in range(x.size):
+            end = np.searchsorted(x, x[i] + self.min_spacing - 1e-12, side="left")
+            if end - i >= 2 and end > last_end:
+                windows.append(order[i:end])
+                last_end = end
+        return windows
+
+    def feasible(self, index):
+        """Whether an integer layout (candidate indices) satisfies every constraint."""
+        index = list(index)
+        if len(index) != self.count or len(set(index)) != len(index):
+            return False
+        return self.partial_ok(index, final=True)
+
+    def partial_ok(self, index, *, final=False):
+        """Whether a partial layout can still be completed to a feasible one (heuristic for mins)."""
+        index = list(index)
+        if self.budget is not None:
+            # the cheapest completion must still fit the budget
+            left = self.count - len(index)
+            rest = np.delete(self.costs, index)
+            if self.costs[index].sum() + np.sort(rest)[:left].sum() > self.budget + 1e-9:
+                return False
+        counts = np.bincount(self.spans[index], minlength=self.n_spans)
+        if self.span_max is not None and np.any(counts > self.span_max):
+            return False
+        if self.span_min is not None:
+            missing = np.maximum(self.span_min - counts, 0).sum()
+            if missing > self.count - len(index):
+                return False
+        if self.min_spacing > 0 and len(index) > 1:
+            x = np.sort(self.positions[index])
+            if np.any(np.diff(x) < self.min_spacing - 1e-9):
+                return False
+        return True
+
+    # -- the linear oracle ---------------------------------------------------------------
+    def linear_max(self, g):
+        """max g^T w over the relaxed feasible set; returns (value, w)."""
+        a_ub, b_ub = self.inequalities
+        if a_ub.shape[0] == 0:
+            top = np.argsort(g)[::-1][: self.count]
+            w = np.zeros(self.n_candidates)
+            w[top] = 1.0
+            return float(g[top].sum()), w
+        res = scipy.optimize.linprog(-g, A_ub=a_ub, b_ub=b_ub, A_eq=np.ones((1, self.n_candidates)),
+                                     b_eq=[self.count], bounds=(0.0, 1.0), method="highs")
+        if res.status != 0:
+            raise SolverError(f"The placement constraints are infeasible or the LP failed ({res.message}). "
+                              "Relax the budget, span counts or spacing.")
+        return float(-res.fun), res.x
+
+    def dual_bound(self, w):
+        """Certified bound on the relaxation optimum from a (near-optimal) w.
+
+        For concave smooth utilities f: f* <= f(w) + max_s g(w)^T (s - w)
+        (the Frank-Wolfe gap).  For E: lambda_min(Q) <= <Z, Q> for every
+        Z >= 0 with trace 1, so f* <= <Z, Q_0> + max_s sum_i s_i <Z, I_i>.
+        Returns the bound on the utility.
+        """
+        q = self.precision(w)
+        if self.criterion.name == "E":
+            return self.e_bound(self.criterion.gradient_matrix(q))
+        g = self.flat_blocks @ self.criterion.gradient_matrix(q).ravel()
+        best, _ = self.linear_max(g)
+        return self.criterion.utility(q) + max(0.0, best - float(g @ w))
+
+    def e_bound(self, z):
+        z = 0.5 * (z + z.T)
+        vals, vecs = np.linalg.eigh(z)
+        vals = np.clip(vals, 0.0, None)
+        if vals.sum() <= 0:
+            return np.inf
+        z = (vecs * (vals / vals.sum())) @ vecs.T
+        g = self.flat_blocks @ z.ravel()
+        best, _ = self.linear_max(g)
+        return float(np.sum(z * self.q0)) + best

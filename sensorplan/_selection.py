@@ -1,0 +1,193 @@
+"""Integer layouts: greedy (lazy, rank-update gains for D), exchange, rounding, baselines."""
+
+import math
+
+import numpy as np
+import scipy.linalg
+
+from ._errors import SolverError
+
+__all__ = ["iter_greedy", "greedy", "exchange", "round_weights", "baselines"]
+
+
+def _block_factors(problem, rel_tol=1e-13):
+    """Low-rank factors F_i with I_i = F_i F_i^T (eigenvalues below rel_tol * max dropped)."""
+    vals, vecs = np.linalg.eigh(problem.blocks)
+    top = max(float(vals.max()), 1e-300)
+    factors = []
+    for lam, v in zip(vals, vecs):
+        keep = lam > rel_tol * top
+        factors.append(v[:, keep] * np.sqrt(lam[keep]))
+    return factors
+
+
+def iter_greedy(problem, *, start=()):
+    """Yield ``(index, utility)`` as candidates are added greedily.
+
+    For D the gains are log det(I + W^T W) with W = L^{-1} F_i (rank-update
+    formula on the Cholesky factor L of the current precision) and lazy
+    evaluations are used (the gains of D are submodular: they can only
+    shrink as the layout grows).  Other criteria evaluate every feasible
+    candidate.
+    """
+    chosen = list(start)
+    lazy = problem.criterion.name == "D"
+    factors = _block_factors(problem) if lazy else None
+    bounds = np.full(problem.n_candidates, np.inf)
+    while len(chosen) < problem.count:
+        q = problem.layout_precision(chosen)
+        ok = [i for i in range(problem.n_candidates)
+              if i not in chosen and problem.partial_ok(chosen + [i])]
+        if not ok:
+            raise SolverError("Greedy selection found no feasible candidate; relax the constraints.")
+        if lazy:
+            chol = np.linalg.cholesky(q)
+            order = sorted(ok, key=lambda i: -bounds[i])
+            best, best_gain = None, -np.inf
+            for i in order:
+                if bounds[i] <= best_gain:
+                    break
+                w = scipy.linalg.solve_triangular(chol, factors[i], lower=True)
+                gain = _logdet_small(w) if w.shape[1] else 0.0
+                bounds[i] = gain
+                if gain > best_gain:
+                    best, best_gain = i, gain
+            chosen.append(best)
+        else:
+            values = [problem.utility_of(chosen + [i]) for i in ok]
+            chosen.append(ok[int(np.argmax(values))])
+        yield list(chosen), problem.utility_of(chosen)
+
+
+def _logdet_small(w):
+    g = np.eye(w.shape[1]) + w.T @ w
+    return float(2.0 * np.sum(np.log(np.diag(np.linalg.cholesky(g)))))
+
+
+def greedy(problem, *, start=()):
+    """Greedy layout (indices) and its utility."""
+    chosen, utility = list(start), None
+    for chosen, utility in iter_greedy(problem, start=start):
+        pass
+    if utility is None:
+        utility = problem.utility_of(chosen)
+    return chosen, utility
+
+
+def exchange(problem, layout, *, max_sweeps=50):
+    """Swap local search from ``layout``: best improving swap per removed sensor, until none."""
+    layout = list(layout)
+    best = problem.utility_of(layout)
+    for _ in range(max_sweeps):
+        improved = False
+        for pos in range(len(layout)):
+            rest = layout[:pos] + layout[pos + 1:]
+            cand_best, cand_util = None, best
+            for i in range(problem.n_candidates):
+                if i in layout:
+                    continue
+                trial = rest + [i]
+                if not problem.partial_ok(trial):
+                    continue
+                u = problem.utility_of(trial)
+                if u > cand_util + 1e-12 * max(1.0, abs(cand_util)):
+                    cand_best, cand_util = i, u
+            if cand_best is not None:
+                layout = rest[:pos] + [cand_best] + rest[pos:]
+                best = cand_util
+                improved = True
+        if not improved:
+            break
+    return layout, best
+
+
+def round_weights(problem, weights):
+    """Largest relaxed weights first, skipping candidates that break a constraint."""
+    chosen = []
+    for i in np.argsort(weights)[::-1]:
+        if problem.partial_ok(chosen + [int(i)]):
+            chosen.append(int(i))
+        if len(chosen) == problem.count:
+            return chosen
+    raise SolverError("Rounding could not complete a feasible layout.")
+
+
+def _snap(problem, targets):
+    """Nearest feasible free candidate for each target position, in order."""
+    chosen = []
+    for t in targets:
+        order = np.argsort(np.abs(problem.positions - t))
+        for i in order:
+            i = int(i)
+            if i not in chosen and problem.partial_ok(chosen + [i]):
+                chosen.append(i)
+                break
+        if len(chosen) == problem.count:
+            break
+    return chosen if len(chosen) == problem.count else None
+
+
+def equally_spaced(problem, length):
+    targets = length * (np.arange(problem.count) + 0.5) / problem.count
+    return _snap(problem, targets)
+
+
+def rule_of_thumb(problem, support_positions):
+    """The paper's rule: stations in (0, L/3) and (2L/3, L) of the spans, spans in turn."""
+    fractions = [1 / 6, 5 / 6, 1 / 12, 11 / 12, 1 / 4, 3 / 4, 1 / 24, 23 / 24, 5 / 24, 19 / 24]
+    targets = []
+    for f in fractions:
+        for a, b in zip(support_positions[:-1], support_positions[1:]):
+            targets.append(a + f * (b - a))
+    return _snap(problem, targets)
+
+
+def effective_independence(problem):
+    """Kammer's Effective Independence (1991), by backward elimination.
+
+    The effective independence of a candidate is its share of the
+    information, E_i = tr(Q^{-1} I_i) with Q the precision of all remaining
+    candidates (the sum over its rows of Kammer's E = diag(J Q^{-1} J^T));
+    the candidate with the smallest share is removed, a few at a time when
+    many remain, until R are left.
+    """
+    remaining = list(range(problem.n_candidates))
+    while len(remaining) > problem.count:
+        q = problem.layout_precision(remaining)
+        inv = scipy.linalg.cho_solve((np.linalg.cholesky(q), True), np.eye(q.shape[0]))
+        share = problem.flat_blocks[remaining] @ inv.ravel()
+        n_drop = max(1, (len(remaining) - problem.count) // 10)
+        drop = set(np.argsort(share)[:n_drop].tolist())
+        remaining = [r for j, r in enumerate(remaining) if j not in drop]
+    layout = [i for i in remaining]
+    if not problem.feasible(layout):
+        ranked = sorted(layout, key=lambda i: i)
+        layout = _snap(problem, problem.positions[ranked])
+    return layout
+
+
+def best_random(problem, n, rng):
+    rng = np.random.default_rng(rng)
+    best, best_u = None, -np.inf
+    for _ in range(n):
+        chosen = []
+        for i in rng.permutation(problem.n_candidates):
+            if problem.partial_ok(chosen + [int(i)]):
+                chosen.append(int(i))
+            if len(chosen) == problem.count:
+                break
+        if len(chosen) == problem.count:
+            u = problem.utility_of(chosen)
+            if u > best_u:
+                best, best_u = chosen, u
+    return best
+
+
+def baselines(problem, *, length, support_positions, n_random=100, rng=0):
+    """Baseline layouts by name (None where a baseline cannot satisfy the constraints)."""
+    return {
+        "equally_spaced": equally_spaced(problem, length),
+        "rule_of_thumb": rule_of_thumb(problem, support_positions),
+        "effective_independence": effective_independence(problem),
+        f"best_of_{n_random}_random": best_random(problem, n_random, rng),
+    }
