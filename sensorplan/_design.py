@@ -64,6 +64,9 @@ class DesignResult:
     curve: tuple = ()
     kind: str = "rotation"
     layout_index: tuple = field(default=(), repr=False)
+    edges: np.ndarray = None
+    supports_m: tuple = ()
+    posterior_std: dict = field(default_factory=dict)
 
     def summary(self):
         unit = {"D": "log det", "Ds": "log det", "A": "trace", "E": "lambda_min"}[self.criterion]
@@ -84,6 +87,12 @@ class DesignResult:
             lines.append(f"  {name:28s} {b['value']:12.6g} {100 * rel:9.1f}%  "
                          + ", ".join(f"{x:.2f}" for x in b["layout_m"]))
         return "\n".join(lines)
+
+    def best_baseline(self):
+        """Name of the best feasible baseline."""
+        sign = -1.0 if self.criterion == "A" else 1.0
+        feasible = {k: v for k, v in self.baselines.items() if v is not None}
+        return max(feasible, key=lambda k: sign * feasible[k]["value"]) if feasible else None
 
     def to_dict(self):
         return {
@@ -265,6 +274,11 @@ def recommend(case, count, criterion="D", *, spacing=0.5, exclude=(), fixed=(), 
     curve = tuple(dict(c, value=float(value)) if c["count"] == count and sign * c["value"] < sign * value
                   else c for c in _curve(problem, count, curve_max, solver))
     order = sorted(layout, key=lambda i: problem.positions[i])
+    n_el = case.n_elements
+    post_std = {"recommended": _posterior_std(problem, order, n_el)}
+    for name, idx in base.items():
+        if idx is not None:
+            post_std[name] = _posterior_std(problem, idx, n_el)
     return DesignResult(criterion=crit.name, count=int(count), n_params=crit.n_effective,
                         layout_m=tuple(float(problem.positions[i]) for i in order), value=float(value),
                         bound=float(bound), efficiency=efficiency, method=method, baselines=base_out,
@@ -272,7 +286,15 @@ def recommend(case, count, criterion="D", *, spacing=0.5, exclude=(), fixed=(), 
                                     relative_gap=relaxation.relative_gap),
                         candidates_m=problem.positions, weights=relaxation.weights,
                         fixed_m=tuple(float(x) for x in fixed), curve=curve, kind=kind,
-                        layout_index=tuple(order))
+                        layout_index=tuple(order), edges=case.mesh.edges.copy(),
+                        supports_m=tuple(float(x) for x in case.bridge.support_positions),
+                        posterior_std=post_std)
+
+
+def _posterior_std(problem, index, n_elements):
+    """Posterior standard deviation of log EI per element (~ relative std of EI)."""
+    q = problem.layout_precision(index)
+    return np.sqrt(np.diag(np.linalg.inv(q))[:n_elements])
 
 
 def _curve(problem, count, curve_max, solver):

@@ -19,6 +19,7 @@ Q(tau) = tau S + F (GMRF roughness S on log EI plus the fixed proper part F).
 
 import math
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
@@ -75,6 +76,7 @@ class _Problem:
             self.noise.log_det_gamma(c.positions) * self.sensors.n_sensors
             + 2.0 * c.n_loads * np.sum(np.log(self.noise.std)) for c in crossings)
         self.n_evaluations = 0
+        self._last = None
 
     def split(self, theta):
         n = self.n_elements
@@ -103,28 +105,83 @@ class _Problem:
                                            c.positions)
         return out
 
-    def evaluate(self, theta, *, jacobian=True, raw=False):
-        """Whitened residual (M,) and Jacobian (M, n_params) of y - F(theta)."""
+    def evaluate(self, theta, *, jacobian=True):
+        """Linearisation of the whitened misfit at ``theta``, or None if invalid.
+
+        Crossings that share positions and load factors share one whitened
+        Jacobian; only the normal-equation quantities r.r, J^T J and J^T r
+        are formed (J is never stacked).
+        """
+        key = theta.tobytes()
+        if self._last is not None and self._last[0] == key and (self._last[1].jtj is not None or not jacobian):
+            return self._last[1]
+        if not np.all(np.isfinite(theta)):
+            return None
         lines = self.lines(theta)
-        if lines is None or not np.all(np.isfinite(theta)):
-            return None, None, None
-        res, jac, raw_out = [], [], []
+        if lines is None:
+            return None
+        rr = 0.0
+        jtj = np.zeros((self.n_params, self.n_params)) if jacobian else None
+        jtr = np.zeros(self.n_params) if jacobian else None
+        groups = {}
         for c, wd in zip(self.crossings, self.white_data):
             ln = lines[c.positions.tobytes()]
-            pred = ln.predictions * c.load_factor[None, :]
-            res.append((wd - self.noise.whiten(pred, c.positions)).ravel())
-            if jacobian or raw:
-                if self.parameterisation == "log_ei":
-                    j = ln.jacobian("log_ei", springs=self.n_springs > 0)
-                else:
-                    j = ln.jacobian("compliance")
-                j = j * c.load_factor[None, :, None]
+            gkey = c.positions.tobytes() + c.load_factor.tobytes()
+            if gkey not in groups:
+                pred = ln.predictions * c.load_factor[None, :]
+                white_pred = self.noise.whiten(pred, c.positions)
+                wj = None
                 if jacobian:
-                    jac.append(self.noise.whiten(j, c.positions).reshape(-1, self.n_params))
-                if raw:
-                    raw_out.append((pred, j))
-        r = np.concatenate(res)
-        return r, (np.vstack(jac) if jacobian else None), raw_out
+                    j = self._raw_jacobian(ln) * c.load_factor[None, :, None]
+                    wj = self.noise.whiten(j, c.positions).reshape(-1, self.n_params)
+                groups[gkey] = (white_pred, wj)
+            white_pred, wj = groups[gkey]
+            r = (wd - white_pred).ravel()
+            rr += float(r @ r)
+            if jacobian:
+                jtr += wj.T @ r
+        if jacobian:
+            counts = {}
+            for c in self.crossings:
+                gkey = c.positions.tobytes() + c.load_factor.tobytes()
+                counts[gkey] = counts.get(gkey, 0) + 1
+            for gkey, n in counts.items():
+                wj = groups[gkey][1]
+                jtj += n * (wj.T @ wj)
+        out = _Linearisation(rr, jtj, jtr)
+        self._last = (key, out)
+        return out
+
+    def _raw_jacobian(self, ln):
+        if self.parameterisation == "log_ei":
+            return ln.jacobian("log_ei", springs=self.n_springs > 0)
+        return ln.jacobian("compliance")
+
+    def fits(self, theta, covariance, alpha):
+        """Data, model and posterior predictive spread per crossing."""
+        lines = self.lines(theta)
+        out = []
+        cache = {}
+        for c in self.crossings:
+            ln = lines[c.positions.tobytes()]
+            gkey = c.positions.tobytes() + c.load_factor.tobytes()
+            if gkey not in cache:
+                pred = ln.predictions * c.load_factor[None, :]
+                j = self._raw_jacobian(ln) * c.load_factor[None, :, None]
+                var = np.sum((j @ covariance) * j, axis=-1)
+                cache[gkey] = (pred, np.sqrt(np.clip(var, 0.0, None)))
+            pred, std = cache[gkey]
+            out.append(CrossingFit(c.label, c.positions, c.values, pred, std, alpha * self.noise.std))
+        return tuple(out)
+
+
+@dataclass(frozen=True)
+class _Linearisation:
+    """Whitened misfit r.r and the normal-equation terms J^T J, J^T r (r = y - F)."""
+
+    rr: float
+    jtj: np.ndarray
+    jtr: np.ndarray
 
 
 def _prior_matrices(problem, prior):
@@ -142,23 +199,23 @@ def _prior_matrices(problem, prior):
 
 
 def _solve_map(problem, theta, alpha, q, theta0, *, max_iter, tol):
-    """Levenberg-Marquardt MAP; returns theta, residual, Jacobian, objective, iterations, converged."""
-    r, jac, _ = problem.evaluate(theta)
-    if r is None:
+    """Levenberg-Marquardt MAP; returns theta, linearisation, iterations, converged."""
+    lin = problem.evaluate(theta)
+    if lin is None:
         raise DataError("The start point gives an invalid model (non-positive EI).")
 
-    def objective(r_, t_):
+    def objective(rr, t_):
         d = t_ - theta0
-        return 0.5 * (r_ @ r_) / alpha**2 + 0.5 * d @ q @ d
+        return 0.5 * rr / alpha**2 + 0.5 * d @ q @ d
 
-    obj = objective(r, theta)
+    obj = objective(lin.rr, theta)
     mu = 0.0
     converged = False
     it = 0
     for it in range(1, max_iter + 1):
         d = theta - theta0
-        grad = -(jac.T @ r) / alpha**2 + q @ d
-        hess = jac.T @ jac / alpha**2 + q
+        grad = -lin.jtr / alpha**2 + q @ d
+        hess = lin.jtj / alpha**2 + q
         diag = np.diag(hess).copy()
         accepted = False
         for _ in range(30):
@@ -168,9 +225,9 @@ def _solve_map(problem, theta, alpha, q, theta0, *, max_iter, tol):
                 mu = max(10 * mu, 1e-6)
                 continue
             trial = theta + step
-            r_t, jac_t, _ = problem.evaluate(trial)
-            if r_t is not None:
-                obj_t = objective(r_t, trial)
+            trial_lin = problem.evaluate(trial, jacobian=False)
+            if trial_lin is not None:
+                obj_t = objective(trial_lin.rr, trial)
                 if obj_t <= obj:
                     accepted = True
                     break
@@ -180,36 +237,42 @@ def _solve_map(problem, theta, alpha, q, theta0, *, max_iter, tol):
             converged = float(np.max(np.abs(grad) / np.sqrt(diag))) < 1e-6
             break
         decrease = obj - obj_t
-        theta, r, jac, obj = trial, r_t, jac_t, obj_t
+        theta, obj = trial, obj_t
+        lin = problem.evaluate(theta)
         mu = mu / 3.0 if mu > 1e-8 else 0.0
         newton_decrement = float(-step @ grad)
         if newton_decrement < tol * max(1.0, abs(obj)) or decrease <= tol * 1e-3 * max(1.0, abs(obj)):
             converged = True
             break
-    return theta, r, jac, obj, it, converged
+    return theta, lin, it, converged
 
 
-def _log_evidence(problem, r, jac, theta, theta0, alpha, q):
+def _log_evidence(problem, lin, theta, theta0, alpha, q):
     d = theta - theta0
-    hess = jac.T @ jac / alpha**2 + q
+    hess = lin.jtj / alpha**2 + q
     _, logdet_h = np.linalg.slogdet(hess)
     _, logdet_q = np.linalg.slogdet(q)
     m = problem.n_data
-    return float(-0.5 * (r @ r) / alpha**2 - 0.5 * d @ q @ d - 0.5 * logdet_h + 0.5 * logdet_q
+    return float(-0.5 * lin.rr / alpha**2 - 0.5 * d @ q @ d - 0.5 * logdet_h + 0.5 * logdet_q
                  - m * math.log(alpha) - 0.5 * problem.log_det_noise - 0.5 * m * math.log(2 * math.pi))
 
 
-def _maximise_linear_evidence(jac, y_lin, theta0, rough, fixed, alpha, tau):
+def _linearised_data(lin, theta):
+    """J^T y and y.y for the linearised data y = r + J theta."""
+    jty = lin.jtr + lin.jtj @ theta
+    yy = lin.rr + 2.0 * theta @ lin.jtr + theta @ lin.jtj @ theta
+    return jty, float(yy)
+
+
+def _maximise_linear_evidence(lin, theta, theta0, rough, fixed, alpha, tau, m):
     """(alpha, tau) maximising the evidence of the model linearised at the MAP.
 
     For y_lin = J theta + e the evidence is Gaussian in closed form, so the
     two hyperparameters are optimised without new forward evaluations; the
     outer loop re-linearises until they settle (one pass when F is linear).
     """
-    jtj = jac.T @ jac
-    jty = jac.T @ y_lin
-    yy = float(y_lin @ y_lin)
-    m = y_lin.size
+    jtj = lin.jtj
+    jty, yy = _linearised_data(lin, theta)
 
     def negative(params):
         a = math.exp(params[0])
@@ -242,22 +305,20 @@ def _maximise_linear_evidence(jac, y_lin, theta0, rough, fixed, alpha, tau):
     return math.exp(x[0]), math.exp(x[1])
 
 
-def _tau_by_criterion(jac, r, theta, theta0, alpha, rough, fixed, method, taus):
+def _tau_by_criterion(lin, theta, theta0, alpha, rough, fixed, method, taus, m):
     """Choose tau on the problem linearised at ``theta`` by quasi-optimality or GCV."""
-    # Linearised data: y_lin = J theta + r, model y_lin ~ J theta'.
-    y_lin = r + jac @ theta
-    jtj = jac.T @ jac / alpha**2
+    jtj = lin.jtj / alpha**2
+    jty, yy = _linearised_data(lin, theta)
     sols, scores = [], []
-    m = r.size
     for tau in taus:
         q = tau * rough + fixed
         h = jtj + q
-        x = scipy.linalg.solve(h, jac.T @ y_lin / alpha**2 + q @ theta0, assume_a="pos")
+        x = scipy.linalg.solve(h, jty / alpha**2 + q @ theta0, assume_a="pos")
         sols.append(x)
         if method == "gcv":
-            res = y_lin - jac @ x
+            res = yy - 2 * x @ jty + x @ lin.jtj @ x
             trace = np.trace(scipy.linalg.solve(h, jtj, assume_a="pos"))
-            scores.append(m * (res @ res) / max(m - trace, 1e-12) ** 2)
+            scores.append(m * res / max(m - trace, 1e-12) ** 2)
     if method == "gcv":
         return float(taus[int(np.argmin(scores))])
     diffs = [np.linalg.norm(sols[i + 1] - sols[i]) for i in range(len(taus) - 1)]
@@ -319,16 +380,15 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
     converged = False
     messages = []
     n_outer = max_outer if hyper == "evidence" else 1
+    m = problem.n_data
     for outer in range(n_outer):
         q = tau_value * rough + fixed
-        theta, r, jac, obj, it, map_ok = _solve_map(problem, theta, alpha, q, theta0,
-                                                    max_iter=max_iter, tol=tol)
+        theta, lin, it, map_ok = _solve_map(problem, theta, alpha, q, theta0, max_iter=max_iter, tol=tol)
         total_iter += it
         if hyper != "evidence":
             converged = map_ok
             break
-        new_alpha, new_tau = _maximise_linear_evidence(jac, r + jac @ theta, theta0, rough, fixed,
-                                                       alpha, tau_value)
+        new_alpha, new_tau = _maximise_linear_evidence(lin, theta, theta0, rough, fixed, alpha, tau_value, m)
         change = max(abs(math.log(new_alpha / alpha)), abs(math.log(new_tau / tau_value)))
         alpha, tau_value = new_alpha, new_tau
         if change < 1e-5 and map_ok:
@@ -336,30 +396,28 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
             break
     if hyper in ("quasi-optimality", "gcv"):
         taus = np.logspace(-4, 10, 57)
-        tau_value = _tau_by_criterion(jac, r, theta, theta0, alpha, rough, fixed, hyper, taus)
+        tau_value = _tau_by_criterion(lin, theta, theta0, alpha, rough, fixed, hyper, taus, m)
         q = tau_value * rough + fixed
-        theta, r, jac, obj, it, converged = _solve_map(problem, theta, alpha, q, theta0,
-                                                       max_iter=max_iter, tol=tol)
+        theta, lin, it, converged = _solve_map(problem, theta, alpha, q, theta0, max_iter=max_iter, tol=tol)
         total_iter += it
-        hess = jac.T @ jac / alpha**2 + q
-        gamma = float(np.trace(scipy.linalg.solve(hess, jac.T @ jac / alpha**2, assume_a="pos")))
-        alpha = math.sqrt(max(r @ r, 1e-300) / max(problem.n_data - gamma, 1.0))
+        hess = lin.jtj / alpha**2 + q
+        gamma = float(np.trace(scipy.linalg.solve(hess, lin.jtj / alpha**2, assume_a="pos")))
+        alpha = math.sqrt(max(lin.rr, 1e-300) / max(m - gamma, 1.0))
     q = tau_value * rough + fixed
     if hyper == "evidence":
         # Final MAP and Laplace approximation at the converged hyperparameters.
-        theta, r, jac, obj, it, map_ok = _solve_map(problem, theta, alpha, q, theta0,
-                                                    max_iter=max_iter, tol=tol)
+        theta, lin, it, map_ok = _solve_map(problem, theta, alpha, q, theta0, max_iter=max_iter, tol=tol)
         total_iter += it
         converged = converged and map_ok
-    hess = jac.T @ jac / alpha**2 + q
+    hess = lin.jtj / alpha**2 + q
     covariance = scipy.linalg.inv(hess)
     covariance = 0.5 * (covariance + covariance.T)
-    log_ev = _log_evidence(problem, r, jac, theta, theta0, alpha, q)
+    log_ev = _log_evidence(problem, lin, theta, theta0, alpha, q)
     if not converged:
         messages.append("the MAP or the hyperparameter iteration did not converge")
         warnings.warn("sensorplan invert: the Gauss-Newton / evidence iteration did not converge; "
                       "results are reported with converged = false.", SensorplanWarning, stacklevel=2)
-    fits = _fits(problem, theta, covariance, alpha)
+    fits = problem.fits(theta, covariance, alpha)
     return PosteriorResult(
         edges=problem.mesh.edges.copy(), theta=theta, covariance=covariance,
         parameterisation=parameterisation, ei_nominal=problem.ei_nominal,
@@ -367,13 +425,3 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
         sensor_names=problem.sensors.names, noise_std=alpha * problem.noise.std, noise_scale=alpha,
         tau=tau_value, log_evidence=log_ev, converged=bool(converged), n_iter=total_iter,
         excluded_crossings=tuple(excluded), fits=fits, hyper_method=hyper, messages=tuple(messages))
-
-
-def _fits(problem, theta, covariance, alpha):
-    _, _, raw = problem.evaluate(theta, jacobian=False, raw=True)
-    out = []
-    for c, (pred, jac) in zip(problem.crossings, raw):
-        var = np.einsum("skp,pq,skq->sk", jac, covariance, jac)
-        out.append(CrossingFit(c.label, c.positions, c.values, pred, np.sqrt(np.clip(var, 0, None)),
-                               alpha * problem.noise.std))
-    return tuple(out)

@@ -6,6 +6,7 @@ Tracebacks are shown only with ``--debug``.
 """
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -26,6 +27,11 @@ _EPILOG_INFORMATIVENESS = """example:
 _EPILOG_INVERT = """example:
   sensorplan simulate --example openlab-like --crossings 10 --noise --seed 1 --out data.csv
   sensorplan invert --example openlab-like --data data.csv --elements 30 --json posterior.json --out out/invert
+"""
+
+
+_EPILOG_RECOMMEND = """example:
+  sensorplan recommend --example openlab-like --count 3 --criterion D --exclude 14.5:15.5 --out out/design
 """
 
 
@@ -163,6 +169,55 @@ def _invert_figures(case, result, outdir):
     return paths
 
 
+def _parse_zones(text):
+    zones = []
+    for part in text.split(","):
+        try:
+            a, b = (float(v) for v in part.split(":"))
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected zones as start:stop in m, e.g. 14:16,29:30; got {part!r}") from None
+        zones.append((a, b))
+    return zones
+
+
+def _cmd_recommend(args, out):
+    import json
+
+    from ._csvio import atomic_write_text
+    from ._design import recommend
+    from ._fisher import fisher_blocks
+    from ._sensors import SensorLayout
+
+    case = _load(args)
+    count = case.sensors.n_sensors if args.count is None else args.count
+    if args.fixed:
+        case.bridge.check_on_bridge(args.fixed, "fixed", "--fixed")
+    result = recommend(case, count, args.criterion, spacing=args.spacing, exclude=args.exclude or (),
+                       fixed=args.fixed or (), kind=args.kind, n_crossings=args.crossings,
+                       min_spacing=args.min_spacing, springs=args.springs, solver=args.solver,
+                       rng=args.seed)
+    outdir = Path(args.out)
+    from . import plotting
+
+    layout = SensorLayout.candidates(list(result.layout_m), args.kind,
+                                     noise_std=[float(case.noise.std.mean())] * result.count)
+    blocks = fisher_blocks(case, sensors=layout, parameterisation="ei", n_crossings=args.crossings)
+    figures = [
+        plotting.save_figure(plotting.plot_layout(result), outdir / "layout.png"),
+        plotting.save_figure(plotting.plot_informativeness(blocks, supports=case.bridge.support_positions),
+                             outdir / "layout_informativeness.png"),
+        plotting.save_figure(plotting.plot_posterior_std(result), outdir / "posterior_std.png"),
+    ]
+    if result.curve:
+        figures.append(plotting.save_figure(plotting.plot_criterion_curve(result), outdir / "criterion_vs_R.png"))
+    json_path = args.json if args.json is not None else outdir / "design.json"
+    atomic_write_text(json_path, json.dumps(result.to_dict(), indent=2) + "\n")
+    out(result.summary())
+    out(f"design written to {json_path}; figures: " + ", ".join(str(p) for p in figures))
+    return 0
+
+
 def build_parser():
     parser = argparse.ArgumentParser(
         prog="sensorplan",
@@ -198,11 +253,44 @@ def build_parser():
     p.add_argument("--out", type=Path, default=Path("sensorplan-out"), help="output folder for figures")
     p.add_argument("--json", type=Path, help="JSON file of the posterior (default OUT/posterior.json)")
     p.set_defaults(handler=_cmd_invert)
+
+    p = sub.add_parser("recommend", help="recommend where to put R sensors (certified layout + baselines)",
+                       epilog=_EPILOG_RECOMMEND, formatter_class=argparse.RawDescriptionHelpFormatter)
+    _add_case_arguments(p)
+    p.add_argument("--count", type=int, help="number of new sensors R (default: as many as the case has)")
+    p.add_argument("--criterion", choices=["D", "A", "E", "Ds"], default="D", help="design criterion (default D)")
+    p.add_argument("--spacing", type=float, default=0.5, help="candidate grid spacing in m (default 0.5)")
+    p.add_argument("--exclude", type=_parse_zones, help="exclusion zones start:stop in m, e.g. 14:16,29:30")
+    p.add_argument("--fixed", type=_parse_positions, help="existing sensors in m, e.g. 11,19")
+    p.add_argument("--min-spacing", type=float, default=0.0, help="minimum distance between sensors in m")
+    p.add_argument("--kind", choices=["rotation", "deflection"], default="rotation", help="sensor kind")
+    p.add_argument("--crossings", type=int, default=1, help="crossings per measurement campaign (default 1)")
+    p.add_argument("--springs", action="store_true", help="treat the spring stiffnesses as nuisance parameters")
+    p.add_argument("--solver", choices=["auto", "fast", "cvxpy"], default="auto", help="relaxation solver")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random baseline (default 0)")
+    p.add_argument("--out", type=Path, default=Path("sensorplan-out"), help="output folder for figures")
+    p.add_argument("--json", type=Path, help="JSON file of the design (default OUT/design.json)")
+    p.set_defaults(handler=_cmd_recommend)
     return parser
+
+
+def _limit_blas_threads():
+    """One BLAS thread unless the user chose otherwise (before numpy loads).
+
+    sensorplan's dense algebra works on small matrices (tens to a few
+    hundred parameters), where multi-threaded BLAS only adds overhead and,
+    on a busy machine, stalls (measured 10-100x slower in
+    studies/benchmarks/bench_inversion.py).
+    """
+    if "numpy" in sys.modules:
+        return
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
 
 
 def main(argv=None):
     """Run the command line; returns the exit code."""
+    _limit_blas_threads()
     parser = build_parser()
     argv = sys.argv[1:] if argv is None else list(argv)
     try:

@@ -11,7 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["plot_informativeness", "plot_spectrum", "plot_eigenvectors", "plot_ei_posterior", "plot_fit", "save_figure",
+__all__ = ["plot_informativeness", "plot_spectrum", "plot_eigenvectors", "plot_ei_posterior", "plot_fit", "plot_layout",
+           "plot_posterior_std", "plot_criterion_curve", "save_figure",
            "mark_bridge"]
 
 
@@ -158,4 +159,62 @@ def plot_fit(result, sensor, *, ax=None, level=0.95):
     ax.set_ylabel(f"{name} reading")
     ax.set_title(f"Data vs model: {name}")
     ax.legend(fontsize=7)
+    return ax
+
+
+def plot_layout(design, *, ax=None):
+    """Bridge elevation: supports, relaxed weights of the candidates, chosen and fixed sensors."""
+    ax = _axes(ax, figsize=(8, 2.8))
+    x0, x1 = design.supports_m[0], design.supports_m[-1]
+    ax.plot([x0, x1], [0, 0], color="0.2", linewidth=3, solid_capstyle="butt")
+    ax.plot(design.supports_m, np.full(len(design.supports_m), -0.08), "^", color="0.3",
+            markersize=12, label="supports")
+    width = 0.8 * float(np.min(np.diff(np.unique(design.candidates_m)))) if design.candidates_m.size > 1 else 0.3
+    ax.bar(design.candidates_m, 0.5 * design.weights, width=width, bottom=0.05, color="C0", alpha=0.45,
+           label="relaxed weight (x0.5)")
+    ax.plot(design.layout_m, np.full(len(design.layout_m), 0.0), "v", color="C3", markersize=11,
+            label="recommended", zorder=5)
+    if design.fixed_m:
+        ax.plot(design.fixed_m, np.zeros(len(design.fixed_m)), "s", color="k", markersize=8,
+                label="existing", zorder=5)
+    for x in design.layout_m:
+        ax.annotate(f"{x:.2f} m", (x, 0.0), xytext=(0, -22), textcoords="offset points", ha="center",
+                    fontsize=8, color="C3")
+    ax.set_ylim(-0.35, 0.7)
+    ax.set_yticks([])
+    ax.set_xlim(x0 - 0.02 * (x1 - x0), x1 + 0.02 * (x1 - x0))
+    ax.set_xlabel("position along the bridge x [m]")
+    ax.set_title(f"{design.criterion}-optimal layout of {design.count} {design.kind} sensor(s)")
+    ax.legend(fontsize=7, ncol=4, loc="upper right")
+    return ax
+
+
+def plot_posterior_std(design, *, ax=None, baseline=None):
+    """Posterior standard deviation of log EI (about the relative std of EI) along the bridge."""
+    ax = _axes(ax)
+    baseline = design.best_baseline() if baseline is None else baseline
+    ax.stairs(100 * design.posterior_std["recommended"], design.edges, linewidth=1.8, color="C3",
+              label="recommended layout")
+    if baseline in design.posterior_std:
+        ax.stairs(100 * design.posterior_std[baseline], design.edges, linewidth=1.3, color="C0",
+                  linestyle="--", label=f"best baseline ({baseline})")
+    mark_bridge(ax, design.supports_m)
+    ax.set_xlabel("position along the bridge x [m]")
+    ax.set_ylabel("posterior std of EI [%]")
+    ax.set_title("What the layout leaves uncertain (prior + data, at nominal EI)")
+    ax.legend(fontsize=8)
+    return ax
+
+
+def plot_criterion_curve(design, *, ax=None):
+    """Criterion of the best found layout and the relaxation bound versus the number of sensors."""
+    ax = _axes(ax, figsize=(6, 3.6))
+    r = [c["count"] for c in design.curve]
+    ax.plot(r, [c["value"] for c in design.curve], "o-", label="best layout found")
+    ax.plot(r, [c["bound"] for c in design.curve], "s--", label="relaxation bound")
+    ax.axvline(design.count, color="0.6", linestyle=":")
+    ax.set_xlabel("number of sensors R")
+    ax.set_ylabel(f"{design.criterion} criterion")
+    ax.set_title("Criterion versus number of sensors")
+    ax.legend(fontsize=8)
     return ax

@@ -124,3 +124,43 @@ def test_invert_rejects_unit_slip(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "unit slip" in err[0] and "PE1" in err[0]
     assert not js.exists()
+
+
+@pytest.mark.parametrize("example", EXAMPLES)
+def test_recommend_prints_table_and_writes_json_and_figures(example, tmp_path, capsys):
+    import json
+
+    js = tmp_path / "design.json"
+    assert main(["recommend", "--example", example, "--count", "2", "--criterion", "D",
+                 "--spacing", "1.0", "--json", str(js), "--out", str(tmp_path)]) == 0
+    d = json.loads(js.read_text())
+    for key in ("criterion", "count", "n_params", "layout_m", "value", "bound", "efficiency", "method",
+                "baselines"):
+        assert key in d
+    assert d["count"] == 2 and len(d["layout_m"]) == 2 and d["layout_m"] == sorted(d["layout_m"])
+    assert 0 < d["efficiency"] <= 1
+    for b in d["baselines"].values():
+        assert b is None or b["value"] <= d["value"] + 1e-9
+    for name in ("layout.png", "layout_informativeness.png", "posterior_std.png", "criterion_vs_R.png"):
+        assert (tmp_path / name).read_bytes()[:4] == b"\x89PNG"
+    printed = capsys.readouterr().out
+    assert "positions [m]:" in printed and "certified efficiency" in printed and "baseline" in printed
+    assert "design written to" in printed
+
+
+def test_recommend_exclusion_and_fixed_options(tmp_path, capsys):
+    import json
+
+    js = tmp_path / "d.json"
+    assert main(["recommend", "--example", "openlab-like", "--count", "2", "--criterion", "A",
+                 "--exclude", "14:16,0:1", "--fixed", "11", "--min-spacing", "1.5", "--json", str(js),
+                 "--out", str(tmp_path), "--quiet"]) == 0
+    d = json.loads(js.read_text())
+    assert all(not (14 <= x <= 16) and x > 1 for x in d["layout_m"])
+    assert d["fixed_m"] == [11.0]
+    assert capsys.readouterr().out == ""
+
+
+def test_recommend_bad_zone_is_a_usage_error(tmp_path, capsys):
+    assert main(["recommend", "--example", "openlab-like", "--exclude", "14-16", "--out", str(tmp_path)]) == 2
+    assert "start:stop" in capsys.readouterr().err
