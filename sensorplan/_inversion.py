@@ -300,7 +300,7 @@ def _maximise_linear_evidence(lin, theta, theta0, rough, fixed, alpha, tau, m):
     start = np.array([math.log(alpha), math.log(tau)])
     best = scipy.optimize.minimize(negative, start, jac=True, method="L-BFGS-B",
                                    bounds=[(start[0] - 30, start[0] + 30), (math.log(1e-8), math.log(1e14))],
-                                   options={"ftol": 1e-15, "gtol": 1e-10, "maxiter": 500})
+                                   options={"ftol": 1e-13, "gtol": 1e-7, "maxiter": 500})
     x = best.x if negative(best.x)[0] <= negative(start)[0] else start
     return math.exp(x[0]), math.exp(x[1])
 

@@ -35,6 +35,11 @@ _EPILOG_RECOMMEND = """example:
 """
 
 
+_EPILOG_VERIFY = """example:
+  sensorplan verify --example openlab-like --layout 11,19 --layout 2,13,28.5 --scenarios 8 --workers 2 --seed 1
+"""
+
+
 def _add_common_arguments(parser):
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
@@ -211,10 +216,62 @@ def _cmd_recommend(args, out):
     ]
     if result.curve:
         figures.append(plotting.save_figure(plotting.plot_criterion_curve(result), outdir / "criterion_vs_R.png"))
+    payload = result.to_dict()
+    verification = None
+    if args.verify:
+        names = ["recommended"] + [n for n, b in result.baselines.items() if b is not None]
+        layouts = [result.layout_m] + [b["layout_m"] for b in result.baselines.values() if b is not None]
+        args.verify_json = outdir / "verification.json"
+        verification, vpath, vfig = _run_verification(args, case, layouts, names, outdir)
+        payload["verification"] = verification.to_dict()
+        figures.append(vfig)
     json_path = args.json if args.json is not None else outdir / "design.json"
-    atomic_write_text(json_path, json.dumps(result.to_dict(), indent=2) + "\n")
+    atomic_write_text(json_path, json.dumps(payload, indent=2) + "\n")
     out(result.summary())
+    if verification is not None:
+        out(verification.summary())
     out(f"design written to {json_path}; figures: " + ", ".join(str(p) for p in figures))
+    return 0
+
+
+def _progress(args, label):
+    if args.quiet:
+        return None
+
+    def report(done, total):
+        if total >= 20 and (done == total or done % max(1, total // 10) == 0):
+            print(f"sensorplan {label}: {done}/{total} scenarios", file=sys.stderr, flush=True)
+
+    return report
+
+
+def _run_verification(args, case, layouts, names, outdir):
+    import json
+
+    from . import plotting
+    from ._csvio import atomic_write_text
+    from ._verification import verify_layouts
+
+    result = verify_layouts(case, layouts, names=names, n_locations=args.scenarios, n_crossings=args.verify_crossings,
+                            seed=args.seed, workers=args.workers, kind=getattr(args, "kind", "rotation"),
+                            progress=_progress(args, args.command))
+    json_path = getattr(args, "verify_json", None) or outdir / "verification.json"
+    atomic_write_text(json_path, json.dumps(result.to_dict(), indent=2) + "\n")
+    axes = plotting.plot_verification(result, supports=case.bridge.support_positions)
+    figure = plotting.save_figure(axes[0], outdir / "verification.png")
+    return result, json_path, figure
+
+
+def _cmd_verify(args, out):
+    case = _load(args)
+    layouts = args.layout
+    for layout in layouts:
+        case.bridge.check_on_bridge(layout, "layout", "--layout")
+    outdir = Path(args.out)
+    args.verify_json = args.json
+    result, json_path, figure = _run_verification(args, case, layouts, None, outdir)
+    out(result.summary())
+    out(f"verification written to {json_path}; figure: {figure}")
     return 0
 
 
@@ -270,8 +327,31 @@ def build_parser():
     p.add_argument("--seed", type=int, default=0, help="seed of the random baseline (default 0)")
     p.add_argument("--out", type=Path, default=Path("sensorplan-out"), help="output folder for figures")
     p.add_argument("--json", type=Path, help="JSON file of the design (default OUT/design.json)")
+    _add_verify_arguments(p, with_flag=True)
     p.set_defaults(handler=_cmd_recommend)
+
+    p = sub.add_parser("verify", help="verify layouts by Bayesian inversion of synthetic damage",
+                       epilog=_EPILOG_VERIFY, formatter_class=argparse.RawDescriptionHelpFormatter)
+    _add_case_arguments(p)
+    p.add_argument("--layout", type=_parse_positions, action="append", required=True,
+                   help="sensor positions in m, e.g. 3.5,8,12 (repeat for several layouts)")
+    p.add_argument("--kind", choices=["rotation", "deflection"], default="rotation", help="sensor kind")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--out", type=Path, default=Path("sensorplan-out"), help="output folder for figures")
+    p.add_argument("--json", type=Path, help="JSON file (default OUT/verification.json)")
+    _add_verify_arguments(p, with_flag=False)
+    p.set_defaults(handler=_cmd_verify)
     return parser
+
+
+def _add_verify_arguments(p, *, with_flag):
+    if with_flag:
+        p.add_argument("--verify", action="store_true",
+                       help="verify the layout and the baselines by inversion of synthetic damage")
+    p.add_argument("--scenarios", type=int, default=8, help="damage locations scanned (default 8)")
+    p.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
+    p.add_argument("--verify-crossings", type=int, default=10,
+                   help="crossings simulated per scenario (default 10)")
 
 
 def _limit_blas_threads():

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["plot_informativeness", "plot_spectrum", "plot_eigenvectors", "plot_ei_posterior", "plot_fit", "plot_layout",
-           "plot_posterior_std", "plot_criterion_curve", "save_figure",
+           "plot_posterior_std", "plot_criterion_curve", "plot_verification", "save_figure",
            "mark_bridge"]
 
 
@@ -218,3 +218,27 @@ def plot_criterion_curve(design, *, ax=None):
     ax.set_title("Criterion versus number of sensors")
     ax.legend(fontsize=8)
     return ax
+
+
+def plot_verification(verification, *, axes=None, supports=None):
+    """Detection probability and localisation error versus damage location, per layout."""
+    if axes is None:
+        plt = _pyplot()
+        _, axes = plt.subplots(2, 1, figsize=(8, 5.6), sharex=True, layout="constrained")
+    names = verification.names or [", ".join(f"{x:g}" for x in s.layout_m) for s in verification.layouts]
+    for name, score in zip(names, verification.layouts):
+        local = [r for r in score.records if r["kind"] == "local"]
+        x = [r["centre_m"] for r in local]
+        axes[0].plot(x, [r["detection_probability"] for r in local], "o-", markersize=4, label=name)
+        axes[1].plot(x, [r["localisation_error_m"] for r in local], "o-", markersize=4, label=name)
+    axes[0].set_ylabel("posterior probability\nof the loss")
+    axes[0].set_ylim(-0.03, 1.03)
+    axes[0].set_title(f"Verification: {100 * verification.severity:.0f} % EI loss over "
+                      f"{verification.length:g} m, {verification.n_crossings} crossings")
+    axes[1].set_ylabel("localisation error [m]")
+    axes[1].set_xlabel("centre of the damage [m]")
+    for ax in axes:
+        if supports is not None:
+            mark_bridge(ax, supports)
+    axes[0].legend(fontsize=7)
+    return axes

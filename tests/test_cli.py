@@ -164,3 +164,38 @@ def test_recommend_exclusion_and_fixed_options(tmp_path, capsys):
 def test_recommend_bad_zone_is_a_usage_error(tmp_path, capsys):
     assert main(["recommend", "--example", "openlab-like", "--exclude", "14-16", "--out", str(tmp_path)]) == 2
     assert "start:stop" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("example", EXAMPLES)
+def test_verify_writes_comparison(example, tmp_path, capsys):
+    import json
+
+    js = tmp_path / "v.json"
+    case = example_case(example)
+    first = ",".join(f"{x:g}" for x in case.sensors.positions)
+    assert main(["verify", "--example", example, "--layout", first, "--layout", "1,2",
+                 "--scenarios", "2", "--seed", "3", "--json", str(js), "--out", str(tmp_path)]) == 0
+    d = json.loads(js.read_text())
+    assert len(d["layouts"]) == 2 and d["layouts"][1]["layout_m"] == [1.0, 2.0]
+    for key in ("rmse", "rmse_se", "detection_rate", "false_alarm_rate", "coverage95", "band_width"):
+        assert key in d["layouts"][0]
+    assert (tmp_path / "verification.png").exists()
+    assert "Verification:" in capsys.readouterr().out
+
+
+def test_recommend_verify_adds_verification(tmp_path, capsys):
+    import json
+
+    js = tmp_path / "d.json"
+    assert main(["recommend", "--example", "simply-supported", "--count", "2", "--spacing", "2",
+                 "--verify", "--scenarios", "2", "--json", str(js), "--out", str(tmp_path), "--quiet"]) == 0
+    d = json.loads(js.read_text())
+    names = [entry["name"] for entry in d["verification"]["layouts"]]
+    assert names[0] == "recommended" and "equally_spaced" in names
+    assert (tmp_path / "verification.json").exists()
+
+
+def test_verify_rejects_layout_off_the_bridge(tmp_path, capsys):
+    assert main(["verify", "--example", "simply-supported", "--layout", "5,25", "--out", str(tmp_path)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "layout" in err[0]

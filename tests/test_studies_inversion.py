@@ -1,0 +1,32 @@
+"""Smoke runs of the inversion study scripts (their printed findings are checked)."""
+
+import re
+import runpy
+import sys
+
+
+def run(script, tmp_path, monkeypatch, capsys, *extra):
+    monkeypatch.setattr(sys, "argv", [script, "--out", str(tmp_path), *extra])
+    runpy.run_path(script, run_name="__main__")
+    return capsys.readouterr().out
+
+
+def test_noise_levels(tmp_path, monkeypatch, capsys):
+    out = run("studies/inversion/paper_noise_levels.py", tmp_path, monkeypatch, capsys)
+    assert "bands contract: yes" in out
+    assert "damage sharpens: yes" in out
+    assert (tmp_path / "inversion_noise_levels.png").is_file()
+
+
+def test_bias_variance_quick(tmp_path, monkeypatch, capsys):
+    out = run("studies/inversion/paper_bias_variance.py", tmp_path, monkeypatch, capsys, "--quick")
+    assert "lambda by quasi-optimality once per R" in out
+    # one verdict per R and method (quick: R = 2, 8)
+    assert len(re.findall(r"R=\d: minimum RMSE [\d.]+ % at N = \d+; (?:NOT |)", out)) == 4
+    assert (tmp_path / "inversion_bias_variance.png").is_file()
+
+
+def test_openlab_frame(tmp_path, monkeypatch, capsys):
+    out = run("studies/inversion/openlab_frame.py", tmp_path, monkeypatch, capsys)
+    assert out.count("span 1 identified softer than span 2") == 2  # 6 and 30 elements
+    assert (tmp_path / "inversion_openlab_30el.png").is_file()

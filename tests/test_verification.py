@@ -1,0 +1,75 @@
+"""Verification of layouts by full Bayesian inversion of synthetic damage."""
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+
+import sensorplan as sp
+from sensorplan._case import Case
+from sensorplan._config import example_case
+from sensorplan._design import recommend
+from sensorplan._verification import element_average_ei, make_scenarios, truth_mesh, verify_layouts
+
+
+def two_span():
+    bridge = sp.Bridge((15.0, 15.0))
+    return Case(bridge, sp.Mesh.uniform(bridge, 30), 1e10, sp.Vehicle.point_load(1e5),
+                sp.SensorLayout([5.0], noise_std=2e-6), sweep=sp.LoadSweep.from_range(0.0, 30.0, 0.25))
+
+
+def test_crowded_layout_scores_worse_than_d_optimal():
+    case = two_span()
+    design = recommend(case, 3, "D", spacing=0.5, curve_max=0, n_random=10)
+    crowded = [27.5, 28.5, 29.5]  # all sensors near the far end support
+    result = verify_layouts(case, [design.layout_m, crowded], n_locations=12, severity=0.3, seed=3)
+    best, worst = result.layouts
+    for metric, better in (("localisation_error_m", -1), ("detection_rate", +1)):
+        m_best, se_best = best.metrics[metric]
+        m_worst, se_worst = worst.metrics[metric]
+        margin = math.hypot(se_best, se_worst)
+        assert better * (m_best - m_worst) > margin, (metric, best.metrics[metric], worst.metrics[metric])
+
+
+def test_control_coverage_and_false_alarm_reported():
+    case = example_case("simply-supported")
+    result = verify_layouts(case, [[0.0, 10.0, 20.0]], n_locations=2, n_controls=12, seed=5)
+    score = result.layouts[0]
+    coverage, se = score.metrics["control_coverage95"]
+    assert 0.85 <= coverage <= 1.0
+    false_alarm, _ = score.metrics["false_alarm_rate"]
+    assert 0.0 <= false_alarm <= 0.2
+    d = result.to_dict()["layouts"][0]
+    for key in ("layout_m", "n_scenarios", "rmse", "localisation_error_m", "detection_rate",
+                "false_alarm_rate", "coverage95", "band_width"):
+        assert key in d
+        if key not in ("layout_m", "n_scenarios"):
+            assert key + "_se" in d
+
+
+def test_identical_results_for_one_or_two_workers():
+    case = example_case("openlab-like")
+    kwargs = dict(n_locations=3, n_controls=2, seed=11)
+    one = verify_layouts(case, [[11.0, 19.0]], workers=1, **kwargs).to_dict()
+    two = verify_layouts(case, [[11.0, 19.0]], workers=2, **kwargs).to_dict()
+    assert one == two
+    with ThreadPoolExecutor(2) as pool:  # any concurrent.futures executor
+        other = verify_layouts(case, [[11.0, 19.0]], executor=pool, **kwargs).to_dict()
+    assert other == one
+
+
+def test_truth_mesh_is_finer_and_differently_aligned():
+    case = example_case("three-span")
+    fine = truth_mesh(case)
+    assert fine.n_elements > 4 * case.n_elements
+    inner_coarse = set(np.round(case.mesh.edges, 9)) - set(np.round(case.bridge.support_positions, 9))
+    assert not inner_coarse & set(np.round(fine.edges, 9))
+    # element averages of a uniform field are that field; compliance averages exactly
+    ei = np.full(fine.n_elements, 2e10)
+    np.testing.assert_allclose(element_average_ei(fine, ei, case.mesh), 2e10, rtol=1e-12)
+    scen = make_scenarios(case, 5)
+    local = [s for s in scen if s.kind == "local"]
+    edges = case.mesh.edges
+    for s in local:  # damage edges fall inside inversion elements
+        assert np.min(np.abs(edges - s.start)) > 1e-6 and np.min(np.abs(edges - s.stop)) > 1e-6
