@@ -56,6 +56,9 @@ class Crossings:
     def __iter__(self):
         return iter(self.crossings)
 
+    def __getitem__(self, index):
+        return self.crossings[index]
+
     @property
     def labels(self):
         return tuple(c.label for c in self.crossings)

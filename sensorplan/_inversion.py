@@ -33,7 +33,7 @@ from ._posterior import CrossingFit, PosteriorResult
 from ._prior import GMRFPrior
 from ._screening import screen_crossings
 
-__all__ = ["invert", "HYPER_METHODS"]
+__all__ = ["invert", "fit_problem", "HYPER_METHODS"]
 
 HYPER_METHODS = ("evidence", "fixed", "quasi-optimality", "gcv")
 _DEFAULT_STD = {"rotation": 1e-6, "deflection": 1e-4}
@@ -117,7 +117,10 @@ class _Problem:
             return self._last[1]
         if not np.all(np.isfinite(theta)):
             return None
-        lines = self.lines(theta)
+        try:
+            lines = self.lines(theta)
+        except ConfigError:  # a trial step made the bridge unstable (extreme springs): reject it
+            return None
         if lines is None:
             return None
         rr = 0.0
@@ -321,8 +324,77 @@ def _tau_by_criterion(lin, theta, theta0, alpha, rough, fixed, method, taus, m):
             scores.append(m * res / max(m - trace, 1e-12) ** 2)
     if method == "gcv":
         return float(taus[int(np.argmin(scores))])
-    diffs = [np.linalg.norm(sols[i + 1] - sols[i]) for i in range(len(taus) - 1)]
-    return float(taus[int(np.argmin(diffs))])
+    diffs = np.array([np.linalg.norm(sols[i + 1] - sols[i]) for i in range(len(taus) - 1)])
+    # Quasi-optimality: the smallest interior local minimum of |x(tau_k+1) - x(tau_k)|.  At the
+    # ends of the grid the solution stops changing because the prior (large tau) or the data
+    # (small tau) dominates; those trivial minima are not the criterion's choice.
+    interior = [i for i in range(1, diffs.size - 1) if diffs[i] <= diffs[i - 1] and diffs[i] <= diffs[i + 1]]
+    k = min(interior, key=lambda i: diffs[i]) if interior else int(np.argmin(diffs))
+    return float(np.sqrt(taus[k] * taus[k + 1]))
+
+
+@dataclass(frozen=True, eq=False)
+class Fit:
+    """Result of :func:`fit_problem` (internal)."""
+
+    theta: np.ndarray
+    covariance: np.ndarray
+    noise_scale: float
+    tau: float
+    log_evidence: float
+    converged: bool
+    n_iter: int
+    linearisation: object
+
+
+def fit_problem(problem, rough, fixed, theta0, *, hyper="evidence", noise_scale=1.0, tau=1.0, start=None,
+                max_iter=100, max_outer=200, tol=1e-10):
+    """MAP, Laplace covariance and hyperparameters of any problem with ``evaluate``.
+
+    ``problem`` provides ``evaluate(theta, jacobian=True)`` (a linearisation
+    with rr, jtj, jtr), ``n_data`` and ``log_det_noise``; the prior precision
+    is ``tau * rough + fixed`` about ``theta0``.
+    """
+    alpha = float(noise_scale)
+    tau_value = float(tau)
+    theta = theta0.copy() if start is None else np.asarray(start, dtype=float).copy()
+    total_iter = 0
+    converged = False
+    n_outer = max_outer if hyper == "evidence" else 1
+    m = problem.n_data
+    for _ in range(n_outer):
+        q = tau_value * rough + fixed
+        theta, lin, it, map_ok = _solve_map(problem, theta, alpha, q, theta0, max_iter=max_iter, tol=tol)
+        total_iter += it
+        if hyper != "evidence":
+            converged = map_ok
+            break
+        new_alpha, new_tau = _maximise_linear_evidence(lin, theta, theta0, rough, fixed, alpha, tau_value, m)
+        change = max(abs(math.log(new_alpha / alpha)), abs(math.log(new_tau / tau_value)))
+        alpha, tau_value = new_alpha, new_tau
+        if change < 1e-5 and map_ok:
+            converged = True
+            break
+    if hyper in ("quasi-optimality", "gcv"):
+        taus = np.logspace(-4, 10, 57)
+        tau_value = _tau_by_criterion(lin, theta, theta0, alpha, rough, fixed, hyper, taus, m)
+        q = tau_value * rough + fixed
+        theta, lin, it, converged = _solve_map(problem, theta, alpha, q, theta0, max_iter=max_iter, tol=tol)
+        total_iter += it
+        hess = lin.jtj / alpha**2 + q
+        gamma = float(np.trace(scipy.linalg.solve(hess, lin.jtj / alpha**2, assume_a="pos")))
+        alpha = math.sqrt(max(lin.rr, 1e-300) / max(m - gamma, 1.0))
+    q = tau_value * rough + fixed
+    if hyper == "evidence":
+        # Final MAP and Laplace approximation at the converged hyperparameters.
+        theta, lin, it, map_ok = _solve_map(problem, theta, alpha, q, theta0, max_iter=max_iter, tol=tol)
+        total_iter += it
+        converged = converged and map_ok
+    hess = lin.jtj / alpha**2 + q
+    covariance = scipy.linalg.inv(hess)
+    covariance = 0.5 * (covariance + covariance.T)
+    log_ev = _log_evidence(problem, lin, theta, theta0, alpha, q)
+    return Fit(theta, covariance, alpha, tau_value, log_ev, bool(converged), total_iter, lin)
 
 
 def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisation="log_ei",
@@ -371,52 +443,17 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
         mesh.check_fits(case.bridge)
     problem = _Problem(case, crossings, estimate_springs=estimate_springs and bool(case.bridge.spring_names),
                        parameterisation=parameterisation, mesh=mesh)
-    theta0 = problem.theta0
     rough, fixed = _prior_matrices(problem, prior)
-    alpha = float(noise_scale)
-    tau_value = prior.tau if tau is None else float(tau)
-    theta = theta0.copy() if start is None else np.asarray(start, dtype=float).copy()
-    total_iter = 0
-    converged = False
+    fit = fit_problem(problem, rough, fixed, problem.theta0, hyper=hyper, noise_scale=noise_scale,
+                      tau=prior.tau if tau is None else tau, start=start, max_iter=max_iter,
+                      max_outer=max_outer, tol=tol)
+    theta, covariance, alpha, tau_value = fit.theta, fit.covariance, fit.noise_scale, fit.tau
     messages = []
-    n_outer = max_outer if hyper == "evidence" else 1
-    m = problem.n_data
-    for outer in range(n_outer):
-        q = tau_value * rough + fixed
-        theta, lin, it, map_ok = _solve_map(problem, theta, alpha, q, theta0, max_iter=max_iter, tol=tol)
-        total_iter += it
-        if hyper != "evidence":
-            converged = map_ok
-            break
-        new_alpha, new_tau = _maximise_linear_evidence(lin, theta, theta0, rough, fixed, alpha, tau_value, m)
-        change = max(abs(math.log(new_alpha / alpha)), abs(math.log(new_tau / tau_value)))
-        alpha, tau_value = new_alpha, new_tau
-        if change < 1e-5 and map_ok:
-            converged = True
-            break
-    if hyper in ("quasi-optimality", "gcv"):
-        taus = np.logspace(-4, 10, 57)
-        tau_value = _tau_by_criterion(lin, theta, theta0, alpha, rough, fixed, hyper, taus, m)
-        q = tau_value * rough + fixed
-        theta, lin, it, converged = _solve_map(problem, theta, alpha, q, theta0, max_iter=max_iter, tol=tol)
-        total_iter += it
-        hess = lin.jtj / alpha**2 + q
-        gamma = float(np.trace(scipy.linalg.solve(hess, lin.jtj / alpha**2, assume_a="pos")))
-        alpha = math.sqrt(max(lin.rr, 1e-300) / max(m - gamma, 1.0))
-    q = tau_value * rough + fixed
-    if hyper == "evidence":
-        # Final MAP and Laplace approximation at the converged hyperparameters.
-        theta, lin, it, map_ok = _solve_map(problem, theta, alpha, q, theta0, max_iter=max_iter, tol=tol)
-        total_iter += it
-        converged = converged and map_ok
-    hess = lin.jtj / alpha**2 + q
-    covariance = scipy.linalg.inv(hess)
-    covariance = 0.5 * (covariance + covariance.T)
-    log_ev = _log_evidence(problem, lin, theta, theta0, alpha, q)
-    if not converged:
+    if not fit.converged:
         messages.append("the MAP or the hyperparameter iteration did not converge")
         warnings.warn("sensorplan invert: the Gauss-Newton / evidence iteration did not converge; "
                       "results are reported with converged = false.", SensorplanWarning, stacklevel=2)
+    converged, total_iter, log_ev = fit.converged, fit.n_iter, fit.log_evidence
     fits = problem.fits(theta, covariance, alpha)
     return PosteriorResult(
         edges=problem.mesh.edges.copy(), theta=theta, covariance=covariance,
