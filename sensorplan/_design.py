@@ -14,6 +14,7 @@ from ._relaxation import solve_relaxation_cvxpy, solve_relaxation_fast
 from ._selection import baselines as make_baselines
 from ._selection import exchange, greedy, round_weights
 from ._sensors import SensorLayout
+from ._threads import single_threaded
 
 __all__ = ["DesignResult", "recommend", "build_problem", "candidate_positions"]
 
@@ -209,6 +210,7 @@ def _best_layout(problem, relaxation, starts):
     return best
 
 
+@single_threaded
 def recommend(case, count, criterion="D", *, spacing=0.5, exclude=(), fixed=(), kind="rotation",
               noise_std=None, n_crossings=1, prior=None, springs=False, costs=None, budget=None,
               span_min=None, span_max=None, min_spacing=0.0, region=None, functionals=None,

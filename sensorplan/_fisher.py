@@ -16,6 +16,7 @@ import numpy as np
 
 from ._errors import ConfigError
 from ._forward import influence_lines
+from ._threads import single_threaded
 
 __all__ = ["FisherBlocks", "fisher_blocks", "Identifiability", "identifiability"]
 
@@ -106,6 +107,7 @@ class FisherBlocks:
         }
 
 
+@single_threaded
 def fisher_blocks(case, *, sensors=None, noise=None, ei=None, parameterisation="log_ei",
                   springs=False, n_crossings=1, chunk_size=64):
     """Per-sensor Fisher information blocks for ``case``.

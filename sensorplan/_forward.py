@@ -41,6 +41,7 @@ from ._loads import LoadSweep, Vehicle
 from ._sensors import SensorLayout
 from ._structure import Bridge, Mesh
 from ._validation import as_float_array
+from ._threads import single_threaded
 
 __all__ = ["InfluenceLines", "influence_lines", "bending_moments", "support_reactions",
            "expand_ei"]
@@ -236,6 +237,7 @@ def _check_inputs(bridge, mesh, sensors, positions):
     return as_float_array(positions, "positions", "the load sweep")
 
 
+@single_threaded
 def influence_lines(bridge, mesh, ei, sensors, vehicle, positions):
     """Influence lines of ``sensors`` for ``vehicle`` at reference-axle ``positions``.
 

@@ -32,6 +32,7 @@ from ._noise import NoiseModel
 from ._posterior import CrossingFit, PosteriorResult
 from ._prior import GMRFPrior
 from ._screening import screen_crossings
+from ._threads import single_threaded
 
 __all__ = ["invert", "fit_problem", "HYPER_METHODS"]
 
@@ -397,6 +398,7 @@ def fit_problem(problem, rough, fixed, theta0, *, hyper="evidence", noise_scale=
     return Fit(theta, covariance, alpha, tau_value, log_ev, bool(converged), total_iter, lin)
 
 
+@single_threaded
 def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisation="log_ei",
            hyper="evidence", noise_scale=1.0, tau=None, screen=True, mesh=None, start=None,
            max_iter=100, max_outer=200, tol=1e-10):

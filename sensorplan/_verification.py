@@ -26,6 +26,7 @@ from ._noise import NoiseModel
 from ._sensors import SensorLayout
 from ._simulate import simulate_crossings
 from ._structure import Mesh
+from ._threads import single_threaded
 
 __all__ = ["Scenario", "make_scenarios", "verify_layouts", "VerificationResult", "LayoutScore"]
 
@@ -106,6 +107,7 @@ class _Task:
     start: tuple = (1.0, None)  # warm start of (noise scale, tau)
 
 
+@single_threaded
 def _run_task(task, *, posterior=False):
     case = task.case
     sensors = SensorLayout.candidates(list(task.layout), task.kind,
@@ -242,6 +244,7 @@ def _aggregate(layout, records):
     return LayoutScore(tuple(float(x) for x in layout), len(records), metrics, tuple(records))
 
 
+@single_threaded
 def verify_layouts(case, layouts, *, names=None, n_locations=8, severity=0.25, length=2.0, n_controls=None,
                    n_crossings=10, seed=0, kind="rotation", executor=None, workers=1,
                    detection_threshold=0.9, progress=None):

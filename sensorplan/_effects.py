@@ -1,0 +1,301 @@
+"""Candidate unmodelled effects: parametric extensions of the forward model.
+
+Each effect owns a block of parameters phi with an independent Gaussian
+prior (mean, std), changes the model state (bridge springs, sensor or load
+positions, axle loads) or the outputs (offsets, drift, amplification), and
+returns the exact derivative of the predictions with respect to its
+parameters (position derivatives by a central difference of the exact
+influence lines in the position, step 1e-4 m).
+
+State passed around (one per parameter vector):
+  bridge, sensor_positions (S,), positions (list per crossing),
+  axle_factors (A,), and the evaluation context.
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["EFFECTS", "make_effect"]
+
+_H = 1e-4  # position step of the central differences [m]
+
+
+@dataclass
+class State:
+    bridge: object
+    sensor_positions: np.ndarray
+    positions: list
+    axle_factors: np.ndarray
+
+
+class Effect:
+    """Base class: a named block of parameters with a Gaussian prior."""
+
+    name = ""
+    structural = False  # changes the forward model (else only the outputs)
+
+    def configure(self, ctx):
+        """Set ``names``, ``mean``, ``std`` for the context; return self."""
+        raise NotImplementedError
+
+    @property
+    def n_params(self):
+        return len(self.names)
+
+    def apply(self, state, phi):
+        """Modify ``state`` in place (structural effects)."""
+
+    def structural_jacobian(self, ctx, state, phi, c, y):
+        """dy/dphi for crossing ``c`` (S, K, n) of a structural effect."""
+        raise NotImplementedError
+
+    def output(self, ctx, state, phi, c, y):
+        """Return (y', dy'/dphi (S, K, n), multiplier (scalar, applied to earlier Jacobians))."""
+        return y, None, 1.0
+
+
+def _span_reference(ctx, support):
+    bridge = ctx.case.bridge
+    xs = bridge.support_positions
+    spans = np.array(bridge.spans)
+    if support == 0:
+        length = spans[0]
+    elif support == len(xs) - 1:
+        length = spans[-1]
+    else:
+        length = 0.5 * (spans[support - 1] + spans[support])
+    ei = float(np.median(ctx.case.ei))
+    return ei, float(length)
+
+
+class SupportRotationalSpring(Effect):
+    """A rotational spring at every support (pins gain a restraint, clamps lose some)."""
+
+    name = "support_rotational_spring"
+    structural = True
+
+    def configure(self, ctx):
+        # Prior on the fixity f = k / (k + 4 EI / L) of each support: a pin is
+        # taken as f = 0.05 and a clamp as f = 0.95 (log k is flat in the data
+        # at the extremes, so the prior starts where the data can act).
+        n = ctx.case.bridge.support_positions.size
+        self.names = [f"log_k_rot_{i}" for i in range(n)]
+        mean = []
+        for i, k in enumerate(ctx.case.bridge.rotational_springs):
+            ei, length = _span_reference(ctx, i)
+            ref = 4.0 * ei / length
+            f = float(np.clip(k / (k + ref) if np.isfinite(k) else 1.0, 0.05, 0.95))
+            mean.append(math.log(ref * f / (1.0 - f)))
+        self.mean = np.array(mean)
+        self.std = np.full(n, 2.5)
+        return self
+
+    def apply(self, state, phi):
+        b = state.bridge
+        state.bridge = type(b)(b.spans, tuple(np.exp(phi)), b.vertical_springs)
+
+    def structural_jacobian(self, ctx, state, phi, c, y):
+        return _spring_columns(ctx, state, c, "rotational")
+
+
+class VerticalSupportSpring(Effect):
+    """A vertical spring at every support (rigid supports may settle)."""
+
+    name = "vertical_support_spring"
+    structural = True
+
+    def configure(self, ctx):
+        # Prior on f = k / (k + 48 EI / L^3) (support against mid-span
+        # stiffness); a rigid support is taken as f = 0.98.
+        n = ctx.case.bridge.support_positions.size
+        self.names = [f"log_k_vert_{i}" for i in range(n)]
+        mean = []
+        for i, k in enumerate(ctx.case.bridge.vertical_springs):
+            ei, length = _span_reference(ctx, i)
+            ref = 48.0 * ei / length**3
+            f = float(np.clip(k / (k + ref) if np.isfinite(k) else 1.0, 0.02, 0.98))
+            mean.append(math.log(ref * f / (1.0 - f)))
+        self.mean = np.array(mean)
+        self.std = np.full(n, 2.5)
+        return self
+
+    def apply(self, state, phi):
+        b = state.bridge
+        state.bridge = type(b)(b.spans, b.rotational_springs, tuple(np.exp(phi)))
+
+    def structural_jacobian(self, ctx, state, phi, c, y):
+        return _spring_columns(ctx, state, c, "vertical")
+
+
+def _spring_columns(ctx, state, c, kind):
+    lines = ctx.lines(state, c)
+    names = state.bridge.spring_names
+    n = state.bridge.support_positions.size
+    out = np.zeros(y_shape(lines) + (n,))
+    jac = lines.spring_log_jacobian * ctx.load_factor(c)[None, :, None]
+    for col, name in enumerate(names):
+        k, i = name.split("_")
+        if k == kind:
+            out[:, :, int(i)] = jac[:, :, col]
+    return out
+
+
+def y_shape(lines):
+    return lines.predictions.shape
+
+
+class SensorOffset(Effect):
+    """A constant offset of every sensor in every crossing (zero drift, re-levelling)."""
+
+    name = "sensor_offset"
+
+    def configure(self, ctx):
+        s, n_c = ctx.n_sensors, ctx.n_crossings
+        self.names = [f"offset_{name}_{label}" for label in ctx.labels for name in ctx.sensor_names]
+        self.mean = np.zeros(s * n_c)
+        self.std = np.tile(ctx.offset_scale, n_c)
+        return self
+
+    def output(self, ctx, state, phi, c, y):
+        s = ctx.n_sensors
+        b = phi[c * s:(c + 1) * s]
+        jac = np.zeros(y.shape + (self.n_params,))
+        for i in range(s):
+            jac[i, :, c * s + i] = 1.0
+        return y + b[:, None], jac, 1.0
+
+
+class ThermalDrift(Effect):
+    """Offset plus a linear drift along the crossing, per sensor and crossing."""
+
+    name = "thermal_drift"
+
+    def configure(self, ctx):
+        s, n_c = ctx.n_sensors, ctx.n_crossings
+        self.names = [f"{kind}_{name}_{label}" for label in ctx.labels for name in ctx.sensor_names
+                      for kind in ("drift0", "drift1")]
+        self.mean = np.zeros(2 * s * n_c)
+        self.std = np.tile(np.repeat(ctx.offset_scale, 2), n_c)
+        return self
+
+    def output(self, ctx, state, phi, c, y):
+        s = ctx.n_sensors
+        x = ctx.crossings.crossings[c].positions
+        t = (x - 0.5 * (x[0] + x[-1])) / max(x[-1] - x[0], 1e-9)
+        jac = np.zeros(y.shape + (self.n_params,))
+        out = y.copy()
+        for i in range(s):
+            k0 = 2 * (c * s + i)
+            out[i] += phi[k0] + phi[k0 + 1] * t
+            jac[i, :, k0] = 1.0
+            jac[i, :, k0 + 1] = t
+        return out, jac, 1.0
+
+
+class PositionOffset(Effect):
+    """A shift of the recorded load position per crossing, plus a common scale (speed) error."""
+
+    name = "position_offset"
+    structural = True
+
+    def configure(self, ctx):
+        self.names = [f"shift_{label}" for label in ctx.labels] + ["scale"]
+        self.mean = np.zeros(ctx.n_crossings + 1)
+        self.std = np.concatenate([np.full(ctx.n_crossings, 0.5), [0.02]])
+        return self
+
+    def apply(self, state, phi):
+        state.positions = [x + phi[c] + phi[-1] * x for c, x in enumerate(state.positions)]
+
+    def structural_jacobian(self, ctx, state, phi, c, y):
+        x = state.positions[c]
+        up = ctx.lines(state, c, positions=x + _H).predictions
+        down = ctx.lines(state, c, positions=x - _H).predictions
+        dydx = (up - down) / (2 * _H) * ctx.load_factor(c)[None, :]
+        jac = np.zeros(y.shape + (self.n_params,))
+        jac[:, :, c] = dydx
+        recorded = ctx.crossings.crossings[c].positions
+        jac[:, :, -1] = dydx * recorded[None, :]
+        return jac
+
+
+class AxleLoads(Effect):
+    """A factor on every axle load (total load and axle shares)."""
+
+    name = "axle_loads"
+    structural = True
+
+    def configure(self, ctx):
+        n = ctx.case.vehicle.n_axles
+        self.names = [f"log_axle_{a}" for a in range(n)]
+        self.mean = np.zeros(n)
+        self.std = np.full(n, 0.2)
+        return self
+
+    def apply(self, state, phi):
+        state.axle_factors = state.axle_factors * np.exp(phi)
+
+    def structural_jacobian(self, ctx, state, phi, c, y):
+        jac = np.zeros(y.shape + (self.n_params,))
+        for a in range(self.n_params):
+            jac[:, :, a] = ctx.axle_lines(state, c, a) * ctx.load_factor(c)[None, :]
+        return jac
+
+
+class SensorPosition(Effect):
+    """The true position of every sensor differs from the recorded one."""
+
+    name = "sensor_position"
+    structural = True
+
+    def configure(self, ctx):
+        self.names = [f"shift_{name}" for name in ctx.sensor_names]
+        self.mean = np.zeros(ctx.n_sensors)
+        self.std = np.full(ctx.n_sensors, 0.3)
+        return self
+
+    def apply(self, state, phi):
+        state.sensor_positions = np.clip(state.sensor_positions + phi, 0.0, state.bridge.length)
+
+    def structural_jacobian(self, ctx, state, phi, c, y):
+        r = state.sensor_positions
+        up = ctx.lines(state, c, sensor_positions=np.clip(r + _H, 0, state.bridge.length)).predictions
+        down = ctx.lines(state, c, sensor_positions=np.clip(r - _H, 0, state.bridge.length)).predictions
+        step = np.clip(r + _H, 0, state.bridge.length) - np.clip(r - _H, 0, state.bridge.length)
+        dydr = (up - down) / step[:, None] * ctx.load_factor(c)[None, :]
+        jac = np.zeros(y.shape + (self.n_params,))
+        for i in range(self.n_params):
+            jac[i, :, i] = dydr[i]
+        return jac
+
+
+class DynamicAmplification(Effect):
+    """A dynamic amplification factor (1 + a) of the whole response, per crossing."""
+
+    name = "dynamic_amplification"
+
+    def configure(self, ctx):
+        self.names = [f"amplification_{label}" for label in ctx.labels]
+        self.mean = np.zeros(ctx.n_crossings)
+        self.std = np.full(ctx.n_crossings, 0.1)
+        return self
+
+    def output(self, ctx, state, phi, c, y):
+        jac = np.zeros(y.shape + (self.n_params,))
+        jac[:, :, c] = y
+        return y * (1.0 + phi[c]), jac, 1.0 + phi[c]
+
+
+EFFECTS = {cls.name: cls for cls in (SupportRotationalSpring, VerticalSupportSpring, SensorOffset, ThermalDrift,
+                                      PositionOffset, AxleLoads, SensorPosition, DynamicAmplification)}
+
+
+def make_effect(name):
+    try:
+        return EFFECTS[name]()
+    except KeyError:
+        from ._errors import ConfigError
+
+        raise ConfigError(f"Unknown effect {name!r}; choose from {', '.join(EFFECTS)}.") from None

@@ -1,0 +1,81 @@
+"""Synthetic crossings with one unmodelled effect, generated independently of the effect library.
+
+Each generator builds the data with the public forward model (a finer,
+differently aligned truth mesh, noise from the case's noise model) and
+applies the effect directly: a changed bridge, shifted sensors, shifted
+load positions, changed axle loads, or additive / multiplicative terms.
+"""
+
+from dataclasses import replace
+
+import numpy as np
+
+import sensorplan as sp
+from sensorplan._crossings import Crossing, Crossings
+from sensorplan._verification import truth_mesh
+
+EFFECT_NAMES = ("support_rotational_spring", "vertical_support_spring", "sensor_offset", "thermal_drift",
+                "position_offset", "axle_loads", "sensor_position", "dynamic_amplification")
+
+
+def _fine(case):
+    return case.with_mesh(truth_mesh(case))
+
+
+def generate(case, effect, rng, n_crossings=6, *, ei=None):
+    """Crossings of ``case`` with ``effect`` present (None: effect-free; "vibration": out of library)."""
+    rng = np.random.default_rng(rng)
+    fine = _fine(case)
+    ei_fine = fine.ei if ei is None else ei(fine.mesh.midpoints)
+    pos = case.sweep.positions
+    peak = np.abs(fine.influence_lines(ei_fine).predictions).max(axis=1)
+    std = case.noise.std
+    bridge, sensors, vehicle = fine.bridge, fine.sensors, fine.vehicle
+    shifts = np.zeros(n_crossings)
+    add = np.zeros((n_crossings, sensors.n_sensors, pos.size))
+    mult = np.ones(n_crossings)
+    if effect == "support_rotational_spring":
+        rot = list(bridge.rotational_springs)
+        i = int(rng.integers(0, len(rot)))
+        ei0 = float(np.median(case.ei))
+        span = bridge.spans[min(i, len(bridge.spans) - 1)]
+        rot[i] = (3.0 if rot[i] == 0 else 0.3) * ei0 / span * (1 if rot[i] == 0 else rot[i] * span / ei0)
+        bridge = sp.Bridge(bridge.spans, tuple(rot), bridge.vertical_springs)
+    elif effect == "vertical_support_spring":
+        vert = list(bridge.vertical_springs)
+        i = int(rng.integers(0, len(vert)))
+        ei0 = float(np.median(case.ei))
+        span = bridge.spans[min(i, len(bridge.spans) - 1)]
+        vert[i] = 2.0 * 48 * ei0 / span**3  # settles noticeably
+        bridge = sp.Bridge(bridge.spans, bridge.rotational_springs, tuple(vert))
+    elif effect == "sensor_offset":
+        add += (rng.choice([-1, 1], (n_crossings, sensors.n_sensors)) * rng.uniform(6, 12, (n_crossings, sensors.n_sensors))
+                * std[None, :])[:, :, None]
+    elif effect == "thermal_drift":
+        t = (pos - pos.mean()) / (pos[-1] - pos[0])
+        slope = rng.choice([-1, 1], (n_crossings, sensors.n_sensors)) * rng.uniform(10, 20, (n_crossings, sensors.n_sensors))
+        add += slope[:, :, None] * std[None, :, None] * t[None, None, :]
+    elif effect == "position_offset":
+        shifts = rng.choice([-1, 1], n_crossings) * rng.uniform(0.4, 0.8, n_crossings)
+    elif effect == "axle_loads":
+        loads = np.array(vehicle.axle_loads) * rng.uniform(1.15, 1.3, vehicle.n_axles)
+        vehicle = sp.Vehicle(vehicle.axle_offsets, tuple(loads))
+    elif effect == "sensor_position":
+        moved = sensors.positions + rng.choice([-1, 1], sensors.n_sensors) * rng.uniform(0.4, 0.7, sensors.n_sensors)
+        sensors = sp.SensorLayout(np.clip(moved, 0.0, bridge.length), sensors.kinds, sensors.names, sensors.noise_std)
+    elif effect == "dynamic_amplification":
+        mult = 1.0 + rng.uniform(0.05, 0.15, n_crossings)
+    elif effect == "vibration":  # out of the library: a free vibration along the crossing
+        phase = rng.uniform(0, 2 * np.pi, n_crossings)
+        wave = np.sin(2 * np.pi * pos[None, :] / 2.3 + phase[:, None])
+        add += 0.08 * peak[None, :, None] * wave[:, None, :]
+    elif effect is not None:
+        raise ValueError(effect)
+    truth = replace(fine, bridge=bridge, sensors=sensors, vehicle=vehicle)
+    noise = case.noise.sample(pos, rng, n_crossings)
+    crossings = []
+    for c in range(n_crossings):
+        clean = truth.influence_lines(ei_fine, positions=pos + shifts[c]).predictions
+        values = mult[c] * clean + add[c] + noise[c]
+        crossings.append(Crossing(str(c + 1), pos, values, np.ones(pos.size)))
+    return Crossings(case.sensors.names, tuple(crossings))
