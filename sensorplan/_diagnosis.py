@@ -5,9 +5,9 @@
    mean over crossings (systematic part), per sensor and load position,
    with Ljung-Box tests on the whitened residuals.
 3. Which effect: every candidate effect is refitted jointly with EI and
-   ranked by its held-out predictive score (leave one crossing out, or
-   blocks of load positions for a single crossing) and its Laplace log
-   Bayes factor; its EI shift is the bias it was causing.  Forward
+   ranked by its Laplace log Bayes factor, with its held-out predictive
+   score (blocks of load positions held out in every crossing; whole
+   crossings for static load steps) reported and required to improve; its EI shift is the bias it was causing.  Forward
    selection adds effects while the evidence improves clearly.
 4. Confounding: an effect whose data signature a plausible EI change can
    mimic (its information given unknown EI is a small fraction of its
@@ -117,24 +117,32 @@ def _start(problem, fit):
 
 
 def _folds(crossings, n_folds=4):
-    """Masks (train, test) per fold: leave crossings out, or blocks of load positions."""
+    """Masks (train, test) per fold.
+
+    With load sweeps (>= 8 positions per crossing) every fold holds out one
+    contiguous block of load positions in every crossing, so parameters of a
+    single crossing (offsets, drift, amplification, trigger shifts) are
+    estimated from the rest of that crossing and the held-out score tests the
+    shape of the model along the bridge.  With fewer positions (static load
+    steps) whole crossings are held out.
+    """
     n_c = len(crossings)
     folds = []
+    if all(c.n_loads >= 8 for c in crossings):
+        for b in range(n_folds):
+            test = []
+            for c in crossings:
+                mask = np.zeros(c.n_loads, bool)
+                mask[np.array_split(np.arange(c.n_loads), n_folds)[b]] = True
+                test.append(mask)
+            folds.append(([~m for m in test], test))
+        return folds
     if n_c >= 2:
         groups = np.array_split(np.arange(n_c), min(n_folds, n_c))
         for g in groups:
             train = [np.full(c.n_loads, i not in g) for i, c in enumerate(crossings)]
             test = [np.full(c.n_loads, i in g) for i, c in enumerate(crossings)]
             folds.append((train, test))
-        return folds
-    c = crossings.crossings[0]
-    if c.n_loads < 8:
-        return []
-    blocks = np.array_split(np.arange(c.n_loads), n_folds)
-    for b in blocks:
-        test = np.zeros(c.n_loads, bool)
-        test[b] = True
-        folds.append(([~test], [test]))
     return folds
 
 

@@ -40,6 +40,12 @@ _EPILOG_VERIFY = """example:
 """
 
 
+_EPILOG_DIAGNOSE = """example:
+  sensorplan simulate --example openlab-like --crossings 6 --noise --seed 1 --out data.csv
+  sensorplan diagnose --example openlab-like --data data.csv --json diagnosis.json --out out/diagnose
+"""
+
+
 def _add_common_arguments(parser):
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
@@ -275,6 +281,35 @@ def _cmd_verify(args, out):
     return 0
 
 
+def _cmd_diagnose(args, out):
+    import json
+
+    from . import plotting
+    from ._csvio import atomic_write_text, read_crossings
+    from ._diagnosis import diagnose
+    from ._screening import check_data_scale
+
+    case = _load(args)
+    data = read_crossings(args.data, case.sensors)
+    nominal = case.influence_lines(sensors=case.sensors.subset(
+        [case.sensors.names.index(n) for n in data.sensor_names]), positions=data.crossings[0].positions)
+    check_data_scale(data, dict(zip(data.sensor_names, nominal.predictions)), data.sensor_names,
+                     source=str(args.data))
+    result = diagnose(case, data, progress=_progress(args, "diagnose") if len(data) * 8 >= 20 else None)
+    outdir = Path(args.out)
+    supports = case.bridge.support_positions
+    figures = [
+        plotting.save_figure(plotting.plot_residual_map(result), outdir / "residual_map.png"),
+        plotting.save_figure(plotting.plot_shrinkage(result), outdir / "shrinkage.png"),
+        plotting.save_figure(plotting.plot_ei_before_after(result, supports=supports), outdir / "ei_before_after.png"),
+    ]
+    json_path = args.json if args.json is not None else outdir / "diagnosis.json"
+    atomic_write_text(json_path, json.dumps(result.to_dict(), indent=2) + "\n")
+    out(result.summary())
+    out(f"diagnosis written to {json_path}; figures: " + ", ".join(str(p) for p in figures))
+    return 0
+
+
 def build_parser():
     parser = argparse.ArgumentParser(
         prog="sensorplan",
@@ -341,6 +376,14 @@ def build_parser():
     p.add_argument("--json", type=Path, help="JSON file (default OUT/verification.json)")
     _add_verify_arguments(p, with_flag=False)
     p.set_defaults(handler=_cmd_verify)
+
+    p = sub.add_parser("diagnose", help="diagnose the sim-to-real gap between the model and crossings (CSV)",
+                       epilog=_EPILOG_DIAGNOSE, formatter_class=argparse.RawDescriptionHelpFormatter)
+    _add_case_arguments(p)
+    p.add_argument("--data", type=Path, required=True, help="crossings CSV (crossing,position_m,<sensors>)")
+    p.add_argument("--out", type=Path, default=Path("sensorplan-out"), help="output folder for figures")
+    p.add_argument("--json", type=Path, help="JSON file (default OUT/diagnosis.json)")
+    p.set_defaults(handler=_cmd_diagnose)
     return parser
 
 

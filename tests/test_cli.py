@@ -199,3 +199,19 @@ def test_verify_rejects_layout_off_the_bridge(tmp_path, capsys):
     assert main(["verify", "--example", "simply-supported", "--layout", "5,25", "--out", str(tmp_path)]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "layout" in err[0]
+
+
+def test_diagnose_writes_json_and_figures(tmp_path, capsys):
+    import json
+
+    data = tmp_path / "d.csv"
+    assert main(["simulate", "--example", "simply-supported", "--crossings", "3", "--noise", "--seed", "5",
+                 "--out", str(data), "--quiet"]) == 0
+    js = tmp_path / "diag.json"
+    assert main(["diagnose", "--example", "simply-supported", "--data", str(data), "--json", str(js),
+                 "--out", str(tmp_path), "--quiet"]) == 0
+    d = json.loads(js.read_text())
+    assert set(d["gap"]) >= {"rms_residual", "systematic_rms", "noise_rms", "by_sensor", "worst_positions_m"}
+    assert d["causes"] == [] and d["unexplained"] is False
+    for name in ("residual_map.png", "shrinkage.png", "ei_before_after.png"):
+        assert (tmp_path / name).exists()

@@ -1,0 +1,96 @@
+"""Gap diagnosis: effect Jacobians, and a seeded small version of the validation study."""
+
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import sensorplan as sp
+from sensorplan._config import example_case
+from sensorplan._diagnosis import diagnose
+from sensorplan._effects import EFFECTS, make_effect
+from sensorplan._joint import JointProblem
+from sensorplan._prior import GMRFPrior
+from sensorplan._simulate import simulate_crossings
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies" / "diagnosis"))
+from effects_data import generate  # noqa: E402
+
+
+def small_case():
+    case = example_case("openlab-like")
+    case = case.with_mesh(sp.Mesh.uniform(case.bridge, 8))
+    return replace(case, sweep=sp.LoadSweep.from_range(0.0, 32.0, 1.0))
+
+
+@pytest.mark.parametrize("name", list(EFFECTS))
+def test_effect_jacobian_equals_finite_differences(name):
+    case = small_case()
+    data = simulate_crossings(case, 2, noise=True, rng=0)
+    problem = JointProblem(case, data, [make_effect(name)], GMRFPrior())
+    rng = np.random.default_rng(1)
+    theta = problem.theta0 + 0.05 * rng.standard_normal(problem.n_params) * np.sqrt(
+        1.0 / np.diag(problem.fixed))
+    preds = problem.predict(theta)
+    for k in range(problem.n_params):
+        h = 1e-6 * max(1.0, abs(theta[k])) if k < problem.n_elements else 1e-4 * np.sqrt(1 / problem.fixed[k, k])
+        up, down = theta.copy(), theta.copy()
+        up[k] += h
+        down[k] -= h
+        pu, pd = problem.predict(up), problem.predict(down)
+        for c, (y, jac) in enumerate(preds):
+            fd = (pu[c][0] - pd[c][0]) / (2 * h)
+            scale = max(np.abs(fd).max(), np.abs(jac[:, :, k]).max(), 1e-30)
+            np.testing.assert_allclose(jac[:, :, k], fd, atol=2e-4 * scale, err_msg=problem.param_names[k])
+
+
+@pytest.fixture(scope="module")
+def case():
+    return example_case("openlab-like")
+
+
+def test_effect_free_data_are_adequate(case):
+    d = diagnose(case, generate(case, None, rng=3))
+    assert d.causes == () and not d.unexplained
+    assert "adequate" in d.verdict
+
+
+@pytest.mark.parametrize("effect,seed", [("sensor_offset", 1), ("vertical_support_spring", 1),
+                                         ("position_offset", 2), ("thermal_drift", 4)])
+def test_withheld_effect_is_found(case, effect, seed):
+    data = generate(case, effect, rng=seed)
+    d = diagnose(case, data)
+    assert d.causes and d.causes[0] == effect
+    assert d.effects[0]["name"] == effect
+    entry = d.effects[0]
+    assert entry["log_bayes_factor"] > 3 and entry["heldout_score_gain"] > 0
+    # the held-out residual shrinks to near the noise level of the data
+    assert entry["heldout_rms_after"] < 1.2 * float(np.median(case.noise.std)) * 1.05
+
+
+def test_out_of_library_effect_is_unexplained(case):
+    d = diagnose(case, generate(case, "vibration", rng=0))
+    assert d.unexplained and "unexplained" in d.verdict
+
+
+def test_genuine_ei_change_is_not_blamed_on_an_effect(case):
+    # 30 % softer over 5-9 m: part of the model (EI), not a gap
+    def ei(x):
+        base = np.where(x < 15.0, 7.5e9, 1.0e10)
+        return np.where((x > 5.0) & (x < 9.0), 0.7 * base, base)
+
+    d = diagnose(case, generate(case, None, rng=5, ei=ei))
+    assert d.causes == () and not d.unexplained
+
+
+def test_diagnosis_json_keys(case):
+    d = diagnose(case, generate(case, "dynamic_amplification", rng=2)).to_dict()
+    for key in ("rms_residual", "systematic_rms", "noise_rms", "by_sensor", "worst_positions_m"):
+        assert key in d["gap"]
+    for e in d["effects"]:
+        for key in ("name", "log_bayes_factor", "heldout_score_gain", "rms_after", "heldout_rms_after",
+                    "parameters", "ei_shift"):
+            assert key in e
+    assert isinstance(d["causes"], list) and isinstance(d["unexplained"], bool)
