@@ -46,6 +46,11 @@ _EPILOG_DIAGNOSE = """example:
 """
 
 
+_EPILOG_REPORT = """example:
+  sensorplan report --example openlab-like --count 3 --criterion D --out out/report
+"""
+
+
 def _add_common_arguments(parser):
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
@@ -310,6 +315,22 @@ def _cmd_diagnose(args, out):
     return 0
 
 
+def _cmd_report(args, out):
+    from ._csvio import atomic_write_text, read_crossings
+    from .report import build_report
+
+    case = _load(args)
+    data = read_crossings(args.data, case.sensors) if args.data is not None else None
+    progress = None if args.quiet else (lambda msg: print(f"sensorplan report: {msg}", file=sys.stderr, flush=True))
+    report = build_report(case, data=data, count=args.count, criterion=args.criterion, n_scenarios=args.scenarios,
+                          seed=args.seed, progress=progress)
+    path = Path(args.out) / "report.html"
+    atomic_write_text(path, report.html)
+    out(report.design.summary())
+    out(f"report with {len(report.sections)} sections written to {path}")
+    return 0
+
+
 def build_parser():
     parser = argparse.ArgumentParser(
         prog="sensorplan",
@@ -384,6 +405,17 @@ def build_parser():
     p.add_argument("--out", type=Path, default=Path("sensorplan-out"), help="output folder for figures")
     p.add_argument("--json", type=Path, help="JSON file (default OUT/diagnosis.json)")
     p.set_defaults(handler=_cmd_diagnose)
+
+    p = sub.add_parser("report", help="one self-contained HTML report: model, layout, verification, data",
+                       epilog=_EPILOG_REPORT, formatter_class=argparse.RawDescriptionHelpFormatter)
+    _add_case_arguments(p)
+    p.add_argument("--data", type=Path, help="measured crossings CSV (adds identified EI and the gap diagnosis)")
+    p.add_argument("--count", type=int, help="number of sensors to place (default: as many as the case has)")
+    p.add_argument("--criterion", choices=["D", "A", "E", "Ds"], default="D", help="design criterion (default D)")
+    p.add_argument("--scenarios", type=int, default=6, help="damage locations in the verification (default 6)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--out", type=Path, required=True, help="output folder (report.html)")
+    p.set_defaults(handler=_cmd_report)
     return parser
 
 

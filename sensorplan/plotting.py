@@ -13,7 +13,7 @@ import numpy as np
 
 __all__ = ["plot_informativeness", "plot_spectrum", "plot_eigenvectors", "plot_ei_posterior", "plot_fit", "plot_layout",
            "plot_posterior_std", "plot_criterion_curve", "plot_verification", "plot_residual_map",
-           "plot_shrinkage", "plot_ei_before_after", "save_figure",
+           "plot_shrinkage", "plot_ei_before_after", "plot_influence_lines", "save_figure",
            "mark_bridge"]
 
 
@@ -110,6 +110,9 @@ def save_figure(ax_or_fig, path, *, dpi=130):
     os.close(fd)
     try:
         fig.savefig(tmp, dpi=dpi, format="png")
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
@@ -291,5 +294,22 @@ def plot_ei_before_after(diagnosis, *, ax=None, supports=None):
     ax.set_xlabel("position along the bridge x [m]")
     ax.set_ylabel("EI [N m^2]")
     ax.set_title("Identified EI before and after modelling the gap")
+    ax.legend(fontsize=8)
+    return ax
+
+
+def plot_influence_lines(lines, *, ax=None, supports=None):
+    """Predicted influence lines of each sensor against the reference-axle position."""
+    ax = _axes(ax)
+    for name, kind, y in zip(lines.sensors.names, lines.sensors.kinds, lines.predictions):
+        unit = "urad" if kind == "rotation" else "mm"
+        scale = 1e6 if kind == "rotation" else 1e3
+        ax.plot(lines.positions, scale * y, label=f"{name} [{unit}]")
+    if supports is not None:
+        mark_bridge(ax, supports)
+    ax.axhline(0.0, color="0.3", linewidth=0.6)
+    ax.set_xlabel("reference-axle position [m]")
+    ax.set_ylabel("reading (urad or mm)")
+    ax.set_title("Influence lines at nominal EI")
     ax.legend(fontsize=8)
     return ax
