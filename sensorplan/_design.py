@@ -79,6 +79,10 @@ class DesignResult:
         gap = self.value - self.bound
         lines.append(f"  criterion {self.value:.6g}; relaxation bound {self.bound:.6g}; gap {gap:.3g}; "
                      f"certified efficiency >= {100 * self.efficiency:.2f} %  (method: {self.method})")
+        status = self.solver.get("status", "?")
+        lines.append(f"  relaxation: {self.solver.get('solver', '?')}, status {status}, relative duality gap "
+                     f"{self.solver.get('relative_gap', float('nan')):.1e}, {self.solver.get('time_s', 0.0):.2f} s"
+                     + ("" if status == "optimal" else "  <- NOT optimal: treat the bound with care"))
         lines.append(f"  {'baseline':28s} {'criterion':>12s} {'vs layout':>10s}  positions [m]")
         for name, b in self.baselines.items():
             if b is None:

@@ -105,13 +105,14 @@ class _Task:
     detection_threshold: float
     window: int
     start: tuple = (1.0, None)  # warm start of (noise scale, tau)
+    noise_std: float = None
 
 
 @single_threaded
 def _run_task(task, *, posterior=False):
     case = task.case
-    sensors = SensorLayout.candidates(list(task.layout), task.kind,
-                                      noise_std=[float(np.median(case.noise.std))] * len(task.layout))
+    std = float(np.median(case.noise.std)) if task.noise_std is None else float(task.noise_std)
+    sensors = SensorLayout.candidates(list(task.layout), task.kind, noise_std=[std] * len(task.layout))
     noise = NoiseModel(sensors.noise_std, case.noise.correlation_length)
     case = replace(case, sensors=sensors, noise=noise)
     fine_mesh = truth_mesh(case)
@@ -246,7 +247,7 @@ def _aggregate(layout, records):
 
 @single_threaded
 def verify_layouts(case, layouts, *, names=None, n_locations=8, severity=0.25, length=2.0, n_controls=None,
-                   n_crossings=10, seed=0, kind="rotation", executor=None, workers=1,
+                   n_crossings=10, seed=0, kind="rotation", noise_std=None, executor=None, workers=1,
                    detection_threshold=0.9, progress=None):
     """Score ``layouts`` (lists of positions [m]) on the same synthetic scenarios.
 
@@ -262,6 +263,9 @@ def verify_layouts(case, layouts, *, names=None, n_locations=8, severity=0.25, l
     n_controls : int, optional
         Undamaged controls (default max(5, n_locations // 2)).
     n_crossings : int
+    kind : {"rotation", "deflection"}
+    noise_std : float, optional
+        Noise std of the sensors [rad or m] (default: median of the case's).
     seed : int
         Seed of the numpy SeedSequence; results do not depend on the workers.
     executor : concurrent.futures.Executor, optional
@@ -288,10 +292,10 @@ def verify_layouts(case, layouts, *, names=None, n_locations=8, severity=0.25, l
         # warm start: hyperparameters of a pilot inversion (the first scenario,
         # computed here, before dispatch, so results do not depend on workers)
         pilot = _run_task(_Task(case, layout, kind, scenarios[0], seeds[0], int(n_crossings),
-                                detection_threshold, window), posterior=True)
+                                detection_threshold, window, noise_std=noise_std), posterior=True)
         start = (pilot.noise_scale, pilot.tau)
-        tasks += [_Task(case, layout, kind, scenario, s, int(n_crossings), detection_threshold, window, start)
-                  for scenario, s in zip(scenarios, seeds)]
+        tasks += [_Task(case, layout, kind, scenario, s, int(n_crossings), detection_threshold, window, start,
+                        noise_std) for scenario, s in zip(scenarios, seeds)]
     results = []
     own = None
     if executor is None and workers > 1:

@@ -197,6 +197,26 @@ def _parse_zones(text):
     return zones
 
 
+def _sensor_kind_and_noise(args, case):
+    """The kind of the new sensors and their noise std, refusing a silent unit mix-up."""
+    import numpy as np
+
+    from ._errors import ConfigError
+
+    kinds = set(case.sensors.kinds)
+    kind = args.kind or (kinds.pop() if len(kinds) == 1 else "rotation")
+    noise = args.noise_std
+    if noise is not None and not noise > 0:
+        raise ConfigError(f"--noise-std must be positive (SI units: rad or m). Got {noise!r}.")
+    if noise is None:
+        same = [s for k, s in zip(case.sensors.kinds, case.noise.std) if k == kind] if case.noise is not None else []
+        if not same:
+            raise ConfigError(f"The case has no {kind} sensor to take the noise level from; give --noise-std "
+                              f"in {'rad' if kind == 'rotation' else 'm'}.")
+        noise = float(np.median(same))
+    return kind, noise
+
+
 def _cmd_recommend(args, out):
     import json
 
@@ -206,18 +226,19 @@ def _cmd_recommend(args, out):
     from ._sensors import SensorLayout
 
     case = _load(args)
+    args.kind, args.noise_std = _sensor_kind_and_noise(args, case)
     count = case.sensors.n_sensors if args.count is None else args.count
     if args.fixed:
         case.bridge.check_on_bridge(args.fixed, "fixed", "--fixed")
     result = recommend(case, count, args.criterion, spacing=args.spacing, exclude=args.exclude or (),
-                       fixed=args.fixed or (), kind=args.kind, n_crossings=args.crossings,
+                       fixed=args.fixed or (), kind=args.kind, noise_std=args.noise_std,
+                       n_crossings=args.crossings,
                        min_spacing=args.min_spacing, springs=args.springs, solver=args.solver,
                        rng=args.seed)
     outdir = Path(args.out)
     from . import plotting
 
-    layout = SensorLayout.candidates(list(result.layout_m), args.kind,
-                                     noise_std=[float(case.noise.std.mean())] * result.count)
+    layout = SensorLayout.candidates(list(result.layout_m), args.kind, noise_std=[args.noise_std] * result.count)
     blocks = fisher_blocks(case, sensors=layout, parameterisation="ei", n_crossings=args.crossings)
     figures = [
         plotting.save_figure(plotting.plot_layout(result), outdir / "layout.png"),
@@ -264,7 +285,7 @@ def _run_verification(args, case, layouts, names, outdir):
     from ._verification import verify_layouts
 
     result = verify_layouts(case, layouts, names=names, n_locations=args.scenarios, n_crossings=args.verify_crossings,
-                            seed=args.seed, workers=args.workers, kind=getattr(args, "kind", "rotation"),
+                            seed=args.seed, workers=args.workers, kind=args.kind, noise_std=args.noise_std,
                             progress=_progress(args, args.command))
     json_path = getattr(args, "verify_json", None) or outdir / "verification.json"
     atomic_write_text(json_path, json.dumps(result.to_dict(), indent=2) + "\n")
@@ -275,6 +296,7 @@ def _run_verification(args, case, layouts, names, outdir):
 
 def _cmd_verify(args, out):
     case = _load(args)
+    args.kind, args.noise_std = _sensor_kind_and_noise(args, case)
     layouts = args.layout
     for layout in layouts:
         case.bridge.check_on_bridge(layout, "layout", "--layout")
@@ -376,7 +398,10 @@ def build_parser():
     p.add_argument("--exclude", type=_parse_zones, help="exclusion zones start:stop in m, e.g. 14:16,29:30")
     p.add_argument("--fixed", type=_parse_positions, help="existing sensors in m, e.g. 11,19")
     p.add_argument("--min-spacing", type=float, default=0.0, help="minimum distance between sensors in m")
-    p.add_argument("--kind", choices=["rotation", "deflection"], default="rotation", help="sensor kind")
+    p.add_argument("--kind", choices=["rotation", "deflection"],
+                   help="sensor kind (default: the kind of the case's sensors)")
+    p.add_argument("--noise-std", type=float,
+                   help="noise std of the new sensors in SI units (rad or m); default: the case's sensors'")
     p.add_argument("--crossings", type=int, default=1, help="crossings per measurement campaign (default 1)")
     p.add_argument("--springs", action="store_true", help="treat the spring stiffnesses as nuisance parameters")
     p.add_argument("--solver", choices=["auto", "fast", "cvxpy"], default="auto", help="relaxation solver")
@@ -391,7 +416,10 @@ def build_parser():
     _add_case_arguments(p)
     p.add_argument("--layout", type=_parse_positions, action="append", required=True,
                    help="sensor positions in m, e.g. 3.5,8,12 (repeat for several layouts)")
-    p.add_argument("--kind", choices=["rotation", "deflection"], default="rotation", help="sensor kind")
+    p.add_argument("--kind", choices=["rotation", "deflection"],
+                   help="sensor kind (default: the kind of the case's sensors)")
+    p.add_argument("--noise-std", type=float,
+                   help="noise std of the new sensors in SI units (rad or m); default: the case's sensors'")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--out", type=Path, default=Path("sensorplan-out"), help="output folder for figures")
     p.add_argument("--json", type=Path, help="JSON file (default OUT/verification.json)")

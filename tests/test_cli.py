@@ -215,3 +215,29 @@ def test_diagnose_writes_json_and_figures(tmp_path, capsys):
     assert d["causes"] == [] and d["unexplained"] is False
     for name in ("residual_map.png", "shrinkage.png", "ei_before_after.png"):
         assert (tmp_path / name).exists()
+
+
+def test_recommend_kind_follows_the_case_and_refuses_unit_mixups(tmp_path, capsys):
+    import json
+
+    cfg = tmp_path / "defl.toml"
+    cfg.write_text("""
+[bridge]
+spans = [20.0]
+ei = 1e10
+elements = 10
+[vehicle]
+axle_offsets = [0.0]
+axle_loads = [1e5]
+[sensors]
+positions = [10.0]
+kinds = ["deflection"]
+noise_std_mm = 0.05
+""")
+    js = tmp_path / "d.json"
+    assert main(["recommend", "--config", str(cfg), "--count", "1", "--spacing", "2", "--json", str(js),
+                 "--out", str(tmp_path), "--quiet"]) == 0
+    assert json.loads(js.read_text())["kind"] == "deflection"
+    assert main(["recommend", "--config", str(cfg), "--kind", "rotation", "--out", str(tmp_path)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--noise-std" in err[0]
