@@ -109,7 +109,8 @@ def _cmd_informativeness(args, out):
     sensors = None
     if args.positions is not None:
         case.bridge.check_on_bridge(args.positions, "positions", "--positions")
-        sensors = SensorLayout.candidates(args.positions)
+        kind, noise = _sensor_kind_and_noise(args, case)
+        sensors = SensorLayout.candidates(args.positions, kind, noise_std=[noise] * len(args.positions))
     blocks = fisher_blocks(case, sensors=sensors, parameterisation=args.parameterisation,
                            n_crossings=args.crossings)
     log_blocks = fisher_blocks(case, sensors=sensors, parameterisation="log_ei",
@@ -377,6 +378,9 @@ def build_parser():
     p.add_argument("--crossings", type=int, default=1, help="number of crossings (default 1)")
     p.add_argument("--parameterisation", choices=["ei", "log_ei", "compliance"], default="ei",
                    help="parameters of the curves (default ei, as in the paper)")
+    p.add_argument("--kind", choices=["rotation", "deflection"],
+                   help="kind of the --positions sensors (default: the kind of the case's sensors)")
+    p.add_argument("--noise-std", type=float, help="noise std of the --positions sensors (SI: rad or m)")
     p.add_argument("--out", type=Path, default=Path("sensorplan-out"), help="output folder")
     p.set_defaults(handler=_cmd_informativeness)
 
