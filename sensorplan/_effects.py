@@ -70,6 +70,20 @@ def _span_reference(ctx, support):
     return ei, float(length)
 
 
+def _fixity_prior(ctx, stiffness, reference, low, high, std=2.5):
+    """Prior mean and std of log k from the fixity f = k / (k + reference), clipped to [low, high].
+
+    log k is flat in the data near f = 0 or 1 (a pin, a clamp, a rigid
+    support), so the prior starts where the data can act on it.
+    """
+    mean = []
+    for i, k in enumerate(stiffness):
+        ref = reference(*_span_reference(ctx, i))
+        f = float(np.clip(k / (k + ref) if np.isfinite(k) else 1.0, low, high))
+        mean.append(math.log(ref * f / (1.0 - f)))
+    return np.array(mean), np.full(len(mean), std)
+
+
 class SupportRotationalSpring(Effect):
     """A rotational spring at every support (pins gain a restraint, clamps lose some)."""
 
@@ -77,19 +91,10 @@ class SupportRotationalSpring(Effect):
     structural = True
 
     def configure(self, ctx):
-        # Prior on the fixity f = k / (k + 4 EI / L) of each support: a pin is
-        # taken as f = 0.05 and a clamp as f = 0.95 (log k is flat in the data
-        # at the extremes, so the prior starts where the data can act).
-        n = ctx.case.bridge.support_positions.size
-        self.names = [f"log_k_rot_{i}" for i in range(n)]
-        mean = []
-        for i, k in enumerate(ctx.case.bridge.rotational_springs):
-            ei, length = _span_reference(ctx, i)
-            ref = 4.0 * ei / length
-            f = float(np.clip(k / (k + ref) if np.isfinite(k) else 1.0, 0.05, 0.95))
-            mean.append(math.log(ref * f / (1.0 - f)))
-        self.mean = np.array(mean)
-        self.std = np.full(n, 2.5)
+        # fixity f = k / (k + 4 EI / L): a pin is taken as f = 0.05, a clamp as 0.95
+        self.names = [f"log_k_rot_{i}" for i in range(ctx.case.bridge.support_positions.size)]
+        self.mean, self.std = _fixity_prior(ctx, ctx.case.bridge.rotational_springs,
+                                            lambda ei, length: 4.0 * ei / length, 0.05, 0.95)
         return self
 
     def apply(self, state, phi):
@@ -107,18 +112,10 @@ class VerticalSupportSpring(Effect):
     structural = True
 
     def configure(self, ctx):
-        # Prior on f = k / (k + 48 EI / L^3) (support against mid-span
-        # stiffness); a rigid support is taken as f = 0.98.
-        n = ctx.case.bridge.support_positions.size
-        self.names = [f"log_k_vert_{i}" for i in range(n)]
-        mean = []
-        for i, k in enumerate(ctx.case.bridge.vertical_springs):
-            ei, length = _span_reference(ctx, i)
-            ref = 48.0 * ei / length**3
-            f = float(np.clip(k / (k + ref) if np.isfinite(k) else 1.0, 0.02, 0.98))
-            mean.append(math.log(ref * f / (1.0 - f)))
-        self.mean = np.array(mean)
-        self.std = np.full(n, 2.5)
+        # f = k / (k + 48 EI / L^3), support against mid-span stiffness: rigid is taken as f = 0.98
+        self.names = [f"log_k_vert_{i}" for i in range(ctx.case.bridge.support_positions.size)]
+        self.mean, self.std = _fixity_prior(ctx, ctx.case.bridge.vertical_springs,
+                                            lambda ei, length: 48.0 * ei / length**3, 0.02, 0.98)
         return self
 
     def apply(self, state, phi):
