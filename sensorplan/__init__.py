@@ -30,6 +30,8 @@ _EXPORTS = {
     "Identifiability": "_fisher", "identifiability": "_fisher",
     "PosteriorResult": "_posterior", "invert": "_inversion",
     "DesignResult": "_design", "recommend": "_design",
+    "VerificationResult": "_verification", "verify_layouts": "_verification",
+    "GapDiagnosis": "_diagnosis", "diagnose": "_diagnosis",
 }
 
 __all__ = sorted(_EXPORTS)

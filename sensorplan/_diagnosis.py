@@ -380,7 +380,9 @@ def diagnose(case, crossings, *, effects=None, prior=None, bf_threshold=3.0, n_f
     if selected and not unexplained:
         verdict = "causes found: " + ", ".join(selected)
     elif selected:
-        verdict = "partly explained by " + ", ".join(selected) + "; a significant gap remains (unexplained)"
+        verdict = ("partly explained by " + ", ".join(selected) + "; a significant gap remains (unexplained)"
+                   if gap["significant"] else "causes found: " + ", ".join(selected)
+                   + "; the residual structure after the fit is significant (unexplained remainder)")
     elif gap["significant"]:
         verdict = "unexplained: a significant gap remains that no candidate effect explains"
     else:
