@@ -22,8 +22,14 @@ def _fine(case):
     return case.with_mesh(truth_mesh(case))
 
 
-def generate(case, effect, rng, n_crossings=6, *, ei=None):
-    """Crossings of ``case`` with ``effect`` present (None: effect-free; "vibration": out of library)."""
+def generate(case, effect, rng, n_crossings=6, *, ei=None, return_noise_rms=False):
+    """Crossings of ``case`` with ``effect`` present (None: effect-free; "vibration": out of library).
+
+    With ``return_noise_rms=True`` return ``(crossings, noise_rms)``, where
+    ``noise_rms`` is the rms of the noise actually added to the data (all
+    crossings, sensors and load positions): the floor a correct model's
+    residuals can reach.
+    """
     rng = np.random.default_rng(rng)
     fine = _fine(case)
     ei_fine = fine.ei if ei is None else ei(fine.mesh.midpoints)
@@ -78,4 +84,7 @@ def generate(case, effect, rng, n_crossings=6, *, ei=None):
         clean = truth.influence_lines(ei_fine, positions=pos + shifts[c]).predictions
         values = mult[c] * clean + add[c] + noise[c]
         crossings.append(Crossing(str(c + 1), pos, values, np.ones(pos.size)))
-    return Crossings(case.sensors.names, tuple(crossings))
+    out = Crossings(case.sensors.names, tuple(crossings))
+    if return_noise_rms:
+        return out, float(np.sqrt(np.mean(noise**2)))
+    return out

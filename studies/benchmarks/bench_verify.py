@@ -1,0 +1,244 @@
+"""Benchmark of the verification of layouts by full Bayesian inversion.
+
+What it measures
+----------------
+Throughput (scenarios per second, wall time ``time.perf_counter``) of
+
+    result = sensorplan._verification.verify_layouts(case, [(11.0, 19.0)],
+                                                      n_locations=60, workers=W)
+
+on the embedded ``openlab-like`` example as it is shipped (two continuous 15 m
+spans with rotational end springs, 30 elements, the two tiltmeters PE1 and
+PE2 at 11 and 19 m, noise 5 urad, a 2-axle vehicle, 129 load positions) with
+the default 10 crossings per scenario.  ``n_locations=60`` gives 60 local
+losses + 2 span softenings + 30 undamaged controls = 92 scenarios.  Each
+scenario simulates 10 noisy crossings on a finer, differently aligned truth
+mesh and inverts them (MAP + Laplace + evidence maximisation, springs
+estimated); before the scenarios are dispatched, one pilot inversion (in the
+calling process) provides the warm start of the hyperparameters.  The timed
+call therefore contains 93 inversions for 92 scenarios.
+
+W = 1 (everything in this process) and W = 2 (a ``ProcessPoolExecutor`` of
+2 processes created and shut down by ``verify_layouts``, so its start-up is
+included) are each run ``REPEATS`` times; the best and the worst are
+printed.
+
+References measured in the same run (never asserted):
+
+1. one ``invert`` on one scenario's data (a local loss in span 1), with the
+   same options and warm start as inside ``verify_layouts``, best of
+   ``INVERT_REPEATS``: the overhead per scenario is reported in units of
+   this inversion;
+2. the sum of the ``invert`` times of all 92 scenarios (data simulated
+   beforehand, not timed): the cost that no scheduling can avoid.  The
+   remainder of the W = 1 time is simulation, truth mesh and scoring.
+
+Target: >= 50 scenarios per second on 2 cores (W = 2); the script says
+whether it was met here.  It also checks that W = 1 and W = 2 give the same
+JSON (``result.to_dict()``, serialised with sorted keys): each scenario draws
+its noise from its own ``SeedSequence`` child, so the result must not depend
+on the number of workers.
+
+Threads: one BLAS thread per process (``OPENBLAS_NUM_THREADS`` etc. are set
+to 1 before numpy is imported unless already set, as the CLI does; the pool
+workers inherit them).  The load average is printed at start and end: the
+machine may be shared, and a load above the number of cores means the
+workers competed with other processes.
+
+How to run
+----------
+From the repository root (the folder holding ``sensorplan/``)::
+
+    python studies/benchmarks/bench_verify.py
+
+It takes well under a minute on an idle 2-core machine.
+"""
+
+import os
+
+THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+THREADS_PRESET = {k: os.environ.get(k) for k in THREAD_VARS}
+for _var in THREAD_VARS:  # before numpy is imported (the pool workers inherit it)
+    os.environ.setdefault(_var, "1")
+
+import json  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+import warnings  # noqa: E402
+from dataclasses import replace  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))
+
+from sensorplan._config import example_case  # noqa: E402
+from sensorplan._errors import SensorplanWarning  # noqa: E402
+from sensorplan._inversion import invert  # noqa: E402
+from sensorplan._noise import NoiseModel  # noqa: E402
+from sensorplan._sensors import SensorLayout  # noqa: E402
+from sensorplan._simulate import simulate_crossings  # noqa: E402
+from sensorplan._verification import (_run_task, _Task, make_scenarios, truth_mesh,  # noqa: E402
+                                      verify_layouts)
+
+EXAMPLE = "openlab-like"
+LAYOUT = (11.0, 19.0)
+N_LOCATIONS = 60
+N_CROSSINGS = 10
+SEED = 1
+REPEATS = 2
+INVERT_REPEATS = 7
+WORKERS = (1, 2)
+TARGET_PER_S = 50.0
+DETECTION_THRESHOLD = 0.9  # verify_layouts' default
+DAMAGE_LENGTH = 2.0  # m, verify_layouts' default
+
+
+def package_commit():
+    """Short git commit of the working tree (the package may change between runs), or 'unknown'."""
+    try:
+        out = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
+                             text=True, timeout=10)
+        dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--", "sensorplan"],
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+        return out.stdout.strip() + (" + uncommitted changes in sensorplan/" if dirty else "") or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def scenario_inputs(case):
+    """Per-scenario (case with the layout's sensors, data, warm start), as inside verify_layouts."""
+    scenarios = make_scenarios(case, N_LOCATIONS, length=DAMAGE_LENGTH)
+    seeds = np.random.SeedSequence(SEED).spawn(len(scenarios))
+    window = max(1, int(round(DAMAGE_LENGTH / float(np.mean(case.mesh.lengths)))))
+    pilot = _run_task(_Task(case, LAYOUT, "rotation", scenarios[0], seeds[0], N_CROSSINGS,
+                            DETECTION_THRESHOLD, window), posterior=True)
+    start = (pilot.noise_scale, pilot.tau)
+    # the same steps as sensorplan._verification._run_task, up to the inversion
+    sensors = SensorLayout.candidates(list(LAYOUT), "rotation",
+                                      noise_std=[float(np.median(case.noise.std))] * len(LAYOUT))
+    inv_case = replace(case, sensors=sensors,
+                       noise=NoiseModel(sensors.noise_std, case.noise.correlation_length))
+    fine_mesh = truth_mesh(inv_case)
+    fine = inv_case.with_mesh(fine_mesh)
+    out = []
+    for scenario, seed in zip(scenarios, seeds):
+        truth = scenario.truth(fine_mesh, fine.ei)
+        data = simulate_crossings(fine, N_CROSSINGS, noise=True, rng=np.random.default_rng(seed), ei=truth)
+        out.append((scenario, data))
+    return inv_case, out, start
+
+
+def run_invert(inv_case, data, start):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SensorplanWarning)
+        return invert(inv_case, data, screen=False, noise_scale=start[0], tau=start[1])
+
+
+def run_verify(case, workers):
+    t0 = time.perf_counter()
+    result = verify_layouts(case, [LAYOUT], n_locations=N_LOCATIONS, n_crossings=N_CROSSINGS, seed=SEED,
+                            workers=workers, length=DAMAGE_LENGTH, detection_threshold=DETECTION_THRESHOLD)
+    return time.perf_counter() - t0, result
+
+
+def main():
+    wall0 = time.perf_counter()
+    load0 = os.getloadavg()
+    case = example_case(EXAMPLE)
+
+    # --- References: one inversion, and all inversions back to back -------------------------
+    inv_case, inputs, start = scenario_inputs(case)
+    n_scen = len(inputs)
+    ref_k = next(k for k, (s, _) in enumerate(inputs) if s.kind == "local" and s.centre > 5.0)
+    ref_scenario, ref_data = inputs[ref_k]
+    run_invert(inv_case, ref_data, start)  # warm-up
+    t_inv_all = []
+    for _ in range(INVERT_REPEATS):
+        t0 = time.perf_counter()
+        post = run_invert(inv_case, ref_data, start)
+        t_inv_all.append(time.perf_counter() - t0)
+    t_inv = float(min(t_inv_all))
+    t_inv_med = float(np.median(t_inv_all))
+    t0 = time.perf_counter()
+    for _, data in inputs:
+        run_invert(inv_case, data, start)
+    t_inv_sum = time.perf_counter() - t0
+
+    # --- verify_layouts with 1 and 2 workers -------------------------------------------------
+    runs = {w: [] for w in WORKERS}
+    dicts = {}
+    for _ in range(REPEATS):
+        for w in WORKERS:
+            dt, result = run_verify(case, w)
+            runs[w].append(dt)
+            dicts.setdefault(w, json.dumps(result.to_dict(), sort_keys=True))
+    n_total = result.layouts[0].n_scenarios
+    same = len(set(dicts.values())) == 1
+    load1 = os.getloadavg()
+
+    # --- Report ------------------------------------------------------------------------------
+    cores = os.cpu_count()
+    line = "-" * 96
+    env = ", ".join(f"{k}={os.environ.get(k)}" + ("" if THREADS_PRESET[k] is not None else " (set here)")
+                    for k in THREAD_VARS)
+    print("sensorplan verification benchmark (verify_layouts: simulate + invert + score per scenario)")
+    print(f"sensorplan commit {package_commit()}; numpy {np.__version__}, {cores} logical CPU(s); {env}")
+    print("  (BLAS threads should be 1: the CLI sets OPENBLAS_NUM_THREADS=1; pool workers inherit it)")
+    print(f"load average (1 min) {load0[0]:.2f} at start, {load1[0]:.2f} at end "
+          f"(> {cores} means other processes compete for the cores)")
+    print(line)
+    b = case.bridge
+    print(f"Case: {EXAMPLE}, spans {'+'.join(f'{x:g}' for x in b.spans)} m, {case.n_elements} elements, "
+          f"rotational springs {' and '.join(f'{k:.1e}' for k in b.spring_stiffness())} N m/rad (estimated),")
+    print(f"  layout {LAYOUT} m (rotation, noise {case.noise.std[0]:.1e} rad), {case.sweep.n_loads} load "
+          f"positions, {N_CROSSINGS} crossings per scenario, seed {SEED}.")
+    kinds = [s.kind for s, _ in inputs]
+    print(f"Scenarios: n_locations={N_LOCATIONS} -> {n_scen} = {kinds.count('local')} local + "
+          f"{kinds.count('span')} span + {kinds.count('control')} control "
+          f"(+ 1 pilot inversion before dispatch).")
+    print(line)
+    print(f"Reference 1: one invert() on one scenario's data ({ref_scenario.kind} loss at "
+          f"{ref_scenario.centre:.2f} m), best of {INVERT_REPEATS}: {1e3 * t_inv:.1f} ms "
+          f"(median {1e3 * t_inv_med:.1f} ms; {post.n_iter} GN iterations, converged {post.converged})")
+    print(f"Reference 2: invert() on all {n_scen} scenarios back to back: {t_inv_sum:.3f} s = "
+          f"{1e3 * t_inv_sum / n_scen:.1f} ms per scenario = {t_inv_sum / n_scen / t_inv:.2f} x reference 1;")
+    print(f"  -> at most {n_scen / t_inv_sum:.1f} scenarios/s per core if only the inversions cost anything")
+    print(line)
+    print(f"{'workers':>7}{'best [s]':>10}{'worst [s]':>11}{'scen/s':>9}{'wall/scen [ms]':>16}"
+          f"{'core-ms/scen':>14}{'/ 1 invert':>12}{'overhead/scen':>15}")
+    rate = {}
+    for w in WORKERS:
+        best, worst = min(runs[w]), max(runs[w])
+        rate[w] = n_total / best
+        per = best / n_total
+        core = per * w
+        print(f"{w:>7d}{best:>10.3f}{worst:>11.3f}{rate[w]:>9.1f}{1e3 * per:>16.1f}{1e3 * core:>14.1f}"
+              f"{core / t_inv:>12.2f}{(core - t_inv) / t_inv:>14.2f}x")
+    print(f"speed-up 2 workers / 1 worker: {rate[2] / rate[1]:.2f} (ideal 2.00)")
+    print("core-ms/scen = wall time x workers / scenarios (the pilot is counted in the wall time);")
+    print("'/ 1 invert' divides it by reference 1; overhead/scen = (core-ms/scen - 1 invert) / 1 invert")
+    print("(simulation of the truth, truth mesh, scoring, pilot, pool start-up and pickling, idle time).")
+    print(f"Of the 1-worker time, the {n_scen} inversions alone (reference 2) are "
+          f"{100 * t_inv_sum / min(runs[1]):.0f} %.")
+    print(line)
+    print(f"workers=1 and workers=2 give identical JSON (result.to_dict()): {'yes' if same else 'NO'}")
+    print(line)
+    met = rate[2] >= TARGET_PER_S
+    note = "" if cores == 2 else f" (this machine has {cores} logical CPUs, not 2)"
+    print(f"Target: >= {TARGET_PER_S:g} scenarios per second on 2 cores (workers=2).")
+    verdict = "MET" if met else f"NOT MET (short by a factor {TARGET_PER_S / rate[2]:.2f})"
+    print(f"Result: {rate[2]:.1f} scenarios/s on this machine{note} -> target {verdict}.")
+    if not met:
+        need = 2.0 / TARGET_PER_S
+        print(f"  At 2 cores, 50 scenarios/s allows {1e3 * need:.0f} core-ms per scenario; one inversion "
+              f"alone takes {1e3 * t_inv:.1f} ms (reference 1),")
+        print(f"  {1e3 * t_inv_sum / n_scen:.1f} ms on average (reference 2): even with no overhead at all "
+              f"the ceiling here is {2 * n_scen / t_inv_sum:.1f} scenarios/s.")
+    print(f"Total benchmark run time: {time.perf_counter() - wall0:.1f} s")
+
+
+if __name__ == "__main__":
+    main()
