@@ -55,7 +55,12 @@ class Criterion:
         if self.name == "A":
             c = self.targets
             chol = _chol(q)
-            z = scipy.linalg.solve_triangular(chol, c.T, lower=True)
+            if c.shape[0] == c.shape[1] and np.array_equal(c, np.eye(c.shape[0])):
+                # trace(Q^-1) = ||L^-1||_F^2 (triangular inverse, a third of the cost of a solve)
+                z, info = scipy.linalg.lapack.dtrtri(chol, lower=1)
+                if info == 0:
+                    return float(np.sum(z * z))
+            z = scipy.linalg.solve_triangular(chol, c.T, lower=True, check_finite=False)
             return float(np.sum(z * z))
         return float(np.linalg.eigvalsh(q)[0])
 

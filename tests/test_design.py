@@ -98,9 +98,18 @@ def test_greedy_exchange_bound_ordering(count, criterion, seed):
 
 
 @pytest.mark.parametrize("criterion", ["D", "A", "E", "Ds"])
-def test_fast_path_equals_cvxpy_clarabel(criterion):
+@pytest.mark.parametrize("constraints", [
+    {},
+    {"min_spacing": 2.0},
+    {"costs": "ramp", "budget": 6.0},
+    {"span_min": [1, 1], "span_max": [2, 2]},
+])
+def test_fast_path_equals_cvxpy_clarabel(criterion, constraints):
     case = small_case((12.0, 12.0), 10, rot=(2e9, 0.0, 2e9))
-    problem = build_problem(case, 3, criterion, spacing=1.5, springs=criterion == "Ds")
+    kwargs = dict(constraints)
+    if kwargs.get("costs") == "ramp":
+        kwargs["costs"] = 1.0 + np.arange(17) / 8.0
+    problem = build_problem(case, 3, criterion, spacing=1.5, springs=criterion == "Ds", **kwargs)
     fast = solve_relaxation(problem, "fast")
     ref = solve_relaxation(problem, "cvxpy")
     scale = max(1.0, abs(ref.bound))
@@ -108,6 +117,41 @@ def test_fast_path_equals_cvxpy_clarabel(criterion):
     assert abs(fast.utility - ref.utility) <= 1e-6 * scale
     assert ref.utility - 1e-9 * scale <= fast.bound <= ref.bound + 1e-9 * scale
     assert fast.relative_gap <= 1e-6 and ref.relative_gap <= 1e-5
+
+
+@settings(max_examples=10)
+@given(st.integers(2, 4), st.sampled_from(["D", "A", "E", "Ds"]), st.integers(0, 5))
+def test_exchange_ends_at_a_local_optimum(count, criterion, seed):
+    # The pruned search (concavity bounds) must find every improving swap:
+    # check the result against all single swaps, evaluated directly.
+    rng = np.random.default_rng(seed)
+    case = small_case((rng.uniform(10, 25), rng.uniform(10, 25)), int(rng.integers(6, 12)), rot=(1e9, 0.0, 1e9))
+    problem = build_problem(case, count, criterion, spacing=case.bridge.length / 14, springs=criterion == "Ds")
+    start = list(rng.choice(problem.n_candidates, count, replace=False))
+    layout, util = exchange(problem, start)
+    assert util >= problem.utility_of(start) - 1e-12 * max(1.0, abs(util))
+    assert util == pytest.approx(problem.utility_of(layout), rel=1e-12)
+    for pos in range(count):
+        for i in range(problem.n_candidates):
+            if i in layout:
+                continue
+            trial = layout[:pos] + [i] + layout[pos + 1:]
+            assert problem.utility_of(trial) <= util + 1e-9 * max(1.0, abs(util))
+
+
+@settings(max_examples=10)
+@given(st.integers(1, 4), st.sampled_from(["A", "E", "Ds"]), st.integers(0, 5))
+def test_pruned_greedy_equals_plain_greedy(count, criterion, seed):
+    # Reference: the plain greedy step, every candidate evaluated.
+    rng = np.random.default_rng(seed)
+    case = small_case((rng.uniform(10, 25), rng.uniform(10, 25)), int(rng.integers(6, 12)), rot=(1e9, 0.0, 1e9))
+    problem = build_problem(case, count, criterion, spacing=case.bridge.length / 14, springs=criterion == "Ds")
+    chosen = []
+    for _ in range(count):
+        values = [(problem.utility_of(chosen + [i]), -i) for i in range(problem.n_candidates) if i not in chosen]
+        chosen.append(-max(values)[1])
+    layout, util = greedy(problem)
+    assert util == pytest.approx(problem.utility_of(chosen), rel=1e-10)
 
 
 @pytest.mark.parametrize("criterion", ["D", "A", "E"])
