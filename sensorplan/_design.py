@@ -70,9 +70,12 @@ class DesignResult:
     posterior_std: dict = field(default_factory=dict)
 
     def summary(self):
-        unit = {"D": "log det", "Ds": "log det", "A": "trace", "E": "lambda_min"}[self.criterion]
+        unit = {"D": "log det of the posterior precision",
+                "Ds": "log det of the posterior precision of log EI, springs marginalised",
+                "A": "trace of the posterior covariance",
+                "E": "smallest eigenvalue of the posterior precision"}[self.criterion]
         lines = [f"Recommended {self.count} {self.kind} sensor(s), {self.criterion}-optimal "
-                 f"({unit} of the posterior precision, {self.n_params} parameters)",
+                 f"({unit}, {self.n_params} parameters)",
                  "  positions [m]: " + ", ".join(f"{x:.2f}" for x in self.layout_m)]
         if self.fixed_m:
             lines.append("  existing sensors [m]: " + ", ".join(f"{x:.2f}" for x in self.fixed_m))
@@ -161,9 +164,13 @@ def build_problem(case, count, criterion="D", *, spacing=0.5, exclude=(), fixed=
         far = np.all(np.abs(positions[:, None] - fixed[None, :]) >= max(min_spacing, 1e-9), axis=1)
         positions = positions[far]
     if noise_std is None:
-        if case.noise is None:
-            raise ConfigError("No noise level for the candidate sensors: set noise_std in [sensors].")
-        noise_std = float(np.median(case.noise.std))
+        same = ([s for k, s in zip(case.sensors.kinds, case.noise.std) if k == kind]
+                if case.noise is not None else [])
+        if not same:
+            unit = "rad" if kind == "rotation" else "m"
+            raise ConfigError(f"The case has no {kind} sensor to take the noise level from; give noise_std "
+                              f"(in {unit}) for the new sensors.")
+        noise_std = float(np.median(same))
     all_pos = np.concatenate([positions, fixed])
     layout = SensorLayout.candidates(all_pos, kind, noise_std=[noise_std] * all_pos.size)
     blocks = fisher_blocks(case, sensors=layout, parameterisation="log_ei", springs=springs,
@@ -246,7 +253,7 @@ def recommend(case, count, criterion="D", *, spacing=0.5, exclude=(), fixed=(), 
     ----------
     case : Case
         Bridge, nominal EI, vehicle, load sweep and noise (median noise std
-        of the case's sensors unless ``noise_std`` is given).
+        of the case's sensors of the same ``kind`` unless ``noise_std`` is given).
     count : int
         Number of new sensors R.
     criterion : {"D", "A", "E", "Ds"}

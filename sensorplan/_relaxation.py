@@ -185,13 +185,18 @@ def solve_relaxation_fast(problem, *, tol=1e-7, start_layout=None, max_rounds=50
     return Relaxation(weights, utility, max(bound, utility), "fast", stats)
 
 
-def _derivatives(problem, blocks, flat, x, *, hessian=True):
+def _derivatives(problem, blocks, flat, x, *, hessian=True, blocks_h=None):
     """Utility, gradient and Hessian in the restricted weights ``x`` (D, Ds, A).
 
-    ``blocks`` (m, P, P) and ``flat`` (m, P*P) are the working-set blocks.
-    D: H_ij = -tr(A_i A_j), A_i = L^-1 I_i L^-T (Q = L L^T).
-    A: utility -tr(C Q^-1 C^T), gradient <M, I_i> with M = Q^-1 C^T C Q^-1,
-    H_ij = -2 tr(M I_i Q^-1 I_j).
+    ``blocks`` (m, P, P) and ``flat`` (m, P*P) are the working-set blocks;
+    ``blocks_h`` a single-precision copy used for the Hessian only (the
+    Newton direction needs a few digits; utility, gradient and hence the
+    interior-point residuals and the certificate stay in double precision).
+    D: H_ij = -<A_i, A_j>, A_i = L^-1 I_i L^-T (Q = L L^T), symmetric, so the
+    Gram matrix is formed on the upper triangles (off-diagonals scaled by sqrt 2).
+    A: utility -tr(C Q^-1 C^T); H_ij = -2 tr(M I_i Q^-1 I_j) with
+    M = Q^-1 C^T C Q^-1 = N N^T, N = Q^-1 C^T, so H_ij = -2 <B_i, B_j> with
+    B_i = L^-1 I_i N.
     """
     crit = problem.criterion
     m, p, _ = blocks.shape
@@ -206,22 +211,37 @@ def _derivatives(problem, blocks, flat, x, *, hessian=True):
     grad = flat @ gmat.ravel()
     if not hessian:
         return u, grad, None
-    stacked = blocks.reshape(m * p, p)
+    bh = blocks if blocks_h is None else blocks_h
+    dtype = bh.dtype
+    stacked = bh.reshape(m * p, p)
+    li = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True)
     if crit.name in ("D", "Ds"):
-        li = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True)
-        a = np.matmul(li, (stacked @ li.T).reshape(m, p, p)).reshape(m, -1)
-        h = -(a @ a.T)
+        lt = li.T.astype(dtype)
+        # X_i = I_i L^-T; A_i = L^-1 X_i = X_i^T L^-T (A_i symmetric): two tall products
+        xt = (stacked @ lt).reshape(m, p, p).transpose(0, 2, 1).reshape(m * p, p)
+        a = (xt @ lt).reshape(m, p, p)
+        h = -_gram_sym(a)
         if crit.name == "Ds" and crit.n_keep < p:
             k = crit.n_keep
-            ls = np.linalg.inv(np.linalg.cholesky(q[k:, k:]))
-            bs = (ls @ blocks[:, k:, k:] @ ls.T).reshape(m, -1)
-            h += bs @ bs.T
+            ls = np.linalg.inv(np.linalg.cholesky(q[k:, k:])).astype(dtype)
+            h += _gram_sym(np.matmul(ls, np.matmul(bh[:, k:, k:], ls.T)))
     else:
-        inv = scipy.linalg.cho_solve((chol, True), np.eye(p))
-        left = (stacked @ gmat).reshape(m, p, p).transpose(0, 2, 1).reshape(m, -1)  # M I_i
-        right = (stacked @ inv).reshape(m, -1)  # I_j Q^-1 = (Q^-1 I_j)^T
-        h = -2.0 * (left @ right.T)
+        n = scipy.linalg.cho_solve((chol, True), crit.targets.T)
+        # B_i = L^-1 I_i N: B_i^T = N^T I_i L^-T, so B^T stacked is (stacked N)^T-blocks times L^-T
+        nt = n.shape[1]
+        y = (stacked @ n.astype(dtype)).reshape(m, p, nt).transpose(0, 2, 1).reshape(m * nt, p)
+        b = (y @ li.T.astype(dtype)).reshape(m, -1)
+        h = -2.0 * (b @ b.T).astype(float)
     return u, grad, 0.5 * (h + h.T)
+
+
+def _gram_sym(a):
+    """<A_i, A_j>_F for symmetric A (m, P, P), from the upper triangles, in double precision."""
+    p = a.shape[1]
+    iu = np.triu_indices(p)
+    scale = np.where(iu[0] == iu[1], 1.0, np.sqrt(2.0)).astype(a.dtype)
+    v = a[:, iu[0], iu[1]] * scale
+    return (v @ v.T).astype(float)
 
 
 def _pdip_restricted(problem, idx, w_prev, *, tol, max_iter=200):
@@ -239,14 +259,26 @@ def _pdip_restricted(problem, idx, w_prev, *, tol, max_iter=200):
     if np.any(~keep & (b_ub < 0)):
         raise SolverError("The working set cannot satisfy the span minimum counts.")
     rows, rhs = rows[keep], b_ub[keep]
-    g_mat = np.vstack([rows, np.eye(m), -np.eye(m)])
+    k = rows.shape[0]
     h_vec = np.concatenate([rhs, np.ones(m), np.zeros(m)])
     n_ineq = h_vec.size
     count = problem.count
     blocks = problem.blocks[idx]
     flat = blocks.reshape(m, -1)
-    x = _interior_start(g_mat, h_vec, m, count, w_prev, idx)
-    slack = h_vec - g_mat @ x
+    blocks_h = blocks.astype(np.float32)
+
+    # G = [rows; I; -I] applied without forming it (the box is diagonal)
+    def g_dot(v):
+        return np.concatenate([rows @ v, v, -v])
+
+    def gt_dot(v):
+        return rows.T @ v[:k] + v[k:k + m] - v[k + m:]
+
+    if w_prev is None or k:
+        x = _interior_start(np.vstack([rows, np.eye(m), -np.eye(m)]), h_vec, m, count, w_prev, idx)
+    else:
+        x = _interior_start_box(m, count, w_prev, idx)
+    slack = h_vec - g_dot(x)
     lam = 1.0 / slack
     nu = 0.0
     ones = np.ones(m)
@@ -254,33 +286,40 @@ def _pdip_restricted(problem, idx, w_prev, *, tol, max_iter=200):
 
     def residuals(xv, lv, nv, t):
         u, g, _ = _derivatives(problem, blocks, flat, xv, hessian=False)
-        sl = h_vec - g_mat @ xv
-        r_dual = -g + g_mat.T @ lv + nv * ones
+        sl = h_vec - g_dot(xv)
+        r_dual = -g + gt_dot(lv) + nv * ones
         r_cent = lv * sl - 1.0 / t
         r_pri = xv.sum() - count
         return u, np.sqrt(r_dual @ r_dual + r_cent @ r_cent + r_pri * r_pri)
 
-    u, g, hess = _derivatives(problem, blocks, flat, x)
+    u, g, hess = _derivatives(problem, blocks, flat, x, blocks_h=blocks_h)
     for it in range(1, max_iter + 1):
         eta = float(slack @ lam)
         t = mu * n_ineq / eta
-        r_dual = -g + g_mat.T @ lam + nu * ones
+        r_dual = -g + gt_dot(lam) + nu * ones
         scale = max(1.0, float(np.max(np.abs(g))))
         if eta <= tol * max(1.0, abs(u)) and np.max(np.abs(r_dual)) <= tol * scale \
                 and abs(x.sum() - count) <= 1e-9 * count:
             break
         d = lam / slack
-        kkt = np.zeros((m + 1, m + 1))
-        kkt[:m, :m] = -hess + (g_mat.T * d) @ g_mat
-        kkt[:m, m] = kkt[m, :m] = 1.0
-        rhs_x = g - nu * ones - g_mat.T @ (1.0 / (t * slack))
-        rhs = np.concatenate([rhs_x, [count - x.sum()]])
+        kmat = -hess
+        kmat[np.diag_indices(m)] += d[k:k + m] + d[k + m:]
+        if k:
+            kmat += (rows.T * d[:k]) @ rows
+        rhs_x = g - nu * ones - gt_dot(1.0 / (t * slack))
+        # eliminate the equality: K dx + dnu 1 = rhs_x, 1^T dx = count - sum(x)
         try:
-            sol = scipy.linalg.solve(kkt, rhs, assume_a="sym")
-        except (np.linalg.LinAlgError, ValueError):
-            sol = np.linalg.lstsq(kkt, rhs, rcond=None)[0]
-        dx, dnu = sol[:m], sol[m]
-        gdx = g_mat @ dx
+            factor = scipy.linalg.cho_factor(kmat, check_finite=False)
+            y = scipy.linalg.cho_solve(factor, np.column_stack([rhs_x, ones]), check_finite=False)
+            dnu = (y[:, 0].sum() - (count - x.sum())) / y[:, 1].sum()
+            dx = y[:, 0] - dnu * y[:, 1]
+        except (np.linalg.LinAlgError, ZeroDivisionError):
+            kkt = np.zeros((m + 1, m + 1))
+            kkt[:m, :m] = kmat
+            kkt[:m, m] = kkt[m, :m] = 1.0
+            sol = np.linalg.lstsq(kkt, np.concatenate([rhs_x, [count - x.sum()]]), rcond=None)[0]
+            dx, dnu = sol[:m], sol[m]
+        gdx = g_dot(dx)
         dlam = (lam * gdx - (lam * slack - 1.0 / t)) / slack
         step = 1.0
         neg = dlam < 0
@@ -301,8 +340,8 @@ def _pdip_restricted(problem, idx, w_prev, *, tol, max_iter=200):
         x = x + step * dx
         lam = lam + step * dlam
         nu = nu + step * dnu
-        slack = h_vec - g_mat @ x
-        u, g, hess = _derivatives(problem, blocks, flat, x)
+        slack = h_vec - g_dot(x)
+        u, g, hess = _derivatives(problem, blocks, flat, x, blocks_h=blocks_h)
     return np.clip(x, 0.0, 1.0), float(nu), it
 
 
@@ -406,6 +445,15 @@ def _small_e_sdp(problem, idx, basis, *, tol):
     nu = abs(float(count.dual_value)) if count.dual_value is not None else 0.0
     return (float(prob.value), np.clip(w.value, 0.0, 1.0), 0.5 * (z + z.T), nu,
             time.perf_counter() - start)
+
+
+def _interior_start_box(m, count, w_prev, idx):
+    """Strictly inside 0 < x < 1, sum x = count: the previous weights pulled towards uniform."""
+    x = 0.9 * w_prev[idx] + 0.1 * count / m
+    x *= count / x.sum()
+    if np.all(x > 0) and np.all(x < 1):
+        return x
+    return np.full(m, count / m)
 
 
 def _interior_start(g_mat, h_vec, m, count, w_prev, idx):
