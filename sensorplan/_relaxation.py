@@ -386,15 +386,19 @@ def _solve_e_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=10):
         if gap <= tol:
             break
         grown = False
+        trace = max(float(np.trace(z)), 1e-300)
+        gz = problem.flat_blocks @ (z / trace).ravel()
+        threshold = nu / trace
         if small_value < bound - 0.1 * tol * max(1.0, abs(bound)) and len(working) < c:
             # the working set limits the small SDP: add the candidates that would enter
-            zn = z / max(np.trace(z), 1e-300)
-            gz = problem.flat_blocks @ zn.ravel()
             outside = np.setdiff1d(np.arange(c), idx)
-            enter = outside[gz[outside] > nu / max(np.trace(z), 1e-300)]
+            enter = outside[gz[outside] > threshold]
             enter = enter[np.argsort(-gz[enter], kind="stable")][: max(2 * r, 20)]
             working |= set(enter.tolist())
             grown = enter.size > 0
+        # candidates with no weight and a gradient well below the threshold leave
+        # (the SDP is solved afresh each round, so a smaller set only saves time)
+        working -= set(idx[(wr < 1e-7) & (gz[idx] < threshold - 0.05 * abs(threshold))].tolist())
         sel = np.nonzero(lam < small_value)[0][:8]
         if sel.size:
             new = vec[:, sel] - basis @ (basis.T @ vec[:, sel])
