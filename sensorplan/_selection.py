@@ -76,7 +76,7 @@ def iter_greedy(problem, *, start=()):
     formula on the Cholesky factor L of the current precision) and lazy
     evaluations are used (the gains of D are submodular: they can only
     shrink as the layout grows).  Other criteria evaluate candidates in
-    decreasing order of the concavity bound of :func:`_upper_bounds` and
+    decreasing order of the upper bound of :func:`_upper_bounds` and
     stop when no remaining bound beats the best gain found: the result is
     the exact greedy step.
     """
@@ -134,11 +134,44 @@ def greedy(problem, *, start=()):
     return chosen, utility
 
 
-def exchange(problem, layout, *, max_sweeps=50):
+def _subproblem(problem, index):
+    """The placement problem restricted to the candidates ``index`` (sorted)."""
+    from dataclasses import replace
+
+    return replace(problem, positions=problem.positions[index], spans=problem.spans[index],
+                   blocks=problem.blocks[index], costs=None if problem.costs is None else problem.costs[index])
+
+
+def exchange(problem, layout, *, max_sweeps=50, coarse_above=300):
+    """Swap local search from ``layout`` (see :func:`_exchange`), coarse to fine on large grids.
+
+    With more than ``coarse_above`` candidates, the search first runs on
+    every k-th candidate (plus the start layout), k = C // (coarse_above / 2),
+    then on all candidates from the coarse result: neighbouring candidates
+    carry nearly the same information, so most swaps are settled on the
+    coarse grid and the fine search only polishes.  The result is a local
+    optimum of the full problem either way.
+    """
+    layout = [int(i) for i in layout]
+    c = problem.n_candidates
+    if c > coarse_above:
+        step = max(2, c // (coarse_above // 2))
+        index = np.union1d(np.arange(0, c, step), layout)
+        local = {int(j): n for n, j in enumerate(index)}
+        sub = _subproblem(problem, index)
+        coarse, _ = _exchange(sub, [local[i] for i in layout], max_sweeps=max_sweeps)
+        layout = [int(index[n]) for n in coarse]
+    return _exchange(problem, layout, max_sweeps=max_sweeps)
+
+
+def _exchange(problem, layout, *, max_sweeps=50):
     """Swap local search from ``layout``: best improving swap per removed sensor, until none.
 
+    Sensors are visited in turn; the search stops when a whole round of
+    sensors in a row has no improving swap (or after ``max_sweeps`` rounds).
+
     For each sensor in turn the best replacement is found exactly, but
-    candidates are evaluated in decreasing order of the concavity bound of
+    candidates are evaluated in decreasing order of the upper bound of
     :func:`_upper_bounds` on the layout without that sensor, stopping once
     no bound beats the best value found (most candidates are never
     evaluated).
@@ -146,29 +179,31 @@ def exchange(problem, layout, *, max_sweeps=50):
     layout = list(layout)
     crit = problem.criterion
     best = problem.utility_of(layout)
-    for _ in range(max_sweeps):
-        improved = False
-        for pos in range(len(layout)):
-            rest = layout[:pos] + layout[pos + 1:]
-            q_rest = problem.layout_precision(rest)
-            _, ub = _upper_bounds(problem, q_rest)
-            taken = set(layout)
-            cand_best, cand_util = None, best + 1e-12 * max(1.0, abs(best))
-            for i in np.argsort(-ub, kind="stable"):
-                if ub[i] + _slack(ub[i]) <= cand_util:
-                    break
-                i = int(i)
-                if i in taken or not problem.partial_ok(rest + [i]):
-                    continue
-                u = crit.utility(q_rest + problem.blocks[i])
-                if u > cand_util:
-                    cand_best, cand_util = i, u
-            if cand_best is not None:
-                layout = rest[:pos] + [cand_best] + rest[pos:]
-                best = problem.utility_of(layout)
-                improved = True
-        if not improved:
-            break
+    n = len(layout)
+    quiet, pos, visited = 0, 0, 0  # positions in a row without an improving swap
+    while quiet < n and visited < max_sweeps * n:
+        rest = layout[:pos] + layout[pos + 1:]
+        q_rest = problem.layout_precision(rest)
+        _, ub = _upper_bounds(problem, q_rest)
+        taken = set(layout)
+        cand_best, cand_util = None, best + 1e-12 * max(1.0, abs(best))
+        for i in np.argsort(-ub, kind="stable"):
+            if ub[i] + _slack(ub[i]) <= cand_util:
+                break
+            i = int(i)
+            if i in taken or not problem.partial_ok(rest + [i]):
+                continue
+            u = crit.utility(q_rest + problem.blocks[i])
+            if u > cand_util:
+                cand_best, cand_util = i, u
+        if cand_best is not None:
+            layout = rest[:pos] + [cand_best] + rest[pos:]
+            best = problem.utility_of(layout)
+            quiet = 0
+        else:
+            quiet += 1
+        pos = (pos + 1) % n
+        visited += 1
     return layout, best
 
 
