@@ -1,6 +1,4 @@
-"""Integer layouts: greedy (lazy, rank-update gains for D), exchange, rounding, baselines."""
-
-import math
+"""Integer layouts: greedy (exact steps, pruned by upper bounds), exchange, rounding, baselines."""
 
 import numpy as np
 import scipy.linalg
@@ -8,17 +6,6 @@ import scipy.linalg
 from ._errors import SolverError
 
 __all__ = ["iter_greedy", "greedy", "exchange", "round_weights", "baselines"]
-
-
-def _block_factors(problem, rel_tol=1e-13):
-    """Low-rank factors F_i with I_i = F_i F_i^T (eigenvalues below rel_tol * max dropped)."""
-    vals, vecs = np.linalg.eigh(problem.blocks)
-    top = max(float(vals.max()), 1e-300)
-    factors = []
-    for lam, v in zip(vals, vecs):
-        keep = lam > rel_tol * top
-        factors.append(v[:, keep] * np.sqrt(lam[keep]))
-    return factors
 
 
 def _upper_bounds(problem, q, k=16):
@@ -72,10 +59,10 @@ def _slack(u):
 def iter_greedy(problem, *, start=()):
     """Yield ``(index, utility)`` as candidates are added greedily.
 
-    For D the gains are log det(I + W^T W) with W = L^{-1} F_i (rank-update
-    formula on the Cholesky factor L of the current precision) and lazy
-    evaluations are used (the gains of D are submodular: they can only
-    shrink as the layout grows).  Other criteria evaluate candidates in
+    For D lazy evaluations are used: the gains of D are submodular (they can
+    only shrink as the layout grows), so a stale gain is an upper bound
+    (the first step uses the bounds of :func:`_upper_bounds`).  Other
+    criteria evaluate candidates in
     decreasing order of the upper bound of :func:`_upper_bounds` and
     stop when no remaining bound beats the best gain found: the result is
     the exact greedy step.
@@ -83,8 +70,7 @@ def iter_greedy(problem, *, start=()):
     chosen = list(start)
     crit = problem.criterion
     lazy = crit.name == "D"
-    factors = _block_factors(problem) if lazy else None
-    bounds = np.full(problem.n_candidates, np.inf)
+    bounds = None
     while len(chosen) < problem.count:
         q = problem.layout_precision(chosen)
         taken = set(chosen)
@@ -93,15 +79,16 @@ def iter_greedy(problem, *, start=()):
         if not ok:
             raise SolverError("Greedy selection found no feasible candidate; relax the constraints.")
         if lazy:
-            chol = np.linalg.cholesky(q)
+            u_q = crit.utility(q)
+            if bounds is None:  # first step: the bounds of _upper_bounds, as gains
+                bounds = _upper_bounds(problem, q)[1] - u_q + _slack(u_q)
             order = sorted(ok, key=lambda i: -bounds[i])
             best, best_gain = None, -np.inf
             for i in order:
                 if bounds[i] <= best_gain:
                     break
-                w = scipy.linalg.solve_triangular(chol, factors[i], lower=True)
-                gain = _logdet_small(w) if w.shape[1] else 0.0
-                bounds[i] = gain
+                gain = crit.utility(q + problem.blocks[i]) - u_q
+                bounds[i] = gain + _slack(u_q)
                 if gain > best_gain:
                     best, best_gain = i, gain
             chosen.append(best)
@@ -117,11 +104,6 @@ def iter_greedy(problem, *, start=()):
                     best, best_u = int(i), u
             chosen.append(best)
         yield list(chosen), problem.utility_of(chosen)
-
-
-def _logdet_small(w):
-    g = np.eye(w.shape[1]) + w.T @ w
-    return float(2.0 * np.sum(np.log(np.diag(np.linalg.cholesky(g)))))
 
 
 def greedy(problem, *, start=()):
