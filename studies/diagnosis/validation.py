@@ -47,8 +47,18 @@ Writes ``diagnosis_validation.csv`` (one row per dataset),
 ``diagnosis_shrinkage.png`` to ``--out`` (default studies/output).
 
 Run: python studies/diagnosis/validation.py [--quick] [--out DIR] [--workers N]
-The full study takes about 15 minutes on 2 cores; --quick (one bridge, four
-datasets) under a minute.
+The full study takes 15 to 35 minutes on 2 cores (longer when the machine is
+shared); --quick (one bridge, four datasets) under a minute.
+
+Last run (2026-11-23, 100 datasets, 34.8 min on a shared 2-core machine):
+top-ranked cause right for 79/80 = 99 % of the single-effect datasets (65/80
+named strictly; the other 14 are effects reported as confounded with an EI
+change: 7 sensor_position, 3 dynamic_amplification, 2 support springs, 2
+axle loads), wrong once (three-span, AR(1) noise, dynamic amplification
+named as axle loads: two global load scalings); false alarms 0/10; held-out
+rms after the true effect within 20 % of the noise floor in 80/80 (median
+1.005, max 1.053 x noise); the out-of-library vibration reported as
+unexplained in 10/10.
 """
 
 import os
