@@ -87,15 +87,18 @@ It is deterministic (fixed seeds); the timings are not.  It takes about 10
 minutes on a 2-core machine, mostly in the cvxpy references (the timeouts,
 see below, keep it from hanging) and the profile of a missed target.
 
-Last run (2026-11-23, commit 4681074, load average ~1): size 1, D + A + E
-recommend() 3.2 s (target 5 s, met; cvxpy + Clarabel: D 74.5 s, A timed
-out at 120 s, E 6.5 s for the relaxation alone; the fast path 0.16,
-0.26 and 0.67 s); size 2, 82.4 s (target 30 s,
-NOT met: D 15.3, A 27.6, E 39.4 s; the exchange searches, 36 s, and the E
-subspace SDPs, 19 s, dominate the profile).  Every relaxation solved reached
-a certified relative gap <= 1.5e-7; certified efficiencies of the
-recommended layouts: size 1 D 97.4 %, A 93.8 %, E 85.8 %; size 2 D 98.7 %,
-A 93.7 %, E 94.3 %.
+Last run (2026-11-23, commit 0d4e3b5, load average 0.1 at start): size 1,
+D + A + E recommend() 2.6 s (target 5 s, met; D 0.48, A 0.69, E 1.42 s).
+The relaxation alone: cvxpy + Clarabel D 63.2 s, A 96.4 s, E 5.4 s; the
+fast path 0.19, 0.37 and 0.70 s (ratios 0.003, 0.004, 0.13).  Size 2:
+59.8 s (target 30 s, NOT met: D 10.2, A 24.8, E 24.7 s).  In the profile,
+the exchange searches take about half (their upper bounds need a pass over
+all C x P x P block entries per visited sensor), the E subspace SDPs 12 s
+and the interior-point Hessians 14 s.  Every relaxation solved reached a
+certified relative gap <= 1e-6 (largest 9.7e-7, cvxpy A at size 1; fast path
+<= 7.2e-8); cvxpy at size 2 was skipped (D, A) or timed out (E).  Certified
+efficiencies of the recommended layouts: size 1 D 97.4 %, A 93.8 %, E 85.8 %;
+size 2 D 98.7 %, A 93.7 %, E 94.3 %.
 """
 
 import os
