@@ -87,7 +87,7 @@ It is deterministic (fixed seeds); the timings are not.  It takes about 10
 minutes on a 2-core machine, mostly in the cvxpy references (the timeouts,
 see below, keep it from hanging) and the profile of a missed target.
 
-Last run (2026-11-23, commit 0d4e3b5, load average 0.1 at start): size 1,
+Last run (2026-11-23, commit de6ff65, load average 0.1 at start): size 1,
 D + A + E recommend() 2.6 s (target 5 s, met; D 0.48, A 0.69, E 1.42 s).
 The relaxation alone: cvxpy + Clarabel D 63.2 s, A 96.4 s, E 5.4 s; the
 fast path 0.19, 0.37 and 0.70 s (ratios 0.003, 0.004, 0.13).  Size 2:
