@@ -204,7 +204,9 @@ def solve_relaxation(problem, solver="auto", start_layout=None):
 def _best_layout(problem, relaxation, starts, greedy_layout=None):
     """Best of exchange from: the rounded relaxation, the greedy layout, the best baseline.
 
-    Exchange never makes a start worse, and a baseline still better than the
+    On large candidate grids each start is improved on a coarse grid and only
+    the best result is polished on all candidates.  Exchange never makes a
+    start worse, and a baseline still better than the
     result is used as a start too, so the result is never worse than any
     baseline.
     """
@@ -229,8 +231,9 @@ def _best_layout(problem, relaxation, starts, greedy_layout=None):
     best = None
 
     def consider(method, start):
+        # on large grids: the coarse-grid local optimum only; the best one is polished below
         nonlocal best
-        layout, util = exchange(problem, start)
+        layout, util = exchange(problem, start, polish=False)
         if best is None or util > best[2] + 1e-12 * max(1.0, abs(util)):
             best = (method, layout, util)
 
@@ -239,7 +242,8 @@ def _best_layout(problem, relaxation, starts, greedy_layout=None):
     for util, name, start in scored[1:]:  # a baseline still better than the result
         if util > best[2]:
             consider(f"exchange from {name}", start)
-    return best
+    layout, util = exchange(problem, best[1])
+    return best[0], layout, util
 
 
 @single_threaded

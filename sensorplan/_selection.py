@@ -124,25 +124,33 @@ def _subproblem(problem, index):
                    blocks=problem.blocks[index], costs=None if problem.costs is None else problem.costs[index])
 
 
-def exchange(problem, layout, *, max_sweeps=50, coarse_above=300):
+COARSE_ABOVE = 300  # candidates above which exchange searches a coarse grid first
+
+
+def exchange(problem, layout, *, max_sweeps=50, coarse_above=None, polish=True):
     """Swap local search from ``layout`` (see :func:`_exchange`), coarse to fine on large grids.
 
-    With more than ``coarse_above`` candidates, the search first runs on
+    With more than ``coarse_above`` candidates (default ``COARSE_ABOVE``), the search first runs on
     every k-th candidate (plus the start layout), k = C // (coarse_above / 2),
     then on all candidates from the coarse result: neighbouring candidates
     carry nearly the same information, so most swaps are settled on the
     coarse grid and the fine search only polishes.  The result is a local
-    optimum of the full problem either way.
+    optimum of the full problem either way, unless ``polish`` is false: then
+    the coarse local optimum is returned (to polish only the best of several
+    starts).
     """
     layout = [int(i) for i in layout]
     c = problem.n_candidates
+    coarse_above = COARSE_ABOVE if coarse_above is None else coarse_above
     if c > coarse_above:
         step = max(2, c // (coarse_above // 2))
         index = np.union1d(np.arange(0, c, step), layout)
         local = {int(j): n for n, j in enumerate(index)}
         sub = _subproblem(problem, index)
-        coarse, _ = _exchange(sub, [local[i] for i in layout], max_sweeps=max_sweeps)
+        coarse, util = _exchange(sub, [local[i] for i in layout], max_sweeps=max_sweeps)
         layout = [int(index[n]) for n in coarse]
+        if not polish:
+            return layout, util
     return _exchange(problem, layout, max_sweeps=max_sweeps)
 
 

@@ -119,6 +119,35 @@ def test_fast_path_equals_cvxpy_clarabel(criterion, constraints):
     assert fast.relative_gap <= 1e-6 and ref.relative_gap <= 1e-5
 
 
+@pytest.mark.parametrize("criterion", ["D", "A", "E"])
+def test_coarse_to_fine_recommendation_keeps_its_guarantees(criterion, monkeypatch):
+    # Force the large-grid path (coarse exchange per start, best one polished)
+    # on a problem small enough to enumerate.
+    from sensorplan import _selection
+
+    monkeypatch.setattr(_selection, "COARSE_ABOVE", 6)
+    case = small_case((12.0, 12.0), 8, rot=(2e9, 0.0, 2e9))
+    result = recommend(case, 3, criterion, spacing=2.0, curve_max=0, n_random=20)
+    problem = build_problem(case, 3, criterion, spacing=2.0)
+    _, best_u, _ = brute_force(problem)
+    sign = 1.0 if problem.criterion.maximise else -1.0
+    tol = 1e-9 * max(1.0, abs(best_u))
+    assert sign * result.value <= best_u + tol
+    assert sign * result.value <= sign * result.bound + tol
+    assert problem.feasible(list(result.layout_index))
+    for name, b in result.baselines.items():
+        if b is not None:
+            assert sign * (result.value - b["value"]) >= -tol, name
+    # the polished layout is a local optimum of the full problem
+    layout = list(result.layout_index)
+    util = problem.utility_of(layout)
+    for pos in range(3):
+        for i in range(problem.n_candidates):
+            if i not in layout:
+                trial = layout[:pos] + [i] + layout[pos + 1:]
+                assert problem.utility_of(trial) <= util + tol
+
+
 @settings(max_examples=12)
 @given(st.integers(2, 4), st.sampled_from(["D", "A", "E", "Ds"]), st.integers(0, 5), st.booleans())
 def test_exchange_ends_at_a_local_optimum(count, criterion, seed, coarse):
