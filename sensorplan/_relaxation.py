@@ -148,6 +148,7 @@ def solve_relaxation_fast(problem, *, tol=1e-7, start_layout=None, max_rounds=50
     weights, nu = None, None
     newton_iters = 0
     gap = np.inf
+    dropped = set()
     inner = 1e-3  # early rounds only locate the support: solve them loosely
     for rounds in range(1, max_rounds + 1):
         idx = np.array(sorted(working))
@@ -175,9 +176,11 @@ def solve_relaxation_fast(problem, *, tol=1e-7, start_layout=None, max_rounds=50
             inner = 0.1 * tol  # the support is found: solve accurately
             continue
         inner = max(0.1 * tol, min(inner, 0.1 * gap))
-        # drop candidates that are clearly out (zero weight, gradient well below the multiplier)
-        drop = idx[(x < 1e-2) & (grad[idx] < nu - 0.05 * abs(nu))]
-        working -= set(drop.tolist())
+        # drop candidates that look out (small weight, gradient below the multiplier);
+        # a candidate is dropped at most once, so the rounds cannot cycle
+        drop = [i for i in idx[(x < 1e-2) & (grad[idx] < nu)].tolist() if i not in dropped]
+        dropped.update(drop)
+        working -= set(drop)
         working |= set(enter.tolist())
     stats = {"solver": "column-generation+interior-point", "status": "optimal" if gap <= tol else "gap above tolerance",
              "rounds": rounds, "working_set": len(working), "newton_iterations": newton_iters,
@@ -282,7 +285,7 @@ def _pdip_restricted(problem, idx, w_prev, *, tol, max_iter=200):
     lam = 1.0 / slack
     nu = 0.0
     ones = np.ones(m)
-    mu, alpha, beta = 10.0, 0.01, 0.5
+    growth, alpha, beta = 10.0, 0.01, 0.5
 
     def residuals(xv, lv, nv, t):
         u, g, _ = _derivatives(problem, blocks, flat, xv, hessian=False)
@@ -295,7 +298,7 @@ def _pdip_restricted(problem, idx, w_prev, *, tol, max_iter=200):
     u, g, hess = _derivatives(problem, blocks, flat, x, blocks_h=blocks_h)
     for it in range(1, max_iter + 1):
         eta = float(slack @ lam)
-        t = mu * n_ineq / eta
+        t = growth * n_ineq / eta
         r_dual = -g + gt_dot(lam) + nu * ones
         scale = max(1.0, float(np.max(np.abs(g))))
         if eta <= tol * max(1.0, abs(u)) and np.max(np.abs(r_dual)) <= tol * scale \
