@@ -134,7 +134,10 @@ def exchange(problem, layout, *, max_sweeps=50, coarse_above=None, polish=True):
     every k-th candidate (plus the start layout), k = C // (coarse_above / 2),
     then on all candidates from the coarse result: neighbouring candidates
     carry nearly the same information, so most swaps are settled on the
-    coarse grid and the fine search only polishes.  The result is a local
+    coarse grid.  The polish first moves each sensor to the best of its k
+    nearest candidates on either side (exact values, a few per sensor) until
+    no such move improves, then runs the full search, which certifies
+    that no swap with any candidate improves.  The result is a local
     optimum of the full problem either way, unless ``polish`` is false: then
     the coarse local optimum is returned (to polish only the best of several
     starts).
@@ -151,7 +154,39 @@ def exchange(problem, layout, *, max_sweeps=50, coarse_above=None, polish=True):
         layout = [int(index[n]) for n in coarse]
         if not polish:
             return layout, util
+        layout = _local_moves(problem, layout, step, max_sweeps=max_sweeps)
     return _exchange(problem, layout, max_sweeps=max_sweeps)
+
+
+def _local_moves(problem, layout, radius, *, max_sweeps=50):
+    """Move sensors to better candidates among their ``radius`` neighbours on each side (by position)."""
+    layout = list(layout)
+    crit = problem.criterion
+    order = np.argsort(problem.positions, kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    best = problem.utility_of(layout)
+    for _ in range(max_sweeps):
+        moved = False
+        for pos in range(len(layout)):
+            rest = layout[:pos] + layout[pos + 1:]
+            q_rest = problem.layout_precision(rest)
+            r0 = rank[layout[pos]]
+            taken = set(layout)
+            cand_best, cand_util = None, best + 1e-12 * max(1.0, abs(best))
+            for i in order[max(0, r0 - radius): r0 + radius + 1].tolist():
+                if i in taken or not problem.partial_ok(rest + [i]):
+                    continue
+                u = crit.utility(q_rest + problem.blocks[i])
+                if u > cand_util:
+                    cand_best, cand_util = i, u
+            if cand_best is not None:
+                layout[pos] = cand_best
+                best = problem.utility_of(layout)
+                moved = True
+        if not moved:
+            break
+    return layout
 
 
 def _exchange(problem, layout, *, max_sweeps=50):
