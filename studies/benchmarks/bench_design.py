@@ -87,18 +87,19 @@ It is deterministic (fixed seeds); the timings are not.  It takes about 10
 minutes on a 2-core machine, mostly in the cvxpy references (the timeouts,
 see below, keep it from hanging) and the profile of a missed target.
 
-Last run (2026-11-23, commit de6ff65, load average 0.1 at start): size 1,
-D + A + E recommend() 2.6 s (target 5 s, met; D 0.48, A 0.69, E 1.42 s).
-The relaxation alone: cvxpy + Clarabel D 63.2 s, A 96.4 s, E 5.4 s; the
-fast path 0.19, 0.37 and 0.70 s (ratios 0.003, 0.004, 0.13).  Size 2:
-59.8 s (target 30 s, NOT met: D 10.2, A 24.8, E 24.7 s).  In the profile,
-the exchange searches take about half (their upper bounds need a pass over
-all C x P x P block entries per visited sensor), the E subspace SDPs 12 s
-and the interior-point Hessians 14 s.  Every relaxation solved reached a
-certified relative gap <= 1e-6 (largest 9.7e-7, cvxpy A at size 1; fast path
-<= 7.2e-8); cvxpy at size 2 was skipped (D, A) or timed out (E).  Certified
-efficiencies of the recommended layouts: size 1 D 97.4 %, A 93.8 %, E 85.8 %;
-size 2 D 98.7 %, A 93.7 %, E 94.3 %.
+Last run (2026-11-23, commit eb0fa44, load average 0.7 at start, 1.2 at
+end): size 1, D + A + E recommend() 3.0 s (target 5 s, met; D 0.51, A 0.81,
+E 1.68 s).  The relaxation alone: cvxpy + Clarabel D 61.6 s, A 104.0 s,
+E 5.9 s; the fast path 0.17, 0.22 and 0.89 s (ratios 0.003, 0.002, 0.15).
+Size 2: 35.6 s (target 30 s, NOT met by 5.6 s: D 6.1, A 9.2, E 20.4 s; the
+previous run, commit de6ff65, took 59.8 s).  In the profile the E subspace
+SDPs take 12.8 s of Clarabel time (18 rounds, the last ones with a
+43-dimensional subspace and 160 working candidates), the exchange upper
+bounds 5.6 s and the interior-point Hessians 4.9 s.  Every relaxation solved
+reached a certified relative gap <= 1e-6 (largest 9.7e-7, cvxpy A at size 1;
+fast path <= 7.2e-8); cvxpy at size 2 was skipped (D, A) or timed out (E).
+Certified efficiencies of the recommended layouts: size 1 D 97.4 %, A 93.8 %,
+E 85.8 %; size 2 D 98.7 %, A 93.7 %, E 94.3 %.
 """
 
 import os
