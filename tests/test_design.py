@@ -119,6 +119,66 @@ def test_fast_path_equals_cvxpy_clarabel(criterion, constraints):
     assert fast.relative_gap <= 1e-6 and ref.relative_gap <= 1e-5
 
 
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("side", [False, True])
+def test_small_lmi_interior_point_matches_clarabel(seed, side):
+    # The E subspace SDP solver (_lmi_ipm) against cvxpy + Clarabel on random
+    # problems: same optimum, a trace-one PSD multiplier, feasible weights.
+    import cvxpy as cp
+
+    from sensorplan._relaxation import _lmi_ipm
+
+    rng = np.random.default_rng(seed)
+    k, m, count = 7, 30, 5
+    f = rng.normal(size=(m, k, 3))
+    bmat = np.einsum("mpr,mqr->mpq", f, f) * rng.uniform(0.5, 5.0, m)[:, None, None]
+    a0 = rng.normal(size=(k, k))
+    b0 = a0 @ a0.T * 0.05 + 0.2 * np.eye(k)
+    rows, rhs = np.zeros((0, m)), np.zeros(0)
+    if side:  # a budget, at most 2 of the first 12, at least 1 of the last 6
+        rows = np.vstack([rng.uniform(0.5, 2.0, m), (np.arange(m) < 12) * 1.0, -1.0 * (np.arange(m) >= 24)])
+        rhs = np.array([1.3 * count, 2.0, -1.0])
+    value, w, x, nu, status, _ = _lmi_ipm(b0, bmat, rows, rhs, count, tol=1e-9)
+    wv, t = cp.Variable(m), cp.Variable()
+    mat = b0 + cp.reshape(bmat.reshape(m, -1).T @ wv, (k, k), order="C")
+    cons = [wv >= 0, wv <= 1, cp.sum(wv) == count, 0.5 * (mat + mat.T) - t * np.eye(k) >> 0]
+    if side:
+        cons.append(rows @ wv <= rhs)
+    ref = cp.Problem(cp.Maximize(t), cons)
+    ref.solve(solver=cp.CLARABEL, tol_gap_abs=1e-10, tol_gap_rel=1e-10, tol_feas=1e-10)
+    if status != "optimal":  # the caller falls back to Clarabel; the value is still close
+        assert abs(value - ref.value) <= 1e-6 * max(1.0, abs(ref.value))
+        return
+    assert abs(value - ref.value) <= 1e-8 * max(1.0, abs(ref.value))
+    assert abs(nu - cons[2].dual_value) <= 1e-5 * max(1.0, abs(nu))
+    assert np.linalg.eigvalsh(x)[0] >= -1e-9 and abs(np.trace(x) - 1.0) <= 1e-8
+    assert w.min() >= -1e-9 and w.max() <= 1 + 1e-9 and abs(w.sum() - count) <= 1e-8
+    if side:
+        assert np.all(rows @ w <= rhs + 1e-8)
+    # the multiplier certifies: lambda_min(S(w')) <= <X, S(w')> for every w', so
+    # the LP over the feasible set with X's gradient bounds the optimum
+    s_w = b0 + (w @ bmat.reshape(m, -1)).reshape(k, k)
+    assert np.linalg.eigvalsh(s_w)[0] >= value - 1e-7 * max(1.0, abs(value))
+
+
+def test_small_e_sdp_falls_back_to_clarabel(monkeypatch):
+    from sensorplan import _relaxation
+
+    case = small_case((12.0, 12.0), 10, rot=(2e9, 0.0, 2e9))
+    problem = build_problem(case, 3, "E", spacing=1.5)
+    reference = solve_relaxation(problem, "fast")
+    assert reference.stats["clarabel_fallbacks"] == 0
+
+    def failing(*args, **kwargs):
+        return 0.0, None, None, 0.0, "numerical problems", 1
+
+    monkeypatch.setattr(_relaxation, "_lmi_ipm", failing)
+    fallback = solve_relaxation(problem, "fast")
+    assert fallback.stats["clarabel_fallbacks"] == fallback.stats["rounds"]
+    assert abs(fallback.bound - reference.bound) <= 1e-6 * max(1.0, abs(reference.bound))
+    assert fallback.relative_gap <= 1e-6
+
+
 @pytest.mark.parametrize("criterion", ["D", "A", "E"])
 def test_coarse_to_fine_recommendation_keeps_its_guarantees(criterion, monkeypatch):
     # Force the large-grid path (coarse exchange per start, best one polished)
