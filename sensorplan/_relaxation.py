@@ -13,7 +13,9 @@ solver's own accuracy claims:
   candidates) and the working set grows with the candidates whose gradient
   beats the count multiplier, until the duality gap over *all* candidates
   is below the tolerance.  E (non-smooth) is solved by an eigen-subspace
-  cutting-plane method: small k x k SDPs with cvxpy + Clarabel.
+  cutting-plane method: small k x k SDPs, each by a Schur-complement
+  primal-dual interior-point method (:func:`_lmi_ipm`; Clarabel if it
+  fails).
 """
 
 import time
@@ -353,8 +355,8 @@ def _solve_e_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=10):
 
     For an orthonormal basis V (P x k), lambda_min(V^T Q V) >= lambda_min(Q)
     for every Q, so the small SDP  max_w lambda_min(V^T Q(w) V)  is a relaxation of the
-    E problem (solved by cvxpy + Clarabel on a k x k LMI, over a working set
-    of candidates).  Its dual matrix Z_k gives Z = V Z_k V^T, trace one and
+    E problem (a k x k LMI over a working set of candidates, solved by
+    :func:`_small_e_sdp`).  Its dual matrix Z_k gives Z = V Z_k V^T, trace one and
     PSD, hence a certified bound over *all* candidates
     (:meth:`DesignProblem.e_bound`); the eigenvectors of Q(w) with eigenvalues
     below the small SDP's value join V and candidates whose <Z, I_i> exceeds the

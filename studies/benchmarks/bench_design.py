@@ -13,7 +13,8 @@ the wall time (``time.perf_counter``) of
     solved by Clarabel (the reference);
 (b) ``solve_relaxation(problem, "fast")``: column generation with a
     primal-dual interior-point method on the working set (D, A), or
-    eigen-subspace cutting planes with small Clarabel SDPs (E);
+    eigen-subspace cutting planes whose small SDPs are solved by a
+    Schur-complement interior-point method (E);
 (c) ``sensorplan._selection.greedy`` then ``exchange`` from its layout;
 (d) the whole recommendation ``recommend(case, R, crit, curve_max=0,
     candidates=...)``: candidate Fisher blocks, baselines, greedy start,
@@ -87,19 +88,18 @@ It is deterministic (fixed seeds); the timings are not.  It takes about 10
 minutes on a 2-core machine, mostly in the cvxpy references (the timeouts,
 see below, keep it from hanging) and the profile of a missed target.
 
-Last run (2026-11-23, commit eb0fa44, load average 0.7 at start, 1.2 at
-end): size 1, D + A + E recommend() 3.0 s (target 5 s, met; D 0.51, A 0.81,
-E 1.68 s).  The relaxation alone: cvxpy + Clarabel D 61.6 s, A 104.0 s,
-E 5.9 s; the fast path 0.17, 0.22 and 0.89 s (ratios 0.003, 0.002, 0.15).
-Size 2: 35.6 s (target 30 s, NOT met by 5.6 s: D 6.1, A 9.2, E 20.4 s; the
-previous run, commit de6ff65, took 59.8 s).  In the profile the E subspace
-SDPs take 12.8 s of Clarabel time (18 rounds, the last ones with a
-43-dimensional subspace and 160 working candidates), the exchange upper
-bounds 5.6 s and the interior-point Hessians 4.9 s.  Every relaxation solved
+Last run (2026-11-23, commit ab3055e, load average 0.25 at start, 1.3 at
+end): size 1, D + A + E recommend() 2.1 s (target 5 s, met; D 0.46, A 0.70,
+E 0.97 s).  The relaxation alone: cvxpy + Clarabel D 62.6 s, A 105.1 s,
+E 6.5 s; the fast path 0.18, 0.34 and 0.28 s (ratios 0.003, 0.003, 0.043).
+Size 2: 20.2 s (target 30 s, met: D 5.6, A 8.8, E 5.9 s; the E relaxation
+1.98 s, against 13.4 s with Clarabel solving the subspace SDPs at commit
+eb0fa44, and 59.8 s in total at commit de6ff65).  Every relaxation solved
 reached a certified relative gap <= 1e-6 (largest 9.7e-7, cvxpy A at size 1;
-fast path <= 7.2e-8); cvxpy at size 2 was skipped (D, A) or timed out (E).
-Certified efficiencies of the recommended layouts: size 1 D 97.4 %, A 93.8 %,
-E 85.8 %; size 2 D 98.7 %, A 93.7 %, E 94.3 %.
+fast path <= 2.7e-8); cvxpy at size 2 was skipped (D, A) or timed out after
+120 s (E).  Certified efficiencies of the recommended layouts: size 1
+D 97.4 %, A 93.8 %, E 85.8 %; size 2 D 98.7 %, A 93.7 %, E 94.3 % (the same
+layouts as before: the integrality gap, not the solver, limits them).
 """
 
 import os
