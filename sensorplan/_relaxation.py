@@ -90,16 +90,8 @@ def solve_relaxation_cvxpy(problem, *, tol=1e-8, candidates=None):
     else:
         objective = problem.criterion.cvxpy_objective(cp, q, constraints)
     prob = cp.Problem(objective, constraints)
-    try:
-        with warnings.catch_warnings():
-            # the status is checked and reported below
-            warnings.filterwarnings("ignore", message="Solution may be inaccurate")
-            prob.solve(solver=cp.CLARABEL, tol_gap_abs=tol, tol_gap_rel=tol, tol_feas=tol)
-    except cp.error.SolverError as exc:
-        raise SolverError(f"Clarabel failed on the relaxation: {exc}") from None
+    _solve_clarabel(cp, prob, w, tol, "relaxation")
     status = prob.status
-    if w.value is None or status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-        raise SolverError(f"The relaxation could not be solved (status {status}); check the constraints.")
     weights = np.zeros(problem.n_candidates)
     weights[idx] = np.clip(w.value, 0.0, 1.0)
     weights = _repair(problem, weights)
@@ -115,6 +107,23 @@ def solve_relaxation_cvxpy(problem, *, tol=1e-8, candidates=None):
     if status == cp.OPTIMAL_INACCURATE:
         stats["warning"] = "Clarabel reported an inaccurate solution; the bound is certified independently"
     return Relaxation(weights, utility, max(bound, utility), "cvxpy-clarabel", stats)
+
+
+def _solve_clarabel(cp, prob, w, tol, what):
+    """Solve ``prob`` with Clarabel; SolverError unless (inaccurately) optimal.
+
+    "Solution may be inaccurate" is not a warning here: the status is
+    reported in the result and every bound is certified independently
+    (:meth:`DesignProblem.dual_bound`).
+    """
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message="Solution may be inaccurate")
+            prob.solve(solver=cp.CLARABEL, tol_gap_abs=tol, tol_gap_rel=tol, tol_feas=tol)
+    except cp.error.SolverError as exc:
+        raise SolverError(f"Clarabel failed on the {what}: {exc}") from None
+    if w.value is None or prob.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+        raise SolverError(f"The {what} could not be solved (status {prob.status}); check the constraints.")
 
 
 def _repair(problem, w):
@@ -459,15 +468,7 @@ def _small_e_sdp_clarabel(b0, bmat, rows, rhs, count, *, tol):
     if rows.shape[0]:
         constraints.append(rows @ w <= rhs)
     prob = cp.Problem(cp.Maximize(t), constraints)
-    try:
-        with warnings.catch_warnings():
-            # the bound is certified independently (DesignProblem.e_bound)
-            warnings.filterwarnings("ignore", message="Solution may be inaccurate")
-            prob.solve(solver=cp.CLARABEL, tol_gap_abs=tol, tol_gap_rel=tol, tol_feas=tol)
-    except cp.error.SolverError as exc:
-        raise SolverError(f"Clarabel failed on the E relaxation: {exc}") from None
-    if w.value is None or prob.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-        raise SolverError(f"The E relaxation could not be solved (status {prob.status}); check the constraints.")
+    _solve_clarabel(cp, prob, w, tol, "E relaxation")
     z = lmi.dual_value
     nu = abs(float(count_eq.dual_value)) if count_eq.dual_value is not None else 0.0
     return float(prob.value), np.clip(w.value, 0.0, 1.0), 0.5 * (z + z.T), nu
@@ -520,7 +521,7 @@ def _lmi_ipm(b0, bmat, rows, rhs, count, *, tol=1e-9, max_iter=100):
     lam = np.ones(h.size)
     nu = 0.0
     n_cone = k + h.size
-    status, best, extra = "max iterations", None, 0
+    best, extra = None, 0
     for it in range(1, max_iter + 1):
         r_p = b - a_op(x) - gt(lam) - nu * ones
         r_d = b0 - astar(y) - z
@@ -598,7 +599,7 @@ def _lmi_ipm(b0, bmat, rows, rhs, count, *, tol=1e-9, max_iter=100):
         z = 0.5 * (z + z.T)
         s = s + ad * ds
     if best is None:
-        return float(y[m]), y[:m], x, float(nu), status if it == max_iter else "numerical problems", it
+        return float(y[m]), y[:m], x, float(nu), "max iterations" if it == max_iter else "numerical problems", it
     return (*best, "optimal", it)
 
 

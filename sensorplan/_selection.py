@@ -161,7 +161,6 @@ def exchange(problem, layout, *, max_sweeps=50, coarse_above=None, polish=True):
 def _local_moves(problem, layout, radius, *, max_sweeps=50):
     """Move sensors to better candidates among their ``radius`` neighbours on each side (by position)."""
     layout = list(layout)
-    crit = problem.criterion
     order = np.argsort(problem.positions, kind="stable")
     rank = np.empty_like(order)
     rank[order] = np.arange(order.size)
@@ -170,16 +169,9 @@ def _local_moves(problem, layout, radius, *, max_sweeps=50):
         moved = False
         for pos in range(len(layout)):
             rest = layout[:pos] + layout[pos + 1:]
-            q_rest = problem.layout_precision(rest)
             r0 = rank[layout[pos]]
-            taken = set(layout)
-            cand_best, cand_util = None, best + 1e-12 * max(1.0, abs(best))
-            for i in order[max(0, r0 - radius): r0 + radius + 1].tolist():
-                if i in taken or not problem.partial_ok(rest + [i]):
-                    continue
-                u = crit.utility(q_rest + problem.blocks[i])
-                if u > cand_util:
-                    cand_best, cand_util = i, u
+            cand_best = _best_replacement(problem, rest, problem.layout_precision(rest), set(layout), best,
+                                          order[max(0, r0 - radius): r0 + radius + 1])
             if cand_best is not None:
                 layout[pos] = cand_best
                 best = problem.utility_of(layout)
@@ -187,6 +179,26 @@ def _local_moves(problem, layout, radius, *, max_sweeps=50):
         if not moved:
             break
     return layout
+
+
+def _best_replacement(problem, rest, q_rest, taken, best, order, ub=None):
+    """The candidate of ``order`` whose addition to ``rest`` beats ``best`` the most (None if none does).
+
+    Utilities are exact; with upper bounds ``ub`` (``order`` by decreasing
+    bound) the scan stops once no bound beats the best value found.
+    """
+    crit = problem.criterion
+    cand_best, cand_util = None, best + 1e-12 * max(1.0, abs(best))
+    for i in order:
+        if ub is not None and ub[i] + _slack(ub[i]) <= cand_util:
+            break
+        i = int(i)
+        if i in taken or not problem.partial_ok(rest + [i]):
+            continue
+        u = crit.utility(q_rest + problem.blocks[i])
+        if u > cand_util:
+            cand_best, cand_util = i, u
+    return cand_best
 
 
 def _exchange(problem, layout, *, max_sweeps=50):
@@ -202,7 +214,6 @@ def _exchange(problem, layout, *, max_sweeps=50):
     evaluated).
     """
     layout = list(layout)
-    crit = problem.criterion
     best = problem.utility_of(layout)
     n = len(layout)
     quiet, pos, visited = 0, 0, 0  # positions in a row without an improving swap
@@ -210,17 +221,7 @@ def _exchange(problem, layout, *, max_sweeps=50):
         rest = layout[:pos] + layout[pos + 1:]
         q_rest = problem.layout_precision(rest)
         _, ub = _upper_bounds(problem, q_rest)
-        taken = set(layout)
-        cand_best, cand_util = None, best + 1e-12 * max(1.0, abs(best))
-        for i in np.argsort(-ub, kind="stable"):
-            if ub[i] + _slack(ub[i]) <= cand_util:
-                break
-            i = int(i)
-            if i in taken or not problem.partial_ok(rest + [i]):
-                continue
-            u = crit.utility(q_rest + problem.blocks[i])
-            if u > cand_util:
-                cand_best, cand_util = i, u
+        cand_best = _best_replacement(problem, rest, q_rest, set(layout), best, np.argsort(-ub, kind="stable"), ub)
         if cand_best is not None:
             layout = rest[:pos] + [cand_best] + rest[pos:]
             best = problem.utility_of(layout)
