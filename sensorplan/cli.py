@@ -64,7 +64,7 @@ def _add_case_arguments(parser):
 
 
 def _load(args):
-    from ._config import example_case, load_case
+    from .io.config import example_case, load_case
 
     return load_case(args.config) if args.config is not None else example_case(args.example)
 
@@ -72,8 +72,8 @@ def _load(args):
 def _cmd_simulate(args, out):
     import numpy as np
 
-    from ._csvio import write_crossings
-    from ._simulate import simulate_crossings
+    from .io.csvio import write_crossings
+    from .model.simulate import simulate_crossings
 
     case = _load(args)
     if args.noise and args.seed is None:
@@ -100,10 +100,10 @@ def _parse_positions(text):
 
 
 def _cmd_informativeness(args, out):
-    from ._csvio import write_table
-    from ._fisher import fisher_blocks, identifiability
-    from ._prior import GMRFPrior
-    from ._sensors import SensorLayout
+    from .io.csvio import write_table
+    from .model.fisher import fisher_blocks, identifiability
+    from .model.prior import GMRFPrior
+    from .model.sensors import SensorLayout
 
     case = _load(args)
     sensors = None
@@ -147,11 +147,11 @@ def _cmd_invert(args, out):
 
     import numpy as np
 
-    from ._csvio import atomic_write_text, read_crossings
+    from .io.csvio import atomic_write_text, read_crossings
     from ._errors import SensorplanWarning
-    from ._inversion import invert
-    from ._screening import check_data_scale
-    from ._structure import Mesh
+    from .inference.inversion import invert
+    from .inference.screening import check_data_scale
+    from .model.structure import Mesh
 
     case = _load(args)
     data = read_crossings(args.data, case.sensors)
@@ -221,10 +221,10 @@ def _sensor_kind_and_noise(args, case):
 def _cmd_recommend(args, out):
     import json
 
-    from ._csvio import atomic_write_text
-    from ._design import recommend
-    from ._fisher import fisher_blocks
-    from ._sensors import SensorLayout
+    from .io.csvio import atomic_write_text
+    from .design.recommend import recommend
+    from .model.fisher import fisher_blocks
+    from .model.sensors import SensorLayout
 
     case = _load(args)
     args.kind, args.noise_std = _sensor_kind_and_noise(args, case)
@@ -282,8 +282,8 @@ def _run_verification(args, case, layouts, names, outdir):
     import json
 
     from . import plotting
-    from ._csvio import atomic_write_text
-    from ._verification import verify_layouts
+    from .io.csvio import atomic_write_text
+    from .verification.verify import verify_layouts
 
     result = verify_layouts(case, layouts, names=names, n_locations=args.scenarios, n_crossings=args.verify_crossings,
                             seed=args.seed, workers=args.workers, kind=args.kind, noise_std=args.noise_std,
@@ -313,9 +313,9 @@ def _cmd_diagnose(args, out):
     import json
 
     from . import plotting
-    from ._csvio import atomic_write_text, read_crossings
-    from ._diagnosis import diagnose
-    from ._screening import check_data_scale
+    from .io.csvio import atomic_write_text, read_crossings
+    from .diagnosis.diagnose import diagnose
+    from .inference.screening import check_data_scale
 
     case = _load(args)
     data = read_crossings(args.data, case.sensors)
@@ -339,7 +339,7 @@ def _cmd_diagnose(args, out):
 
 
 def _cmd_report(args, out):
-    from ._csvio import atomic_write_text, read_crossings
+    from .io.csvio import atomic_write_text, read_crossings
     from .report import build_report
 
     case = _load(args)

@@ -119,10 +119,10 @@ def build_report(case, *, data=None, count=None, criterion="D", spacing=None, n_
     n_scenarios, n_crossings, seed : verification settings.
     """
     from . import plotting
-    from ._design import recommend
-    from ._fisher import fisher_blocks
-    from ._sensors import SensorLayout
-    from ._verification import verify_layouts
+    from .design.recommend import recommend
+    from .model.fisher import fisher_blocks
+    from .model.sensors import SensorLayout
+    from .verification.verify import verify_layouts
 
     count = case.sensors.n_sensors if count is None else int(count)
     spacing = spacing if spacing is not None else max(0.25, round(case.bridge.length / 60.0 * 4) / 4)
@@ -191,8 +191,8 @@ def build_report(case, *, data=None, count=None, criterion="D", spacing=None, n_
 
     posterior = diagnosis = None
     if data is not None:
-        from ._diagnosis import diagnose
-        from ._inversion import invert
+        from .diagnosis.diagnose import diagnose
+        from .inference.inversion import invert
 
         posterior = invert(case, data)
         fit_figs = "".join(_figure(plotting.plot_fit(posterior, name), f"Data and model for {name}",

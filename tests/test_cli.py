@@ -5,8 +5,8 @@ import csv
 import numpy as np
 import pytest
 
-from sensorplan._config import EXAMPLES, example_case
-from sensorplan._csvio import read_crossings
+from sensorplan.io.config import EXAMPLES, example_case
+from sensorplan.io.csvio import read_crossings
 from sensorplan.cli import main
 
 

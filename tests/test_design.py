@@ -11,10 +11,10 @@ from hypothesis import strategies as st
 
 import sensorplan as sp
 from sensorplan import SolverError
-from sensorplan._case import Case
-from sensorplan._config import example_case
-from sensorplan._design import build_problem, recommend, solve_relaxation
-from sensorplan._selection import exchange, greedy
+from sensorplan.model.case import Case
+from sensorplan.io.config import example_case
+from sensorplan.design.recommend import build_problem, recommend, solve_relaxation
+from sensorplan.design.selection import exchange, greedy
 
 
 def small_case(spans=(20.0,), n_elements=8, rot=None):
@@ -126,7 +126,7 @@ def test_small_lmi_interior_point_matches_clarabel(seed, side):
     # problems: same optimum, a trace-one PSD multiplier, feasible weights.
     import cvxpy as cp
 
-    from sensorplan._relaxation import _lmi_ipm
+    from sensorplan.design.relaxation import _lmi_ipm
 
     rng = np.random.default_rng(seed)
     k, m, count = 7, 30, 5
@@ -162,7 +162,7 @@ def test_small_lmi_interior_point_matches_clarabel(seed, side):
 
 
 def test_small_e_sdp_falls_back_to_clarabel(monkeypatch):
-    from sensorplan import _relaxation
+    from sensorplan.design import relaxation as _relaxation
 
     case = small_case((12.0, 12.0), 10, rot=(2e9, 0.0, 2e9))
     problem = build_problem(case, 3, "E", spacing=1.5)
@@ -183,7 +183,7 @@ def test_small_e_sdp_falls_back_to_clarabel(monkeypatch):
 def test_coarse_to_fine_recommendation_keeps_its_guarantees(criterion, monkeypatch):
     # Force the large-grid path (coarse exchange per start, best one polished)
     # on a problem small enough to enumerate.
-    from sensorplan import _selection
+    from sensorplan.design import selection as _selection
 
     monkeypatch.setattr(_selection, "COARSE_ABOVE", 6)
     case = small_case((12.0, 12.0), 8, rot=(2e9, 0.0, 2e9))

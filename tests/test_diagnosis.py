@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 import sensorplan as sp
-from sensorplan._config import example_case
-from sensorplan._diagnosis import diagnose
-from sensorplan._effects import EFFECTS, make_effect
-from sensorplan._joint import JointProblem
-from sensorplan._prior import GMRFPrior
-from sensorplan._simulate import simulate_crossings
+from sensorplan.io.config import example_case
+from sensorplan.diagnosis.diagnose import diagnose
+from sensorplan.diagnosis.effects import EFFECTS, make_effect
+from sensorplan.diagnosis.joint import JointProblem
+from sensorplan.model.prior import GMRFPrior
+from sensorplan.model.simulate import simulate_crossings
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies" / "diagnosis"))
 from effects_data import generate  # noqa: E402

@@ -6,11 +6,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import sensorplan as sp
-from sensorplan._case import Case
-from sensorplan._config import example_case
-from sensorplan._fisher import fisher_blocks, identifiability
-from sensorplan._noise import NoiseModel
-from sensorplan._prior import GMRFPrior
+from sensorplan.model.case import Case
+from sensorplan.io.config import example_case
+from sensorplan.model.fisher import fisher_blocks, identifiability
+from sensorplan.model.noise import NoiseModel
+from sensorplan.model.prior import GMRFPrior
 
 
 def simple_case(n_elements=30, load=1e5, sigma=1e-6, length=20.0, step=0.05, ei=1e10):

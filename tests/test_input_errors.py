@@ -24,9 +24,9 @@ from hypothesis import strategies as st
 
 import sensorplan
 from sensorplan import ConfigError, DataError
-from sensorplan._config import _KEYS, example_case, load_case
-from sensorplan._crossings import Crossing, Crossings
-from sensorplan._csvio import read_crossings, write_crossings
+from sensorplan.io.config import _KEYS, example_case, load_case
+from sensorplan.model.crossings import Crossing, Crossings
+from sensorplan.io.csvio import read_crossings, write_crossings
 from sensorplan.cli import main
 
 INF = math.inf
@@ -396,7 +396,7 @@ def test_csv_round_trip_is_exact(tmp_path):
 
 
 def test_csv_round_trip_of_a_simulated_crossing(tmp_path):
-    from sensorplan._simulate import simulate_crossings
+    from sensorplan.model.simulate import simulate_crossings
 
     case = example_case("openlab-like")
     crossings = simulate_crossings(case, 2, noise=True, rng=1)

@@ -8,12 +8,12 @@ import pytest
 
 import sensorplan as sp
 from sensorplan import SensorplanWarning
-from sensorplan._case import Case
-from sensorplan._config import example_case
-from sensorplan._crossings import Crossing, Crossings
-from sensorplan._inversion import invert
-from sensorplan._prior import GMRFPrior, difference_operator
-from sensorplan._simulate import simulate_crossings
+from sensorplan.model.case import Case
+from sensorplan.io.config import example_case
+from sensorplan.model.crossings import Crossing, Crossings
+from sensorplan.inference.inversion import invert
+from sensorplan.model.prior import GMRFPrior, difference_operator
+from sensorplan.model.simulate import simulate_crossings
 
 L = 20.0
 
@@ -218,5 +218,5 @@ def test_screening_keeps_ordinary_crossings():
     case = example_case("three-span")
     for seed in range(5):
         data = simulate_crossings(case, 10, noise=True, rng=seed)
-        kept, excluded, _ = __import__("sensorplan._screening", fromlist=["x"]).screen_crossings(data)
+        kept, excluded, _ = __import__("sensorplan.inference.screening", fromlist=["x"]).screen_crossings(data)
         assert excluded == () and len(kept) == 10

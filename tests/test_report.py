@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from sensorplan._config import EXAMPLES
+from sensorplan.io.config import EXAMPLES
 from sensorplan.cli import main
 
 ARTIFACTS = Path(__file__).resolve().parents[1] / "test-artifacts"

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import sensorplan as sp
-from sensorplan._case import Case
-from sensorplan._config import example_case
-from sensorplan._design import recommend
-from sensorplan._verification import element_average_ei, make_scenarios, truth_mesh, verify_layouts
+from sensorplan.model.case import Case
+from sensorplan.io.config import example_case
+from sensorplan.design.recommend import recommend
+from sensorplan.verification.verify import element_average_ei, make_scenarios, truth_mesh, verify_layouts
 
 
 def two_span():

@@ -15,7 +15,7 @@ the wall time (``time.perf_counter``) of
     primal-dual interior-point method on the working set (D, A), or
     eigen-subspace cutting planes whose small SDPs are solved by a
     Schur-complement interior-point method (E);
-(c) ``sensorplan._selection.greedy`` then ``exchange`` from its layout;
+(c) ``sensorplan.design.selection.greedy`` then ``exchange`` from its layout;
 (d) the whole recommendation ``recommend(case, R, crit, curve_max=0,
     candidates=...)``: candidate Fisher blocks, baselines, greedy start,
     fast relaxation, integer layout from several starts, certificate,
@@ -159,7 +159,7 @@ def package_commit():
 
 def make_case(n_elements):
     import sensorplan as sp
-    from sensorplan._config import example_case
+    from sensorplan.io.config import example_case
 
     base = example_case(EXAMPLE)
     case = base.with_mesh(sp.Mesh.uniform(base.bridge, n_elements))
@@ -172,7 +172,7 @@ def make_candidates(case, n_candidates):
 
 
 def build(n_elements, n_candidates, count, crit):
-    from sensorplan._design import build_problem
+    from sensorplan.design.recommend import build_problem
 
     case = make_case(n_elements)
     cands = make_candidates(case, n_candidates)
@@ -189,8 +189,8 @@ def _efficiency(problem, utility, bound_utility):
 
 
 def task_relaxation(spec):
-    from sensorplan._design import solve_relaxation
-    from sensorplan._selection import exchange, round_weights
+    from sensorplan.design.recommend import solve_relaxation
+    from sensorplan.design.selection import exchange, round_weights
 
     def run(n, c, r):
         _, _, problem = build(n, c, r, spec["crit"])
@@ -213,7 +213,7 @@ def task_relaxation(spec):
 
 
 def task_greedy(spec):
-    from sensorplan._selection import exchange, greedy
+    from sensorplan.design.selection import exchange, greedy
 
     def run(n, c, r):
         _, _, problem = build(n, c, r, spec["crit"])
@@ -231,8 +231,8 @@ def task_greedy(spec):
 
 
 def task_recommend(spec):
-    from sensorplan._criteria import make_criterion
-    from sensorplan._design import recommend
+    from sensorplan.design.criteria import make_criterion
+    from sensorplan.design.recommend import recommend
 
     def run(n, c, r):
         case = make_case(n)
@@ -259,7 +259,7 @@ class _Budget(Exception):
 
 def task_profile(spec):
     """cProfile of recommend() for the criteria in turn, stopped after a time budget."""
-    from sensorplan._design import recommend
+    from sensorplan.design.recommend import recommend
 
     def run(n, c, r, crit):
         case = make_case(n)
@@ -362,7 +362,7 @@ def main():
     import cvxpy
     import scipy
 
-    from sensorplan._criteria import make_criterion
+    from sensorplan.design.criteria import make_criterion
 
     print("sensorplan optimal sensor placement benchmark (relaxations, greedy + exchange, recommend)")
     print(f"sensorplan commit {package_commit()}; numpy {np.__version__}, scipy {scipy.__version__}, "

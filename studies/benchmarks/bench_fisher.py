@@ -5,7 +5,7 @@ What it measures
 Wall time (best of a few repeats, ``time.perf_counter``) and peak memory
 (``tracemalloc``, which tracks numpy's allocations) of
 
-    fb = sensorplan._fisher.fisher_blocks(case, sensors=candidates, noise=noise,
+    fb = sensorplan.model.fisher.fisher_blocks(case, sensors=candidates, noise=noise,
                                           parameterisation="log_ei", n_crossings=1)
 
 for 400 candidate rotation-sensor positions x 100 elements x 500 load
@@ -68,9 +68,9 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 import sensorplan as sp  # noqa: E402
-from sensorplan._case import Case  # noqa: E402
-from sensorplan._fisher import fisher_blocks  # noqa: E402
-from sensorplan._noise import NoiseModel  # noqa: E402
+from sensorplan.model.case import Case  # noqa: E402
+from sensorplan.model.fisher import fisher_blocks  # noqa: E402
+from sensorplan.model.noise import NoiseModel  # noqa: E402
 
 SEED = 20240611
 N_SENSORS = 400

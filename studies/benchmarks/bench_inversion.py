@@ -4,7 +4,7 @@ What it measures
 ----------------
 Wall time (best of a few repeats, ``time.perf_counter``) of
 
-    result = sensorplan._inversion.invert(case, crossings)      # hyper="evidence"
+    result = sensorplan.inference.inversion.invert(case, crossings)      # hyper="evidence"
 
 i.e. the whole identification: Gauss-Newton / Levenberg-Marquardt MAP,
 evidence maximisation of the noise scale and the prior precision tau
@@ -93,9 +93,9 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 import sensorplan as sp  # noqa: E402
-from sensorplan._config import example_case  # noqa: E402
-from sensorplan._inversion import _Problem, invert  # noqa: E402
-from sensorplan._simulate import simulate_crossings  # noqa: E402
+from sensorplan.io.config import example_case  # noqa: E402
+from sensorplan.inference.inversion import _Problem, invert  # noqa: E402
+from sensorplan.model.simulate import simulate_crossings  # noqa: E402
 
 SEED = 20240612
 N_ELEMENTS = 60

@@ -4,7 +4,7 @@ What it measures
 ----------------
 Throughput (scenarios per second, wall time ``time.perf_counter``) of
 
-    result = sensorplan._verification.verify_layouts(case, [(11.0, 19.0)],
+    result = sensorplan.verification.verify.verify_layouts(case, [(11.0, 19.0)],
                                                       n_locations=60, workers=W)
 
 on the embedded ``openlab-like`` example as it is shipped (two continuous 15 m
@@ -74,13 +74,13 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from sensorplan._config import example_case  # noqa: E402
+from sensorplan.io.config import example_case  # noqa: E402
 from sensorplan._errors import SensorplanWarning  # noqa: E402
-from sensorplan._inversion import invert  # noqa: E402
-from sensorplan._noise import NoiseModel  # noqa: E402
-from sensorplan._sensors import SensorLayout  # noqa: E402
-from sensorplan._simulate import simulate_crossings  # noqa: E402
-from sensorplan._verification import (_run_task, _Task, make_scenarios, truth_mesh,  # noqa: E402
+from sensorplan.inference.inversion import invert  # noqa: E402
+from sensorplan.model.noise import NoiseModel  # noqa: E402
+from sensorplan.model.sensors import SensorLayout  # noqa: E402
+from sensorplan.model.simulate import simulate_crossings  # noqa: E402
+from sensorplan.verification.verify import (_run_task, _Task, make_scenarios, truth_mesh,  # noqa: E402
                                       verify_layouts)
 
 EXAMPLE = "openlab-like"
@@ -116,7 +116,7 @@ def scenario_inputs(case):
     pilot = _run_task(_Task(case, LAYOUT, "rotation", scenarios[0], seeds[0], N_CROSSINGS,
                             DETECTION_THRESHOLD, window), posterior=True)
     start = (pilot.noise_scale, pilot.tau)
-    # the same steps as sensorplan._verification._run_task, up to the inversion
+    # the same steps as sensorplan.verification.verify._run_task, up to the inversion
     sensors = SensorLayout.candidates(list(LAYOUT), "rotation",
                                       noise_std=[float(np.median(case.noise.std))] * len(LAYOUT))
     inv_case = replace(case, sensors=sensors,

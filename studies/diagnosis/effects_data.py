@@ -11,8 +11,8 @@ from dataclasses import replace
 import numpy as np
 
 import sensorplan as sp
-from sensorplan._crossings import Crossing, Crossings
-from sensorplan._verification import truth_mesh
+from sensorplan.model.crossings import Crossing, Crossings
+from sensorplan.verification.verify import truth_mesh
 
 EFFECT_NAMES = ("support_rotational_spring", "vertical_support_spring", "sensor_offset", "thermal_drift",
                 "position_offset", "axle_loads", "sensor_position", "dynamic_amplification")

@@ -16,7 +16,7 @@ synthetic crossings are generated with the effect present
 (``effects_data.generate``: the public forward model on a finer, differently
 aligned truth mesh, independent of the effect library), the effect is
 withheld from the model (the case is the nominal one) and
-``sensorplan._diagnosis.diagnose`` is run with the whole library as
+``sensorplan.diagnosis.diagnose.diagnose`` is run with the whole library as
 candidates.
 
 Scored per dataset:
@@ -83,8 +83,8 @@ if str(HERE) not in sys.path:
     sys.path.insert(0, str(HERE))
 
 import sensorplan as sp  # noqa: E402
-from sensorplan._diagnosis import diagnose  # noqa: E402
-from sensorplan._effects import EFFECTS  # noqa: E402
+from sensorplan.diagnosis.diagnose import diagnose  # noqa: E402
+from sensorplan.diagnosis.effects import EFFECTS  # noqa: E402
 
 from effects_data import EFFECT_NAMES, generate  # noqa: E402
 

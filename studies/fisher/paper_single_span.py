@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 
 import sensorplan as sp
-from sensorplan._case import Case
-from sensorplan._fisher import fisher_blocks
+from sensorplan.model.case import Case
+from sensorplan.model.fisher import fisher_blocks
 from sensorplan.plotting import plot_informativeness, save_figure
 
 L = 20.0

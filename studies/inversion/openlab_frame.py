@@ -34,9 +34,9 @@ import numpy as np  # noqa: E402
 from scipy import stats  # noqa: E402
 
 import sensorplan as sp  # noqa: E402
-from sensorplan._config import example_case  # noqa: E402
-from sensorplan._inversion import invert  # noqa: E402
-from sensorplan._simulate import simulate_crossings  # noqa: E402
+from sensorplan.io.config import example_case  # noqa: E402
+from sensorplan.inference.inversion import invert  # noqa: E402
+from sensorplan.model.simulate import simulate_crossings  # noqa: E402
 from sensorplan.plotting import _pyplot, plot_ei_posterior, plot_fit, save_figure  # noqa: E402
 
 N_FINE = 120

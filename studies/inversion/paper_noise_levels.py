@@ -30,9 +30,9 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 import sensorplan as sp  # noqa: E402
-from sensorplan._case import Case  # noqa: E402
-from sensorplan._inversion import invert  # noqa: E402
-from sensorplan._simulate import simulate_crossings  # noqa: E402
+from sensorplan.model.case import Case  # noqa: E402
+from sensorplan.inference.inversion import invert  # noqa: E402
+from sensorplan.model.simulate import simulate_crossings  # noqa: E402
 from sensorplan.plotting import _pyplot, plot_ei_posterior, plot_fit, save_figure  # noqa: E402
 
 L = 20.0

@@ -39,9 +39,9 @@ import sensorplan as sp
 from sensorplan import Case, Crossing, Crossings, NoiseModel
 # diagnose is not exported at the top level; the private helpers give the base fit's
 # held-out rms and the profile over a fixed support stiffness exactly as diagnose computes them.
-from sensorplan._diagnosis import _fit, _folds, _heldout, _start, diagnose
-from sensorplan._effects import make_effect
-from sensorplan._joint import JointProblem
+from sensorplan.diagnosis.diagnose import _fit, _folds, _heldout, _start, diagnose
+from sensorplan.diagnosis.effects import make_effect
+from sensorplan.diagnosis.joint import JointProblem
 
 
 def _load_reader():

@@ -22,12 +22,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from ._effects import EFFECTS, make_effect
-from ._errors import ConfigError, SensorplanWarning
-from ._inversion import fit_problem
-from ._joint import JointProblem
-from ._prior import GMRFPrior
-from ._threads import single_threaded
+from .effects import EFFECTS, make_effect
+from .._errors import ConfigError, SensorplanWarning
+from ..inference.inversion import fit_problem
+from .joint import JointProblem
+from ..model.prior import GMRFPrior
+from .._threads import single_threaded
 
 __all__ = ["GapDiagnosis", "diagnose"]
 
@@ -273,9 +273,9 @@ def _kept_fraction(info, problem, tau):
 def _separating_sensor(case, crossings, name, prior, theta, base_start, kept):
     from dataclasses import replace
 
-    from ._crossings import Crossing, Crossings
-    from ._noise import NoiseModel
-    from ._sensors import SensorLayout
+    from ..model.crossings import Crossing, Crossings
+    from ..model.noise import NoiseModel
+    from ..model.sensors import SensorLayout
 
     kind = case.sensors.kinds[0]
     std = float(np.median(case.noise.std)) if case.noise is not None else 1e-6

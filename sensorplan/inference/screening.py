@@ -59,7 +59,7 @@ def check_data_scale(crossings, predictions, names, *, factor=30.0, source="data
     A ratio beyond ``factor`` either way looks like a unit slip (mm/m or
     micro-radians given as rad, mm given as m).
     """
-    from ._errors import DataError
+    from .._errors import DataError
 
     for i, name in enumerate(names):
         data_rms = np.sqrt(np.mean(np.concatenate([c.values[i] / c.load_factor for c in crossings]) ** 2))

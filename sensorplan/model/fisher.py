@@ -14,9 +14,9 @@ from functools import cached_property
 
 import numpy as np
 
-from ._errors import ConfigError
-from ._forward import influence_lines
-from ._threads import single_threaded
+from .._errors import ConfigError
+from .forward import influence_lines
+from .._threads import single_threaded
 
 __all__ = ["FisherBlocks", "fisher_blocks", "Identifiability", "identifiability"]
 
@@ -154,7 +154,7 @@ def fisher_blocks(case, *, sensors=None, noise=None, ei=None, parameterisation="
 
 
 def _resolve_noise(case, sensors, noise):
-    from ._noise import NoiseModel
+    from .noise import NoiseModel
 
     if noise is not None:
         if noise.n_sensors != sensors.n_sensors:

@@ -10,12 +10,12 @@ import tomllib
 from importlib import resources
 from pathlib import Path
 
-from ._case import Case
-from ._errors import ConfigError
-from ._loads import LoadSweep, Vehicle
-from ._noise import NoiseModel
-from ._sensors import SensorLayout
-from ._structure import Bridge, Mesh
+from ..model.case import Case
+from .._errors import ConfigError
+from ..model.loads import LoadSweep, Vehicle
+from ..model.noise import NoiseModel
+from ..model.sensors import SensorLayout
+from ..model.structure import Bridge, Mesh
 
 __all__ = ["load_case", "case_from_dict", "example_case", "EXAMPLES"]
 

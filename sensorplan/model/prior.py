@@ -17,7 +17,7 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sparse
 
-from ._validation import as_float
+from .._validation import as_float
 
 __all__ = ["GMRFPrior", "difference_operator"]
 
@@ -25,7 +25,7 @@ __all__ = ["GMRFPrior", "difference_operator"]
 def difference_operator(n, order):
     """Sparse (n - order) x n difference matrix of the given order (1 or 2)."""
     if order not in (1, 2):
-        from ._errors import ConfigError
+        from .._errors import ConfigError
 
         raise ConfigError(f"The 'order' parameter of GMRFPrior must be 1 or 2. Got {order!r} instead.")
     if n <= order:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validation import as_float, as_float_array
+from .._validation import as_float, as_float_array
 
 __all__ = ["NoiseModel"]
 
@@ -36,7 +36,7 @@ class NoiseModel:
     def __post_init__(self):
         std = as_float_array(self.std, "std", "NoiseModel")
         if np.any(std <= 0.0):
-            from ._errors import ConfigError
+            from .._errors import ConfigError
 
             raise ConfigError("The 'std' parameter of NoiseModel must be positive for every "
                               f"sensor. Got {std.tolist()!r} instead.")

@@ -20,13 +20,13 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy import stats
 
-from ._errors import ConfigError, SensorplanWarning
-from ._inversion import invert
-from ._noise import NoiseModel
-from ._sensors import SensorLayout
-from ._simulate import simulate_crossings
-from ._structure import Mesh
-from ._threads import single_threaded
+from .._errors import ConfigError, SensorplanWarning
+from ..inference.inversion import invert
+from ..model.noise import NoiseModel
+from ..model.sensors import SensorLayout
+from ..model.simulate import simulate_crossings
+from ..model.structure import Mesh
+from .._threads import single_threaded
 
 __all__ = ["Scenario", "make_scenarios", "verify_layouts", "VerificationResult", "LayoutScore"]
 

@@ -9,8 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._errors import ConfigError
-from ._validation import as_float, as_float_array, as_float_tuple
+from .._errors import ConfigError
+from .._validation import as_float, as_float_array, as_float_tuple
 
 __all__ = ["Vehicle", "LoadSweep"]
 

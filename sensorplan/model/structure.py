@@ -10,8 +10,8 @@ from functools import cached_property
 
 import numpy as np
 
-from ._errors import ConfigError
-from ._validation import as_float, as_float_array, as_float_tuple
+from .._errors import ConfigError
+from .._validation import as_float, as_float_array, as_float_tuple
 
 __all__ = ["Support", "Bridge", "Mesh"]
 

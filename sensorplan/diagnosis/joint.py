@@ -12,13 +12,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from ._effects import State
-from ._errors import ConfigError
-from ._forward import influence_lines
-from ._inversion import _Linearisation
-from ._loads import Vehicle
-from ._noise import NoiseModel
-from ._sensors import SensorLayout
+from .effects import State
+from .._errors import ConfigError
+from ..model.forward import influence_lines
+from ..inference.inversion import _Linearisation
+from ..model.loads import Vehicle
+from ..model.noise import NoiseModel
+from ..model.sensors import SensorLayout
 
 __all__ = []
 

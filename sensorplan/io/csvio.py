@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ._crossings import Crossing, Crossings
-from ._errors import DataError
+from ..model.crossings import Crossing, Crossings
+from .._errors import DataError
 
 __all__ = ["read_crossings", "write_crossings", "atomic_write_text"]
 

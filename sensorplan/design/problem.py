@@ -14,7 +14,7 @@ from functools import cached_property
 import numpy as np
 import scipy.optimize
 
-from ._errors import ConfigError, SolverError
+from .._errors import ConfigError, SolverError
 
 __all__ = ["DesignProblem"]
 

@@ -4,8 +4,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._errors import ConfigError
-from ._validation import as_float_array, as_float_tuple
+from .._errors import ConfigError
+from .._validation import as_float_array, as_float_tuple
 
 __all__ = ["SensorLayout", "SENSOR_KINDS"]
 

@@ -7,7 +7,7 @@ from functools import cached_property
 import numpy as np
 from scipy import stats
 
-from ._errors import ConfigError
+from .._errors import ConfigError
 
 __all__ = ["PosteriorResult", "CrossingFit", "linear_gaussian_posterior"]
 

@@ -35,13 +35,13 @@ from functools import cached_property
 import numpy as np
 import scipy.linalg
 
-from ._diagrams import RAMP, STEP, element_products, end_value_and_slope, point_actions
-from ._errors import ConfigError
-from ._loads import LoadSweep, Vehicle
-from ._sensors import SensorLayout
-from ._structure import Bridge, Mesh
-from ._validation import as_float_array
-from ._threads import single_threaded
+from .diagrams import RAMP, STEP, element_products, end_value_and_slope, point_actions
+from .._errors import ConfigError
+from .loads import LoadSweep, Vehicle
+from .sensors import SensorLayout
+from .structure import Bridge, Mesh
+from .._validation import as_float_array
+from .._threads import single_threaded
 
 __all__ = ["InfluenceLines", "influence_lines", "bending_moments", "support_reactions",
            "expand_ei"]

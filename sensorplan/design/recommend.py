@@ -5,16 +5,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._criteria import make_criterion
-from ._design_problem import DesignProblem
-from ._errors import ConfigError, SolverError
-from ._fisher import fisher_blocks
-from ._prior import GMRFPrior
-from ._relaxation import solve_relaxation_cvxpy, solve_relaxation_fast
-from ._selection import baselines as make_baselines
-from ._selection import exchange, greedy, round_weights
-from ._sensors import SensorLayout
-from ._threads import single_threaded
+from .criteria import make_criterion
+from .problem import DesignProblem
+from .._errors import ConfigError, SolverError
+from ..model.fisher import fisher_blocks
+from ..model.prior import GMRFPrior
+from .relaxation import solve_relaxation_cvxpy, solve_relaxation_fast
+from .selection import baselines as make_baselines
+from .selection import exchange, greedy, round_weights
+from ..model.sensors import SensorLayout
+from .._threads import single_threaded
 
 __all__ = ["DesignResult", "recommend", "build_problem", "candidate_positions"]
 

@@ -4,11 +4,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ._forward import expand_ei, influence_lines
-from ._loads import LoadSweep, Vehicle
-from ._noise import NoiseModel
-from ._sensors import SensorLayout
-from ._structure import Bridge, Mesh
+from .forward import expand_ei, influence_lines
+from .loads import LoadSweep, Vehicle
+from .noise import NoiseModel
+from .sensors import SensorLayout
+from .structure import Bridge, Mesh
 
 __all__ = ["Case"]
 
@@ -50,7 +50,7 @@ class Case:
         if self.noise is None and self.sensors.noise_std is not None:
             object.__setattr__(self, "noise", NoiseModel(self.sensors.noise_std))
         if self.noise is not None and self.noise.n_sensors != self.sensors.n_sensors:
-            from ._errors import ConfigError
+            from .._errors import ConfigError
 
             raise ConfigError(
                 f"The noise model has {self.noise.n_sensors} standard deviations for "

@@ -25,14 +25,14 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
-from ._crossings import Crossings
-from ._errors import ConfigError, DataError, SensorplanWarning
-from ._forward import influence_lines
-from ._noise import NoiseModel
-from ._posterior import CrossingFit, PosteriorResult
-from ._prior import GMRFPrior
-from ._screening import screen_crossings
-from ._threads import single_threaded
+from ..model.crossings import Crossings
+from .._errors import ConfigError, DataError, SensorplanWarning
+from ..model.forward import influence_lines
+from ..model.noise import NoiseModel
+from .posterior import CrossingFit, PosteriorResult
+from ..model.prior import GMRFPrior
+from .screening import screen_crossings
+from .._threads import single_threaded
 
 __all__ = ["invert", "fit_problem", "HYPER_METHODS"]
 

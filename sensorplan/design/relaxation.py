@@ -26,7 +26,7 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
-from ._errors import SolverError
+from .._errors import SolverError
 
 __all__ = ["Relaxation", "solve_relaxation_cvxpy", "solve_relaxation_fast"]
 

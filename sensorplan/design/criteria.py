@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from ._errors import ConfigError
+from .._errors import ConfigError
 
 __all__ = ["Criterion", "make_criterion", "CRITERIA"]
 

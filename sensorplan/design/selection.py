@@ -3,7 +3,7 @@
 import numpy as np
 import scipy.linalg
 
-from ._errors import SolverError
+from .._errors import SolverError
 
 __all__ = ["iter_greedy", "greedy", "exchange", "round_weights", "baselines"]
 

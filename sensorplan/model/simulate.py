@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from ._crossings import Crossing, Crossings
-from ._errors import ConfigError
+from .crossings import Crossing, Crossings
+from .._errors import ConfigError
 
 __all__ = ["simulate_crossings"]
 

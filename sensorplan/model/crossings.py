@@ -4,7 +4,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._errors import DataError
+from .._errors import DataError
 
 __all__ = ["Crossings", "Crossing"]
 

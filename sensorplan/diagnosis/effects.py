@@ -293,6 +293,6 @@ def make_effect(name):
     try:
         return EFFECTS[name]()
     except KeyError:
-        from ._errors import ConfigError
+        from .._errors import ConfigError
 
         raise ConfigError(f"Unknown effect {name!r}; choose from {', '.join(EFFECTS)}.") from None
