@@ -28,10 +28,16 @@ _EXPORTS = {
     "simulate_crossings": "model.simulate",
     "FisherBlocks": "model.fisher", "fisher_blocks": "model.fisher",
     "Identifiability": "model.fisher", "identifiability": "model.fisher",
+    "Informativeness": "model.fisher", "informativeness": "model.fisher",
     "PosteriorResult": "inference.posterior", "invert": "inference.inversion",
-    "DesignResult": "design.recommend", "recommend": "design.recommend",
-    "VerificationResult": "verification.verify", "verify_layouts": "verification.verify",
-    "GapDiagnosis": "diagnosis.diagnose", "diagnose": "diagnosis.diagnose",
+    "DesignResult": "design.results", "Baseline": "design.results", "SolverStats": "design.results",
+    "CurvePoint": "design.results", "recommend": "design.recommend", "CandidateGrid": "design.recommend",
+    "Constraints": "design.recommend", "Criterion": "design.criteria", "register_criterion": "design.criteria",
+    "CRITERIA": "design.criteria",
+    "VerificationResult": "verification.results", "LayoutScore": "verification.results",
+    "Metric": "verification.results", "Scenario": "verification.scenarios", "Analysis": "analysis", "analyse": "analysis", "verify_layouts": "verification.verify",
+    "GapDiagnosis": "diagnosis.results", "EffectFit": "diagnosis.results", "Gap": "diagnosis.results",
+    "Confounding": "diagnosis.results", "diagnose": "diagnosis.diagnose",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -14,25 +14,24 @@ import numpy as np
 __all__ = ["plot_informativeness", "plot_spectrum", "plot_eigenvectors", "plot_ei_posterior", "plot_fit", "plot_layout",
            "plot_posterior_std", "plot_criterion_curve", "plot_verification", "plot_residual_map",
            "plot_shrinkage", "plot_ei_before_after", "plot_influence_lines", "save_figure",
-           "mark_bridge"]
+           "mark_bridge", "new_figure"]
 
 
-def _pyplot():
-    import matplotlib
+def new_figure(figsize, nrows=1, ncols=1, **kwargs):
+    """A new Figure and its Axes, without pyplot: the user's backend and figure list are untouched.
 
-    if matplotlib.get_backend().lower() not in {"agg", "module://matplotlib_inline.backend_inline"}:
-        matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
+    ``kwargs`` go to :meth:`Figure.subplots` (``sharex``, ``sharey``, ...).
+    """
+    from matplotlib.figure import Figure
 
-    return plt
+    fig = Figure(figsize=figsize, layout="constrained")
+    return fig, fig.subplots(nrows, ncols, **kwargs)
 
 
 def _axes(ax, figsize=(8, 3.6)):
     if ax is not None:
         return ax
-    plt = _pyplot()
-    _, ax = plt.subplots(figsize=figsize, layout="constrained")
-    return ax
+    return new_figure(figsize)[1]
 
 
 def mark_bridge(ax, supports, sensors=None, *, labels=True):
@@ -101,8 +100,7 @@ def plot_eigenvectors(ident, *, ax=None, count=2, supports=None):
 
 
 def save_figure(ax_or_fig, path, *, dpi=130):
-    """Save the figure of ``ax_or_fig`` as PNG atomically and close it."""
-    plt = _pyplot()
+    """Save the figure of ``ax_or_fig`` as PNG atomically."""
     fig = getattr(ax_or_fig, "figure", ax_or_fig)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -117,7 +115,6 @@ def save_figure(ax_or_fig, path, *, dpi=130):
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
-        plt.close(fig)
     return path
 
 
@@ -213,9 +210,13 @@ def plot_posterior_std(design, *, ax=None, baseline=None):
 def plot_criterion_curve(design, *, ax=None):
     """Criterion of the best found layout and the relaxation bound versus the number of sensors."""
     ax = _axes(ax, figsize=(6, 3.6))
-    r = [c["count"] for c in design.curve]
-    ax.plot(r, [c["value"] for c in design.curve], "o-", label="best layout found")
-    ax.plot(r, [c["bound"] for c in design.curve], "s--", label="relaxation bound")
+    points = [c for c in design.curve if not c.failed]
+    r = [c.count for c in points]
+    ax.plot(r, [c.value for c in points], "o-", label="best layout found")
+    ax.plot(r, [c.bound for c in points], "s--", label="relaxation bound")
+    for c in design.curve:
+        if c.failed:
+            ax.axvline(c.count, color="C3", alpha=0.3, linewidth=6, label=f"R = {c.count} infeasible")
     ax.axvline(design.count, color="0.6", linestyle=":")
     ax.set_xlabel("number of sensors R")
     ax.set_ylabel(f"{design.criterion} criterion")
@@ -227,8 +228,7 @@ def plot_criterion_curve(design, *, ax=None):
 def plot_verification(verification, *, axes=None, supports=None):
     """Detection probability and localisation error versus damage location, per layout."""
     if axes is None:
-        plt = _pyplot()
-        _, axes = plt.subplots(2, 1, figsize=(8, 5.6), sharex=True, layout="constrained")
+        _, axes = new_figure((8, 5.6), 2, 1, sharex=True)
     names = verification.names or [", ".join(f"{x:g}" for x in s.layout_m) for s in verification.layouts]
     for name, score in zip(names, verification.layouts):
         local = [r for r in score.records if r["kind"] == "local"]
@@ -253,7 +253,7 @@ def plot_residual_map(diagnosis, *, ax=None, sensor_names=None):
     ax = _axes(ax, figsize=(8, 3.2))
     grid = diagnosis.residual_map["grid_m"]
     values = diagnosis.residual_map["normalised_mean_residual"]
-    names = list(diagnosis.gap["by_sensor"]) if sensor_names is None else sensor_names
+    names = list(diagnosis.gap.by_sensor) if sensor_names is None else sensor_names
     lim = max(3.0, float(np.max(np.abs(values))))
     extent = (grid[0], grid[-1] if grid[-1] > grid[0] else grid[0] + 1.0, len(names) - 0.5, -0.5)
     mesh = ax.imshow(values, aspect="auto", cmap="RdBu_r", vmin=-lim, vmax=lim, interpolation="nearest",
@@ -268,14 +268,14 @@ def plot_residual_map(diagnosis, *, ax=None, sensor_names=None):
 def plot_shrinkage(diagnosis, *, ax=None):
     """Residual rms after adding each effect (fitted and held out) against the base model."""
     ax = _axes(ax, figsize=(8, 3.6))
-    names = [e["name"] for e in diagnosis.effects]
-    fitted = [e["rms_after"] for e in diagnosis.effects]
-    held = [np.nan if e["heldout_rms_after"] is None else e["heldout_rms_after"] for e in diagnosis.effects]
+    names = [e.name for e in diagnosis.effects]
+    fitted = [e.rms_after for e in diagnosis.effects]
+    held = [np.nan if e.heldout_rms_after is None else e.heldout_rms_after for e in diagnosis.effects]
     x = np.arange(len(names))
     ax.bar(x - 0.2, fitted, width=0.4, label="fitted")
     ax.bar(x + 0.2, held, width=0.4, label="held out")
-    ax.axhline(diagnosis.gap["rms_residual"], color="k", linestyle="--", linewidth=1, label="base model")
-    ax.axhline(diagnosis.gap["noise_rms"], color="C2", linestyle=":", linewidth=1.2, label="noise floor")
+    ax.axhline(diagnosis.gap.rms_residual, color="k", linestyle="--", linewidth=1, label="base model")
+    ax.axhline(diagnosis.gap.noise_rms, color="C2", linestyle=":", linewidth=1.2, label="noise floor")
     ax.set_xticks(x, [n.replace("_", "\n") for n in names], fontsize=7)
     ax.set_ylabel("residual rms")
     ax.set_title("How far the gap shrinks with each candidate effect")

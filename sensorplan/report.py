@@ -12,7 +12,7 @@ from datetime import datetime, timezone
 
 import numpy as np
 
-__all__ = ["build_report", "Report"]
+__all__ = ["build_report", "render_report", "Report"]
 
 _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Helvetica,Arial,sans-serif;max-width:980px;margin:2em auto;
@@ -44,13 +44,9 @@ class Report:
 
 
 def _png(ax_or_fig):
-    from .plotting import _pyplot
-
-    plt = _pyplot()
     fig = getattr(ax_or_fig, "figure", ax_or_fig)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
     return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
@@ -102,58 +98,40 @@ def _model_section(case):
     return "Bridge and load model", text + spans + supports + veh + sens + fig
 
 
-def build_report(case, *, data=None, count=None, criterion="D", spacing=None, n_scenarios=6, n_crossings=10,
-                 seed=0, progress=None):
-    """Compute everything the report shows and render it as one HTML page.
+def build_report(case, **options):
+    """:func:`render_report` of :func:`sensorplan.analysis.analyse` (``options`` go to ``analyse``)."""
+    from .analysis import analyse
 
-    Parameters
-    ----------
-    case : Case
-    data : Crossings, optional
-        Measured crossings: adds the identified EI and the gap diagnosis.
-    count : int, optional
-        Sensors to place (default: as many as the case has).
-    criterion : {"D", "A", "E", "Ds"}
-    spacing : float, optional
-        Candidate spacing [m] (default: about length / 60).
-    n_scenarios, n_crossings, seed : verification settings.
-    """
+    return render_report(analyse(case, **options))
+
+
+def render_report(analysis):
+    """Render an :class:`~sensorplan.analysis.Analysis` as one self-contained HTML page."""
     from . import plotting
-    from .design.recommend import recommend
-    from .model.fisher import fisher_blocks
-    from .model.sensors import SensorLayout
-    from .verification.verify import verify_layouts
 
-    count = case.sensors.n_sensors if count is None else int(count)
-    spacing = spacing if spacing is not None else max(0.25, round(case.bridge.length / 60.0 * 4) / 4)
+    case, design, verification = analysis.case, analysis.design, analysis.verification
     supports = case.bridge.support_positions
     sections = [_model_section(case)]
-
-    candidates = np.linspace(0.0, case.bridge.length, 9)
-    blocks = fisher_blocks(case, sensors=SensorLayout.candidates(
-        candidates, noise_std=[float(np.median(case.noise.std))] * candidates.size), parameterisation="ei")
+    blocks = analysis.candidates
     peaks = _table(["candidate x [m]", "curve peaks at [m]", "peak information [1/(N m^2)^2]"],
                    [(f"{x:g}", f"{p:.2f}", f"{v:.3g}") for x, p, v in
-                    zip(candidates, blocks.peaks(), blocks.curves.max(axis=1))])
+                    zip(blocks.sensors.positions, blocks.peaks(), blocks.curves.max(axis=1))])
     sections.append(("Informativeness of candidate positions", _figure(
         plotting.plot_informativeness(blocks, supports=supports, log=True),
         "Fisher informativeness curves of candidate tiltmeter positions",
         "the higher a sensor's curve over an element, the better that sensor alone pins down EI there; "
         "flat, low stretches are what no single sensor at that position can see.") + peaks))
 
-    design = recommend(case, count, criterion, spacing=spacing, rng=seed)
-    if progress:
-        progress("layout recommended")
     cert = _table(["quantity", "value"], [
         ("positions [m]", ", ".join(f"{x:.2f}" for x in design.layout_m)),
         (f"{design.criterion} criterion of the layout", _fmt(design.value, 6)),
         ("relaxation bound (no layout can do better)", _fmt(design.bound, 6)),
         ("gap", _fmt(design.value - design.bound, 3)),
-        ("certified efficiency", f"{100 * design.efficiency:.2f} %"),
+        ("certified efficiency (a lower bound)", f"{100 * design.efficiency:.2f} %"),
         ("method", design.method)])
-    base_rows = [(name, "infeasible" if b is None else _fmt(b["value"], 6),
-                  "" if b is None else ", ".join(f"{x:.2f}" for x in b["layout_m"]))
-                 for name, b in design.baselines.items()]
+    base_rows = [(b.name, "infeasible" if not b.feasible else _fmt(b.value, 6),
+                  "" if not b.feasible else ", ".join(f"{x:.2f}" for x in b.layout_m))
+                 for b in design.baselines]
     figs = (_figure(plotting.plot_layout(design), "Recommended layout",
                     "red markers are the recommended sensors; blue bars show how strongly the convex relaxation "
                     "wanted each candidate position.")
@@ -167,16 +145,11 @@ def build_report(case, *, data=None, count=None, criterion="D", spacing=None, n_
                      cert + "<h3>Baselines</h3>" + _table(["baseline", "criterion", "positions [m]"], base_rows)
                      + figs))
 
-    names = ["recommended"] + [n for n, b in design.baselines.items() if b is not None]
-    layouts = [design.layout_m] + [b["layout_m"] for b in design.baselines.values() if b is not None]
-    verification = verify_layouts(case, layouts, names=names, n_locations=n_scenarios, n_crossings=n_crossings,
-                                  seed=seed)
-    if progress:
-        progress("layouts verified")
+    names = analysis.verified_names
     vrows = []
     for name, score in zip(names, verification.layouts):
         m = score.metrics
-        vrows.append((name, *(f"{m[k][0]:.3f} ± {m[k][1]:.3f}" for k in
+        vrows.append((name, *(f"{m[k].mean:.3f} ± {m[k].se:.3f}" for k in
                               ("rmse", "localisation_error_m", "detection_rate", "false_alarm_rate",
                                "coverage95", "band_width"))))
     axes = plotting.plot_verification(verification, supports=supports)
@@ -189,12 +162,8 @@ def build_report(case, *, data=None, count=None, criterion="D", spacing=None, n_
                                "each line is one layout: higher detection probability and lower localisation "
                                "error mean the layout finds a loss at that location.")))
 
-    posterior = diagnosis = None
-    if data is not None:
-        from .diagnosis.diagnose import diagnose
-        from .inference.inversion import invert
-
-        posterior = invert(case, data)
+    posterior, diagnosis = analysis.posterior, analysis.diagnosis
+    if posterior is not None:
         fit_figs = "".join(_figure(plotting.plot_fit(posterior, name), f"Data and model for {name}",
                                    "grey dots are the measurements; the orange band is where the model "
                                    "expects 95 % of them.") for name in posterior.sensor_names)
@@ -211,16 +180,15 @@ def build_report(case, *, data=None, count=None, criterion="D", spacing=None, n_
                                          "with 75 % and 95 % probability; wide bands mark what the data cannot "
                                          "resolve.")
                          + fit_figs + _table(["element [m]", "EI mean", "95 % low", "95 % high", "nominal"], erows)))
-        diagnosis = diagnose(case, data)
-        drows = [(e["name"], f"{e['log_bayes_factor']:.2f}",
-                  "n/a" if e["heldout_score_gain"] is None else f"{e['heldout_score_gain']:.2f}",
-                  _fmt(e["rms_after"], 3), _fmt(e["heldout_rms_after"], 3), f"{100 * e['max_ei_shift']:.1f} %")
+        drows = [(e.name, f"{e.log_bayes_factor:.2f}",
+                  "n/a" if e.heldout_score_gain is None else f"{e.heldout_score_gain:.2f}",
+                  _fmt(e.rms_after, 3), _fmt(e.heldout_rms_after, 3), f"{100 * e.max_ei_shift:.1f} %")
                  for e in diagnosis.effects]
         g = diagnosis.gap
         sections.append(("Sim-to-real gap diagnosis",
                          f'<p class="verdict">Verdict: {html.escape(diagnosis.verdict)}</p>'
-                         f"<p>Residual rms {g['rms_residual']:.3g}, systematic part {g['systematic_rms']:.3g}, "
-                         f"noise {g['noise_rms']:.3g} (p = {g['p_value']:.2g}).</p>"
+                         f"<p>Residual rms {g.rms_residual:.3g}, systematic part {g.systematic_rms:.3g}, "
+                         f"noise {g.noise_rms:.3g} (p = {g.p_value:.2g}).</p>"
                          + _table(["effect", "log Bayes factor", "held-out gain", "rms after", "held-out rms",
                                    "max EI shift"], drows)
                          + _figure(plotting.plot_residual_map(diagnosis), "Where the model and the data disagree",
@@ -235,6 +203,7 @@ def build_report(case, *, data=None, count=None, criterion="D", spacing=None, n_
                                    "causing in the identified EI.")))
     return Report(_render(case, sections), tuple(title for title, _ in sections), design, verification,
                   posterior, diagnosis)
+
 
 
 def _render(case, sections):

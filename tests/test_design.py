@@ -2,7 +2,6 @@
 
 import itertools
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -13,7 +12,9 @@ import sensorplan as sp
 from sensorplan import SolverError
 from sensorplan.model.case import Case
 from sensorplan.io.config import example_case
-from sensorplan.design.recommend import build_problem, recommend, solve_relaxation
+from sensorplan import CandidateGrid, Constraints, recommend
+from sensorplan.design.recommend import build_problem
+from sensorplan.design.relaxation import solve_relaxation
 from sensorplan.design.selection import exchange, greedy
 
 
@@ -59,9 +60,8 @@ def test_brute_force_bounds_and_certificates(criterion, constraints):
     kwargs = dict(constraints)
     if kwargs.get("costs") == "ramp":
         kwargs["costs"] = 1.0 + np.arange(13) / 6.0
-    result = recommend(case, 3, criterion, spacing=2.0, springs=criterion == "Ds", curve_max=0,
-                       n_random=20, **kwargs)
-    problem = build_problem(case, 3, criterion, spacing=2.0, springs=criterion == "Ds", **kwargs)
+    result = recommend(case, 3, criterion, springs=criterion == 'Ds', curve_max=0, n_random=20, grid=CandidateGrid(spacing=2.0), constraints=Constraints(**kwargs))
+    problem = build_problem(case, 3, criterion, springs=criterion == 'Ds', grid=CandidateGrid(spacing=2.0), constraints=Constraints(**kwargs))
     best, best_u, n_feasible = brute_force(problem)
     assert n_feasible > 0
     sign = 1.0 if problem.criterion.maximise else -1.0
@@ -79,9 +79,9 @@ def test_brute_force_bounds_and_certificates(criterion, constraints):
     assert problem.feasible(layout)
     np.testing.assert_allclose(sorted(problem.positions[layout]), result.layout_m)
     # never worse than a baseline it reports
-    for name, b in result.baselines.items():
-        if b is not None:
-            assert sign * (result.value - b["value"]) >= -tol, name
+    for b in result.baselines:
+        if b.feasible:
+            assert sign * (result.value - b.value) >= -tol, b.name
 
 
 @settings(max_examples=12)
@@ -89,7 +89,7 @@ def test_brute_force_bounds_and_certificates(criterion, constraints):
 def test_greedy_exchange_bound_ordering(count, criterion, seed):
     rng = np.random.default_rng(seed)
     case = small_case((rng.uniform(10, 25),), int(rng.integers(4, 10)))
-    problem = build_problem(case, count, criterion, spacing=case.bridge.length / 12)
+    problem = build_problem(case, count, criterion, grid=CandidateGrid(spacing=case.bridge.length / 12))
     g, g_u = greedy(problem)
     e, e_u = exchange(problem, g)
     rel = solve_relaxation(problem, "fast")
@@ -109,7 +109,7 @@ def test_fast_path_equals_cvxpy_clarabel(criterion, constraints):
     kwargs = dict(constraints)
     if kwargs.get("costs") == "ramp":
         kwargs["costs"] = 1.0 + np.arange(17) / 8.0
-    problem = build_problem(case, 3, criterion, spacing=1.5, springs=criterion == "Ds", **kwargs)
+    problem = build_problem(case, 3, criterion, springs=criterion == 'Ds', grid=CandidateGrid(spacing=1.5), constraints=Constraints(**kwargs))
     fast = solve_relaxation(problem, "fast")
     ref = solve_relaxation(problem, "cvxpy")
     scale = max(1.0, abs(ref.bound))
@@ -126,7 +126,7 @@ def test_small_lmi_interior_point_matches_clarabel(seed, side):
     # problems: same optimum, a trace-one PSD multiplier, feasible weights.
     import cvxpy as cp
 
-    from sensorplan.design.relaxation import _lmi_ipm
+    from sensorplan.design.relax_eigen import _lmi_ipm
 
     rng = np.random.default_rng(seed)
     k, m, count = 7, 30, 5
@@ -162,17 +162,17 @@ def test_small_lmi_interior_point_matches_clarabel(seed, side):
 
 
 def test_small_e_sdp_falls_back_to_clarabel(monkeypatch):
-    from sensorplan.design import relaxation as _relaxation
+    from sensorplan.design import relax_eigen
 
     case = small_case((12.0, 12.0), 10, rot=(2e9, 0.0, 2e9))
-    problem = build_problem(case, 3, "E", spacing=1.5)
+    problem = build_problem(case, 3, 'E', grid=CandidateGrid(spacing=1.5))
     reference = solve_relaxation(problem, "fast")
     assert reference.stats["clarabel_fallbacks"] == 0
 
     def failing(*args, **kwargs):
         return 0.0, None, None, 0.0, "numerical problems", 1
 
-    monkeypatch.setattr(_relaxation, "_lmi_ipm", failing)
+    monkeypatch.setattr(relax_eigen, "_lmi_ipm", failing)
     fallback = solve_relaxation(problem, "fast")
     assert fallback.stats["clarabel_fallbacks"] == fallback.stats["rounds"]
     assert abs(fallback.bound - reference.bound) <= 1e-6 * max(1.0, abs(reference.bound))
@@ -187,17 +187,17 @@ def test_coarse_to_fine_recommendation_keeps_its_guarantees(criterion, monkeypat
 
     monkeypatch.setattr(_selection, "COARSE_ABOVE", 6)
     case = small_case((12.0, 12.0), 8, rot=(2e9, 0.0, 2e9))
-    result = recommend(case, 3, criterion, spacing=2.0, curve_max=0, n_random=20)
-    problem = build_problem(case, 3, criterion, spacing=2.0)
+    result = recommend(case, 3, criterion, curve_max=0, n_random=20, grid=CandidateGrid(spacing=2.0))
+    problem = build_problem(case, 3, criterion, grid=CandidateGrid(spacing=2.0))
     _, best_u, _ = brute_force(problem)
     sign = 1.0 if problem.criterion.maximise else -1.0
     tol = 1e-9 * max(1.0, abs(best_u))
     assert sign * result.value <= best_u + tol
     assert sign * result.value <= sign * result.bound + tol
     assert problem.feasible(list(result.layout_index))
-    for name, b in result.baselines.items():
-        if b is not None:
-            assert sign * (result.value - b["value"]) >= -tol, name
+    for b in result.baselines:
+        if b.feasible:
+            assert sign * (result.value - b.value) >= -tol, b.name
     # the polished layout is a local optimum of the full problem
     layout = list(result.layout_index)
     util = problem.utility_of(layout)
@@ -215,7 +215,7 @@ def test_exchange_ends_at_a_local_optimum(count, criterion, seed, coarse):
     # check the result against all single swaps, evaluated directly.
     rng = np.random.default_rng(seed)
     case = small_case((rng.uniform(10, 25), rng.uniform(10, 25)), int(rng.integers(6, 12)), rot=(1e9, 0.0, 1e9))
-    problem = build_problem(case, count, criterion, spacing=case.bridge.length / 14, springs=criterion == "Ds")
+    problem = build_problem(case, count, criterion, springs=criterion == 'Ds', grid=CandidateGrid(spacing=case.bridge.length / 14))
     start = list(rng.choice(problem.n_candidates, count, replace=False))
     # coarse: the coarse-to-fine path (a coarse grid first), forced on this small grid
     layout, util = exchange(problem, start, coarse_above=8 if coarse else 300)
@@ -235,7 +235,7 @@ def test_pruned_greedy_equals_plain_greedy(count, criterion, seed):
     # Reference: the plain greedy step, every candidate evaluated.
     rng = np.random.default_rng(seed)
     case = small_case((rng.uniform(10, 25), rng.uniform(10, 25)), int(rng.integers(6, 12)), rot=(1e9, 0.0, 1e9))
-    problem = build_problem(case, count, criterion, spacing=case.bridge.length / 14, springs=criterion == "Ds")
+    problem = build_problem(case, count, criterion, springs=criterion == 'Ds', grid=CandidateGrid(spacing=case.bridge.length / 14))
     chosen = []
     for _ in range(count):
         values = [(problem.utility_of(chosen + [i]), -i) for i in range(problem.n_candidates) if i not in chosen]
@@ -250,7 +250,7 @@ def test_mirror_symmetric_bridge_scores_mirrored_layouts_equally(criterion):
     bridge = sp.Bridge((15.0, 15.0), rotational_springs=(1e9, 0.0, 1e9))
     case = Case(bridge, sp.Mesh.uniform(bridge, 10), 1e10, sp.Vehicle.point_load(1e5),
                 sp.SensorLayout([5.0], noise_std=2e-6), sweep=sp.LoadSweep.from_range(0.0, 30.0, 0.5))
-    problem = build_problem(case, 2, criterion, spacing=1.0)
+    problem = build_problem(case, 2, criterion, grid=CandidateGrid(spacing=1.0))
     x = problem.positions
     rng = np.random.default_rng(1)
     for _ in range(5):
@@ -262,8 +262,7 @@ def test_mirror_symmetric_bridge_scores_mirrored_layouts_equally(criterion):
 
 def test_fixed_sensors_and_exclusions():
     case = example_case("openlab-like")
-    result = recommend(case, 2, "D", spacing=1.0, exclude=[(14.0, 16.0)], fixed=[11.0],
-                       min_spacing=2.0, curve_max=0, n_random=10)
+    result = recommend(case, 2, 'D', curve_max=0, n_random=10, grid=CandidateGrid(spacing=1.0, exclude=[(14.0, 16.0)]), constraints=Constraints(fixed=[11.0], min_spacing=2.0))
     x = np.array(result.layout_m)
     assert not np.any((x >= 14.0) & (x <= 16.0))
     assert np.all(np.abs(x - 11.0) >= 2.0)
@@ -274,21 +273,22 @@ def test_fixed_sensors_and_exclusions():
 def test_infeasible_constraints_are_reported():
     case = small_case()
     with pytest.raises(SolverError):
-        recommend(case, 3, "D", spacing=2.0, min_spacing=15.0, curve_max=0, n_random=5)
+        recommend(case, 3, 'D', curve_max=0, n_random=5, grid=CandidateGrid(spacing=2.0), constraints=Constraints(min_spacing=15.0))
 
 
 def test_design_result_json_keys_and_curve():
     case = example_case("simply-supported")
-    result = recommend(case, 2, "D", spacing=1.0, n_random=10, curve_max=4)
+    result = recommend(case, 2, 'D', n_random=10, curve_max=4, grid=CandidateGrid(spacing=1.0))
     d = result.to_dict()
     for key in ("criterion", "count", "n_params", "layout_m", "value", "bound", "efficiency", "method",
                 "baselines"):
         assert key in d
     assert d["layout_m"] == sorted(d["layout_m"])
-    assert d["efficiency"] == pytest.approx(math.exp((d["value"] - d["bound"]) / d["n_params"]))
-    values = [c["value"] for c in result.curve]
-    bounds = [c["bound"] for c in result.curve]
-    assert [c["count"] for c in result.curve] == [1, 2, 3, 4]
+    assert d["value"] <= d["bound"] and 0.0 < d["efficiency"] <= 1.0
+    values = [c.value for c in result.curve]
+    bounds = [c.bound for c in result.curve]
+    assert [c.count for c in result.curve] == [1, 2, 3, 4]
+    assert [c["count"] for c in d["curve"]] == [1, 2, 3, 4]
     assert np.all(np.diff(values) > 0) and np.all(np.array(values) <= np.array(bounds) + 1e-9)
     # diminishing returns of log det (submodularity of the bound curve is not guaranteed, the gains are)
     assert np.all(np.diff(np.diff(bounds)) <= 1e-9)

@@ -63,11 +63,11 @@ def test_withheld_effect_is_found(case, effect, seed):
     data = generate(case, effect, rng=seed)
     d = diagnose(case, data)
     assert d.causes and d.causes[0] == effect
-    assert d.effects[0]["name"] == effect
+    assert d.effects[0].name == effect
     entry = d.effects[0]
-    assert entry["log_bayes_factor"] > 3 and entry["heldout_score_gain"] > 0
+    assert entry.log_bayes_factor > 3 and entry.heldout_score_gain > 0
     # the held-out residual shrinks to near the noise level of the data
-    assert entry["heldout_rms_after"] < 1.2 * float(np.median(case.noise.std)) * 1.05
+    assert entry.heldout_rms_after < 1.2 * float(np.median(case.noise.std)) * 1.05
 
 
 def test_out_of_library_effect_is_unexplained(case):

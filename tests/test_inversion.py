@@ -1,7 +1,6 @@
 """Bayesian identification: exact linear case, calibration, damage recovery, robustness."""
 
 import math
-import warnings
 
 import numpy as np
 import pytest
@@ -20,7 +19,7 @@ L = 20.0
 
 def simple(n_elements, positions=(4.0, 10.0, 16.0), std=2e-6, step=0.25, corr=0.0):
     bridge = sp.Bridge((L,))
-    noise = sp._noise.NoiseModel(np.full(len(positions), std), corr) if corr else None
+    noise = sp.NoiseModel(np.full(len(positions), std), corr) if corr else None
     return Case(bridge, sp.Mesh.uniform(bridge, n_elements), 1e10, sp.Vehicle.point_load(1e5),
                 sp.SensorLayout(list(positions), noise_std=std), noise=noise,
                 sweep=sp.LoadSweep.from_range(0.0, L, step))

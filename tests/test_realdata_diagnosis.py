@@ -71,11 +71,11 @@ def test_withheld_laser_does_not_point_at_the_support(withheld):
     d = withheld.diagnosis
     # the gap of steps 1-2 is not significant: its mean over the steps is ~0 and the
     # step-to-step difference (15 % non-linearity) counts as scatter
-    assert not d.gap["significant"]
-    assert d.gap["systematic_rms"] < 0.05 * d.gap["noise_rms"]
+    assert not d.gap.significant
+    assert d.gap.systematic_rms < 0.05 * d.gap.noise_rms
     # the support spring is neither named nor ranked first, and the evidence is against it
     assert study.VERTICAL not in d.causes
-    assert d.effects[0]["name"] != study.VERTICAL
+    assert d.effects[0].name != study.VERTICAL
     assert withheld.vertical["log_bayes_factor"] < 1.0
     # no support parameter learns anything: posterior = prior
     for s in withheld.supports:
@@ -86,16 +86,16 @@ def test_withheld_laser_does_not_point_at_the_support(withheld):
     assert s2.settlement_high / s2.settlement_low > 1e3
     assert s2.settlement_low < withheld.lwa5["slope"] < s2.settlement_high
     # and the gap does not shrink
-    assert withheld.vertical["rms_after"] > 0.98 * d.gap["rms_residual"]
+    assert withheld.vertical.rms_after > 0.98 * d.gap.rms_residual
     assert withheld.vertical["heldout_rms_after"] > 0.95 * withheld.base_heldout_rms
 
 
 def test_what_wins_is_the_step_to_step_non_linearity(withheld):
     # a per-step response factor (1 + a) absorbs that step 2 is ~15 % more flexible per kN
-    amp = study.effect(withheld.diagnosis, "dynamic_amplification")["parameters"]
+    amp = study.effect(withheld.diagnosis, "dynamic_amplification").parameters
     ratio = (1 + amp["amplification_step 2"]["map"]) / (1 + amp["amplification_step 1"]["map"])
     assert 1.08 < ratio < 1.25
-    assert withheld.diagnosis.effects[0]["name"] == "dynamic_amplification"
+    assert withheld.diagnosis.effects[0].name == "dynamic_amplification"
 
 
 def test_with_lwa5_the_same_refit_finds_the_bearing(with_lwa5):
@@ -113,7 +113,7 @@ def test_ei_absorbs_the_settlement_in_the_kept_lasers(withheld, with_lwa5):
     fp = study.fingerprint(bridge.vertical_springs[2], ei, withheld.crossings)
     assert fp["raw"][3] > 0.25e-3  # at the same EI the bearing adds ~0.3 mm at LWA_4 per 100 kN
     assert fp["rms"] < 0.05e-3  # after refitting EI only ~0.03 mm is left
-    assert fp["rms"] < 0.2 * withheld.diagnosis.gap["rms_residual"]
+    assert fp["rms"] < 0.2 * withheld.diagnosis.gap.rms_residual
     assert 0.9 < fp["ei_rigid"][1] / ei[1] < 1.0  # span 2 a few per cent softer instead
 
 

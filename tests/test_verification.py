@@ -4,12 +4,11 @@ import math
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-import pytest
 
 import sensorplan as sp
 from sensorplan.model.case import Case
 from sensorplan.io.config import example_case
-from sensorplan.design.recommend import recommend
+from sensorplan import CandidateGrid, recommend
 from sensorplan.verification.verify import element_average_ei, make_scenarios, truth_mesh, verify_layouts
 
 
@@ -21,7 +20,7 @@ def two_span():
 
 def test_crowded_layout_scores_worse_than_d_optimal():
     case = two_span()
-    design = recommend(case, 3, "D", spacing=0.5, curve_max=0, n_random=10)
+    design = recommend(case, 3, 'D', curve_max=0, n_random=10, grid=CandidateGrid(spacing=0.5))
     crowded = [27.5, 28.5, 29.5]  # all sensors near the far end support
     result = verify_layouts(case, [design.layout_m, crowded], n_locations=12, severity=0.3, seed=3)
     best, worst = result.layouts

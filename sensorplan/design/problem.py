@@ -29,10 +29,10 @@ class DesignProblem:
     q0: np.ndarray  # (P, P) prior + fixed sensors
     criterion: object
     count: int
-    costs: np.ndarray = None
-    budget: float = None
-    span_min: np.ndarray = None  # (n_spans,)
-    span_max: np.ndarray = None
+    costs: np.ndarray | None = None
+    budget: float | None = None
+    span_min: np.ndarray | None = None  # (n_spans,)
+    span_max: np.ndarray | None = None
     min_spacing: float = 0.0
     n_spans: int = 1
 
@@ -159,27 +159,5 @@ class DesignProblem:
         return float(-res.fun), res.x
 
     def dual_bound(self, w):
-        """Certified bound on the relaxation optimum from a (near-optimal) w.
-
-        For concave smooth utilities f: f* <= f(w) + max_s g(w)^T (s - w)
-        (the Frank-Wolfe gap).  For E: lambda_min(Q) <= <Z, Q> for every
-        Z >= 0 with trace 1, so f* <= <Z, Q_0> + max_s sum_i s_i <Z, I_i>.
-        Returns the bound on the utility.
-        """
-        q = self.precision(w)
-        if self.criterion.name == "E":
-            return self.e_bound(self.criterion.gradient_matrix(q))
-        g = self.flat_blocks @ self.criterion.gradient_matrix(q).ravel()
-        best, _ = self.linear_max(g)
-        return self.criterion.utility(q) + max(0.0, best - float(g @ w))
-
-    def e_bound(self, z):
-        z = 0.5 * (z + z.T)
-        vals, vecs = np.linalg.eigh(z)
-        vals = np.clip(vals, 0.0, None)
-        if vals.sum() <= 0:
-            return np.inf
-        z = (vecs * (vals / vals.sum())) @ vecs.T
-        g = self.flat_blocks @ z.ravel()
-        best, _ = self.linear_max(g)
-        return float(np.sum(z * self.q0)) + best
+        """Certified bound on the relaxation optimum of the utility from (near-optimal) weights ``w``."""
+        return self.criterion.bound(self, w)

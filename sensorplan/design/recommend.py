@@ -1,136 +1,88 @@
-"""Optimal sensor placement: recommend a layout, certify it, compare it with baselines."""
+"""Recommend a layout: assemble the placement problem, solve, certify, compare with baselines.
+
+Owns: option groups (CandidateGrid, Constraints), problem assembly,
+:func:`recommend`.  May import: model, errors, design.
+"""
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .criteria import make_criterion
-from .problem import DesignProblem
-from .._errors import ConfigError, SolverError
+from .._errors import ConfigError, SensorplanError, SolverError
+from .._threads import single_threaded
 from ..model.fisher import fisher_blocks
 from ..model.prior import GMRFPrior
-from .relaxation import solve_relaxation_cvxpy, solve_relaxation_fast
-from .selection import baselines as make_baselines
-from .selection import exchange, greedy, round_weights
 from ..model.sensors import SensorLayout
-from .._threads import single_threaded
+from .baselines import baselines as make_baselines
+from .criteria import make_criterion
+from .problem import DesignProblem
+from .relaxation import solve_relaxation
+from .results import Baseline, CurvePoint, DesignResult, SolverStats
+from .selection import exchange, greedy, round_weights
 
-__all__ = ["DesignResult", "recommend", "build_problem", "candidate_positions"]
+__all__ = ["recommend", "build_problem", "candidate_positions", "CandidateGrid", "Constraints"]
 
 
-@dataclass(frozen=True, eq=False)
-class DesignResult:
-    """A recommended layout with its certificate and the baselines.
+@dataclass(frozen=True)
+class CandidateGrid:
+    """Where new sensors may go.
 
-    Attributes
+    Parameters
     ----------
-    criterion : str
-    count : int
-        Number of new sensors.
-    n_params : int
-    layout_m : tuple of float
-        Sorted positions of the recommended sensors [m].
-    value : float
-        Criterion value of the layout (D, Ds: log det; A: trace; E: lambda_min).
-    bound : float
-        Relaxation bound on the criterion of every feasible layout (upper for
-        D, Ds and E, lower for A), certified by a dual bound.
-    efficiency : float
-        Certified lower bound on the layout's efficiency against the best
-        possible layout.
-    method : str
-        How the layout was found.
-    baselines : dict
-        ``{name: {"layout_m": [...], "value": float}}``.
-    solver : dict
-        Relaxation solver statistics.
-    curve : tuple of dict
-        Criterion versus number of sensors: ``{"count", "value", "bound"}``.
+    spacing : float
+        Grid spacing [m] from the left end.
+    exclude : sequence of (float, float)
+        Exclusion zones [m] (bearings, joints, anchorages).
+    positions : sequence of float, optional
+        Explicit candidate positions [m] instead of the grid.
     """
 
-    criterion: str
-    count: int
-    n_params: int
-    layout_m: tuple
-    value: float
-    bound: float
-    efficiency: float
-    method: str
-    baselines: dict
-    solver: dict
-    candidates_m: np.ndarray
-    weights: np.ndarray
-    fixed_m: tuple = ()
-    curve: tuple = ()
-    kind: str = "rotation"
-    layout_index: tuple = field(default=(), repr=False)
-    edges: np.ndarray = None
-    supports_m: tuple = ()
-    posterior_std: dict = field(default_factory=dict)
+    spacing: float = 0.5
+    exclude: tuple = ()
+    positions: tuple | None = None
 
-    def summary(self):
-        unit = {"D": "log det of the posterior precision",
-                "Ds": "log det of the posterior precision of log EI, springs marginalised",
-                "A": "trace of the posterior covariance",
-                "E": "smallest eigenvalue of the posterior precision"}[self.criterion]
-        lines = [f"Recommended {self.count} {self.kind} sensor(s), {self.criterion}-optimal "
-                 f"({unit}, {self.n_params} parameters)",
-                 "  positions [m]: " + ", ".join(f"{x:.2f}" for x in self.layout_m)]
-        if self.fixed_m:
-            lines.append("  existing sensors [m]: " + ", ".join(f"{x:.2f}" for x in self.fixed_m))
-        gap = self.value - self.bound
-        lines.append(f"  criterion {self.value:.6g}; relaxation bound {self.bound:.6g}; gap {gap:.3g}; "
-                     f"certified efficiency >= {100 * self.efficiency:.2f} %  (method: {self.method})")
-        status = self.solver.get("status", "?")
-        lines.append(f"  relaxation: {self.solver.get('solver', '?')}, status {status}, relative duality gap "
-                     f"{self.solver.get('relative_gap', float('nan')):.1e}, {self.solver.get('time_s', 0.0):.2f} s"
-                     + ("" if status == "optimal" else "  <- NOT optimal: treat the bound with care"))
-        lines.append(f"  {'baseline':28s} {'criterion':>12s} {'vs layout':>10s}  positions [m]")
-        for name, b in self.baselines.items():
-            if b is None:
-                lines.append(f"  {name:28s} {'infeasible':>12s}")
-                continue
-            rel = _relative(self.criterion, b["value"], self.value, self.n_params)
-            lines.append(f"  {name:28s} {b['value']:12.6g} {100 * rel:9.1f}%  "
-                         + ", ".join(f"{x:.2f}" for x in b["layout_m"]))
-        return "\n".join(lines)
-
-    def best_baseline(self):
-        """Name of the best feasible baseline."""
-        sign = -1.0 if self.criterion == "A" else 1.0
-        feasible = {k: v for k, v in self.baselines.items() if v is not None}
-        return max(feasible, key=lambda k: sign * feasible[k]["value"]) if feasible else None
-
-    def to_dict(self):
-        return {
-            "criterion": self.criterion,
-            "count": self.count,
-            "n_params": self.n_params,
-            "layout_m": list(self.layout_m),
-            "value": self.value,
-            "bound": self.bound,
-            "efficiency": self.efficiency,
-            "method": self.method,
-            "baselines": self.baselines,
-            "fixed_m": list(self.fixed_m),
-            "kind": self.kind,
-            "solver": {k: v for k, v in self.solver.items() if _jsonable(v)},
-            "curve": list(self.curve),
-        }
+    def candidates(self, bridge):
+        """Candidate positions [m] on ``bridge``."""
+        if self.positions is not None:
+            x = np.asarray(self.positions, dtype=float)
+        else:
+            x = candidate_positions(bridge, self.spacing, self.exclude)
+        bridge.check_on_bridge(x, "candidates", "recommend")
+        return x
 
 
-def _jsonable(v):
-    return isinstance(v, (str, int, float, bool, type(None)))
+@dataclass(frozen=True)
+class Constraints:
+    """Engineering constraints on a layout.
 
+    Parameters
+    ----------
+    fixed : sequence of float
+        Positions of existing sensors [m] (their information is in Q_0).
+    min_spacing : float
+        Minimum distance between sensors [m] (new and existing).
+    span_min, span_max : sequence of int, optional
+        Minimum / maximum count of new sensors per span.
+    costs : float or sequence of float, optional
+        Cost of a sensor at each candidate (default 1 each).
+    budget : float, optional
+        Total cost of the new sensors.
+    """
 
-def _relative(criterion, value, reference, n_params):
-    """Efficiency of ``value`` relative to ``reference`` (1 = as good)."""
-    if criterion in ("D", "Ds"):
-        return math.exp((value - reference) / n_params)
-    if criterion == "A":
-        return reference / value
-    return value / reference
+    fixed: tuple = ()
+    min_spacing: float = 0.0
+    span_min: tuple | None = None
+    span_max: tuple | None = None
+    costs: object = None
+    budget: float | None = None
+
+    def __post_init__(self):
+        if not (np.isfinite(self.min_spacing) and self.min_spacing >= 0):
+            raise ConfigError(f"The 'min_spacing' parameter must be a non-negative distance in m. "
+                              f"Got {self.min_spacing!r} instead.")
+        if self.budget is not None and not (np.isfinite(self.budget) and self.budget > 0):
+            raise ConfigError(f"The 'budget' parameter must be positive. Got {self.budget!r} instead.")
 
 
 def candidate_positions(bridge, spacing, exclude=()):
@@ -149,28 +101,20 @@ def candidate_positions(bridge, spacing, exclude=()):
     return x[keep]
 
 
-def build_problem(case, count, criterion="D", *, spacing=0.5, exclude=(), fixed=(), kind="rotation",
-                  noise_std=None, n_crossings=1, prior=None, springs=False, costs=None, budget=None,
-                  span_min=None, span_max=None, min_spacing=0.0, region=None, functionals=None,
-                  candidates=None):
+def build_problem(case, count, criterion="D", *, grid=None, constraints=None, kind="rotation", noise_std=None,
+                  n_crossings=1, prior=None, springs=False, region=None, functionals=None):
     """Assemble the placement problem (see :func:`recommend` for the parameters)."""
     prior = GMRFPrior() if prior is None else prior
+    grid = CandidateGrid() if grid is None else grid
+    constraints = Constraints() if constraints is None else constraints
     bridge = case.bridge
-    positions = candidate_positions(bridge, spacing, exclude) if candidates is None else np.asarray(candidates, float)
-    bridge.check_on_bridge(positions, "candidates", "recommend")
-    fixed = np.asarray(list(fixed), dtype=float)
+    positions = grid.candidates(bridge)
+    fixed = np.asarray(list(constraints.fixed), dtype=float)
     if fixed.size:
         bridge.check_on_bridge(fixed, "fixed", "recommend")
-        far = np.all(np.abs(positions[:, None] - fixed[None, :]) >= max(min_spacing, 1e-9), axis=1)
+        far = np.all(np.abs(positions[:, None] - fixed[None, :]) >= max(constraints.min_spacing, 1e-9), axis=1)
         positions = positions[far]
-    if noise_std is None:
-        same = ([s for k, s in zip(case.sensors.kinds, case.noise.std) if k == kind]
-                if case.noise is not None else [])
-        if not same:
-            unit = "rad" if kind == "rotation" else "m"
-            raise ConfigError(f"The case has no {kind} sensor to take the noise level from; give noise_std "
-                              f"(in {unit}) for the new sensors.")
-        noise_std = float(np.median(same))
+    noise_std = case.noise_std_for(kind, noise_std)
     all_pos = np.concatenate([positions, fixed])
     layout = SensorLayout.candidates(all_pos, kind, noise_std=[noise_std] * all_pos.size)
     blocks = fisher_blocks(case, sensors=layout, parameterisation="log_ei", springs=springs,
@@ -179,26 +123,16 @@ def build_problem(case, count, criterion="D", *, spacing=0.5, exclude=(), fixed=
     q0 = prior.precision(case.n_elements, n_springs) + blocks[positions.size:].sum(axis=0)
     crit = make_criterion(criterion, q0.shape[0], n_elements=case.n_elements, edges=case.mesh.edges,
                           region=region, functionals=functionals)
-    n_spans = bridge.n_spans
     c_arr = None
-    if budget is not None:
-        c_arr = np.broadcast_to(np.asarray(1.0 if costs is None else costs, dtype=float), positions.shape).copy()
+    if constraints.budget is not None:
+        costs = 1.0 if constraints.costs is None else constraints.costs
+        c_arr = np.broadcast_to(np.asarray(costs, dtype=float), positions.shape).copy()
+    span_min, span_max = constraints.span_min, constraints.span_max
     return DesignProblem(positions, bridge.span_of(positions), np.ascontiguousarray(blocks[:positions.size]),
-                         q0, crit, int(count), c_arr, budget,
+                         q0, crit, int(count), c_arr, constraints.budget,
                          None if span_min is None else np.asarray(span_min, int),
-                         None if span_max is None else np.asarray(span_max, int), float(min_spacing), n_spans)
-
-
-def solve_relaxation(problem, solver="auto", start_layout=None):
-    if solver == "auto":
-        # the fast path agrees with cvxpy + Clarabel to the certified gap and was
-        # faster for D, A and E at both sizes of studies/benchmarks/bench_design.py
-        solver = "fast"
-    if solver == "cvxpy":
-        return solve_relaxation_cvxpy(problem)
-    if solver == "fast":
-        return solve_relaxation_fast(problem, start_layout=start_layout)
-    raise ConfigError(f"The 'solver' parameter must be 'auto', 'cvxpy' or 'fast'. Got {solver!r} instead.")
+                         None if span_max is None else np.asarray(span_max, int), float(constraints.min_spacing),
+                         bridge.n_spans)
 
 
 def _best_layout(problem, relaxation, starts, greedy_layout=None):
@@ -247,37 +181,32 @@ def _best_layout(problem, relaxation, starts, greedy_layout=None):
 
 
 @single_threaded
-def recommend(case, count, criterion="D", *, spacing=0.5, exclude=(), fixed=(), kind="rotation",
-              noise_std=None, n_crossings=1, prior=None, springs=False, costs=None, budget=None,
-              span_min=None, span_max=None, min_spacing=0.0, region=None, functionals=None,
-              solver="auto", n_random=100, rng=0, curve_max=None, candidates=None):
+def recommend(case, count, criterion="D", *, grid=None, constraints=None, kind="rotation", noise_std=None,
+              n_crossings=1, prior=None, springs=False, region=None, functionals=None, solver="auto",
+              n_random=100, rng=0, curve_max=None):
     """Recommend where to put ``count`` new sensors.
 
     Parameters
     ----------
     case : Case
-        Bridge, nominal EI, vehicle, load sweep and noise (median noise std
-        of the case's sensors of the same ``kind`` unless ``noise_std`` is given).
+        Bridge, nominal EI, vehicle, load sweep and noise.
     count : int
         Number of new sensors R.
-    criterion : {"D", "A", "E", "Ds"}
-    spacing : float
-        Candidate grid spacing [m].
-    exclude : sequence of (float, float)
-        Exclusion zones [m] (bearings, joints, anchorages).
-    fixed : sequence of float
-        Positions of existing sensors [m] (their information is in Q_0).
+    criterion : str
+        A registered criterion: "D", "A", "E", "Ds" (see :mod:`sensorplan.design.criteria`).
+    grid : CandidateGrid, optional
+        Candidate positions (default: every 0.5 m).
+    constraints : Constraints, optional
+        Existing sensors, minimum spacing, per-span counts, costs and budget.
     kind : {"rotation", "deflection"}
+    noise_std : float, optional
+        Noise std of the new sensors [rad or m] (default: :meth:`Case.noise_std_for`).
     n_crossings : int
     prior : GMRFPrior
     springs : bool
         Spring log-stiffnesses as nuisance parameters.
-    costs, budget : per-candidate costs and a total budget.
-    span_min, span_max : per-span minimum / maximum counts.
-    min_spacing : float
-        Minimum distance between chosen sensors [m].
-    region, functionals : targeted A criterion (see :func:`make_criterion`).
-    solver : {"auto", "cvxpy", "fast"}
+    region, functionals : targeted A criterion (see :class:`ACriterion`).
+    solver : {"auto", "fast", "cvxpy"}
     n_random : int
         Random layouts tried by the random baseline.
     rng : seed or Generator for the random baseline.
@@ -288,11 +217,11 @@ def recommend(case, count, criterion="D", *, spacing=0.5, exclude=(), fixed=(), 
     -------
     DesignResult
     """
-    problem = build_problem(case, count, criterion, spacing=spacing, exclude=exclude, fixed=fixed, kind=kind,
+    constraints = Constraints() if constraints is None else constraints
+    noise_std = case.noise_std_for(kind, noise_std)
+    problem = build_problem(case, count, criterion, grid=grid, constraints=constraints, kind=kind,
                             noise_std=noise_std, n_crossings=n_crossings, prior=prior, springs=springs,
-                            costs=costs, budget=budget, span_min=span_min, span_max=span_max,
-                            min_spacing=min_spacing, region=region, functionals=functionals,
-                            candidates=candidates)
+                            region=region, functionals=functionals)
     base = make_baselines(problem, length=case.bridge.length,
                           support_positions=case.bridge.support_positions, n_random=n_random, rng=rng)
     try:
@@ -306,10 +235,15 @@ def recommend(case, count, criterion="D", *, spacing=0.5, exclude=(), fixed=(), 
     value = sign * utility
     bound = sign * relaxation.bound
     efficiency = crit.efficiency(value, bound)
-    base_out = {name: (None if idx is None else {
-        "layout_m": sorted(float(x) for x in problem.positions[idx]),
-        "value": float(problem.value_of(idx))}) for name, idx in base.items()}
-    curve = tuple(dict(c, value=float(value)) if c["count"] == count and sign * c["value"] < sign * value
+    base_out = []
+    for name, idx in base.items():
+        if idx is None:
+            base_out.append(Baseline(name, None, None))
+            continue
+        b_value = float(problem.value_of(idx))
+        base_out.append(Baseline(name, tuple(sorted(float(x) for x in problem.positions[idx])), b_value,
+                                 float(crit.relative(b_value, value))))
+    curve = tuple(replace(c, value=float(value)) if c.count == count and not c.failed and sign * c.value < sign * value
                   else c for c in _curve(problem, count, curve_max, solver))
     order = sorted(layout, key=lambda i: problem.positions[i])
     n_el = case.n_elements
@@ -317,16 +251,22 @@ def recommend(case, count, criterion="D", *, spacing=0.5, exclude=(), fixed=(), 
     for name, idx in base.items():
         if idx is not None:
             post_std[name] = _posterior_std(problem, idx, n_el)
-    return DesignResult(criterion=crit.name, count=int(count), n_params=crit.n_effective,
-                        layout_m=tuple(float(problem.positions[i]) for i in order), value=float(value),
-                        bound=float(bound), efficiency=efficiency, method=method, baselines=base_out,
-                        solver=dict(relaxation.stats, relaxation_method=relaxation.method,
-                                    relative_gap=relaxation.relative_gap),
+    layout_m = tuple(float(problem.positions[i]) for i in order)
+    sensors = SensorLayout.candidates(list(layout_m), kind, noise_std=[noise_std] * len(layout_m))
+    stats = dict(relaxation.stats)
+    return DesignResult(criterion=crit.name, description=crit.description, maximise=crit.maximise,
+                        count=int(count), n_params=crit.n_effective, layout_m=layout_m, value=float(value),
+                        bound=float(bound), efficiency=efficiency, method=method, baselines=tuple(base_out),
+                        solver=SolverStats(str(stats.pop("solver", "?")), str(stats.pop("status", "?")),
+                                           float(relaxation.relative_gap), float(stats.pop("time_s", 0.0)),
+                                           relaxation.method, stats),
                         candidates_m=problem.positions, weights=relaxation.weights,
-                        fixed_m=tuple(float(x) for x in fixed), curve=curve, kind=kind,
+                        fixed_m=tuple(float(x) for x in constraints.fixed), curve=curve, kind=kind,
                         layout_index=tuple(order), edges=case.mesh.edges.copy(),
                         supports_m=tuple(float(x) for x in case.bridge.support_positions),
-                        posterior_std=post_std)
+                        posterior_std=post_std,
+                        informativeness=fisher_blocks(case, sensors=sensors, parameterisation="ei",
+                                                      n_crossings=n_crossings))
 
 
 def _posterior_std(problem, index, n_elements):
@@ -336,8 +276,7 @@ def _posterior_std(problem, index, n_elements):
 
 
 def _curve(problem, count, curve_max, solver):
-    from dataclasses import replace
-
+    """Criterion versus R; a count whose constraints cannot be met is reported as failed, not dropped."""
     if curve_max == 0:
         return ()
     r_max = min(count + 3, 12) if curve_max is None else int(curve_max)
@@ -350,7 +289,8 @@ def _curve(problem, count, curve_max, solver):
             g, _ = greedy(sub)
             layout, util = exchange(sub, g)
             rel = solve_relaxation(sub, solver, start_layout=layout)
-        except Exception:  # an R for which the constraints cannot be met
+        except SensorplanError as exc:  # an R for which the constraints cannot be met
+            out.append(CurvePoint(r, None, None, " ".join(str(exc).split())))
             continue
-        out.append({"count": r, "value": float(sign * util), "bound": float(sign * rel.bound)})
+        out.append(CurvePoint(r, float(sign * util), float(sign * rel.bound)))
     return tuple(out)

@@ -1,54 +1,26 @@
-"""Integer layouts: greedy (exact steps, pruned by upper bounds), exchange, rounding, baselines."""
+"""Integer layouts: greedy (exact steps, pruned by upper bounds), exchange, rounding.
+
+Everything here works through the criterion protocol (utility, upper
+bounds, submodularity), so a registered criterion gets greedy and exchange
+without changes here.
+
+Owns: greedy, exchange, rounding.  May import: errors, design.problem.
+"""
 
 import numpy as np
-import scipy.linalg
 
 from .._errors import SolverError
 
-__all__ = ["iter_greedy", "greedy", "exchange", "round_weights", "baselines"]
+__all__ = ["iter_greedy", "greedy", "exchange", "round_weights"]
 
 
-def _upper_bounds(problem, q, k=16):
-    """Upper bounds b_i >= utility(Q + I_i) for every candidate i.
-
-    Split R^P into V, the k eigenvectors of Q with the smallest eigenvalues
-    (where an added block matters most), and its complement W (eigenvalues
-    Lambda_W).  Then, with S_i = V^T (Q + I_i) V = Lambda_V + V^T I_i V:
-
-    * E (Cauchy interlacing): lambda_min(Q + I_i) <= lambda_min(S_i);
-    * D (Fischer's inequality, then concavity of log det on W):
-      log det(Q + I_i) <= log det S_i + log det Lambda_W + tr(Lambda_W^-1 W^T I_i W);
-    * A with all parameters as targets (tr(M^-1) >= tr(V^T M V)^-1 + tr(W^T M W)^-1,
-      then convexity of tr X^-1 on W):
-      tr (Q + I_i)^-1 >= tr S_i^-1 + tr Lambda_W^-1 - tr(Lambda_W^-2 W^T I_i W);
-    * otherwise concavity: utility(Q + I_i) <= utility(Q) + <G(Q), I_i>.
+def _upper_bounds(problem, q):
+    """(utility(Q), b) with b_i >= utility(Q + I_i) for every candidate (the criterion's bounds).
 
     Candidates can then be evaluated best bound first and a search stopped
     once no bound beats the best exact value found.
     """
-    crit = problem.criterion
-    p = q.shape[0]
-    targets_all = crit.name == "A" and crit.targets.shape[0] == p and np.array_equal(crit.targets, np.eye(p))
-    if crit.name not in ("E", "D") and not targets_all:
-        u = crit.utility(q)
-        return u, u + problem.flat_blocks @ crit.gradient_matrix(q).ravel()
-    k = min(p, k)
-    lam, vec = np.linalg.eigh(0.5 * (q + q.T))
-    v, w = vec[:, :k], vec[:, k:]
-    c = problem.n_candidates
-    # V^T I_i V for all i as two tall products (one BLAS call each)
-    bv = (problem.blocks.reshape(c * p, p) @ v).reshape(c, p, k).transpose(0, 2, 1).reshape(c * k, p)
-    small = (bv @ v).reshape(c, k, k)
-    small[:, np.arange(k), np.arange(k)] += lam[:k]
-    if crit.name == "E":
-        return float(lam[0]), np.linalg.eigvalsh(small)[:, 0]
-    if crit.name == "D":
-        logdet = 2.0 * np.log(np.diagonal(np.linalg.cholesky(small), axis1=1, axis2=2)).sum(axis=1)
-        first = problem.flat_blocks @ ((w / lam[k:]) @ w.T).ravel()
-        return float(np.sum(np.log(lam))), logdet + float(np.sum(np.log(lam[k:]))) + first
-    trace = np.trace(np.linalg.inv(small), axis1=1, axis2=2)
-    first = problem.flat_blocks @ ((w / lam[k:] ** 2) @ w.T).ravel()
-    return -float(np.sum(1.0 / lam)), -(trace + float(np.sum(1.0 / lam[k:])) - first)
+    return problem.criterion.upper_bounds(problem, q)
 
 
 def _slack(u):
@@ -59,8 +31,8 @@ def _slack(u):
 def iter_greedy(problem, *, start=()):
     """Yield ``(index, utility)`` as candidates are added greedily.
 
-    For D lazy evaluations are used: the gains of D are submodular (they can
-    only shrink as the layout grows), so a stale gain is an upper bound
+    For submodular criteria (D) lazy evaluations are used: the gains can
+    only shrink as the layout grows, so a stale gain is an upper bound
     (the first step uses the bounds of :func:`_upper_bounds`).  Other
     criteria evaluate candidates in
     decreasing order of the upper bound of :func:`_upper_bounds` and
@@ -69,7 +41,7 @@ def iter_greedy(problem, *, start=()):
     """
     chosen = list(start)
     crit = problem.criterion
-    lazy = crit.name == "D"
+    lazy = crit.submodular
     bounds = None
     while len(chosen) < problem.count:
         q = problem.layout_precision(chosen)
@@ -242,84 +214,3 @@ def round_weights(problem, weights):
         if len(chosen) == problem.count:
             return chosen
     raise SolverError("Rounding could not complete a feasible layout.")
-
-
-def _snap(problem, targets):
-    """Nearest feasible free candidate for each target position, in order."""
-    chosen = []
-    for t in targets:
-        order = np.argsort(np.abs(problem.positions - t))
-        for i in order:
-            i = int(i)
-            if i not in chosen and problem.partial_ok(chosen + [i]):
-                chosen.append(i)
-                break
-        if len(chosen) == problem.count:
-            break
-    return chosen if len(chosen) == problem.count else None
-
-
-def equally_spaced(problem, length):
-    targets = length * (np.arange(problem.count) + 0.5) / problem.count
-    return _snap(problem, targets)
-
-
-def rule_of_thumb(problem, support_positions):
-    """The paper's rule: stations in (0, L/3) and (2L/3, L) of the spans, spans in turn."""
-    fractions = [1 / 6, 5 / 6, 1 / 12, 11 / 12, 1 / 4, 3 / 4, 1 / 24, 23 / 24, 5 / 24, 19 / 24]
-    targets = []
-    for f in fractions:
-        for a, b in zip(support_positions[:-1], support_positions[1:]):
-            targets.append(a + f * (b - a))
-    return _snap(problem, targets)
-
-
-def effective_independence(problem):
-    """Kammer's Effective Independence (1991), by backward elimination.
-
-    The effective independence of a candidate is its share of the
-    information, E_i = tr(Q^{-1} I_i) with Q the precision of all remaining
-    candidates (the sum over its rows of Kammer's E = diag(J Q^{-1} J^T));
-    the candidate with the smallest share is removed, a few at a time when
-    many remain, until R are left.
-    """
-    remaining = list(range(problem.n_candidates))
-    while len(remaining) > problem.count:
-        q = problem.layout_precision(remaining)
-        inv = scipy.linalg.cho_solve((np.linalg.cholesky(q), True), np.eye(q.shape[0]))
-        share = problem.flat_blocks[remaining] @ inv.ravel()
-        n_drop = max(1, (len(remaining) - problem.count) // 10)
-        drop = set(np.argsort(share)[:n_drop].tolist())
-        remaining = [r for j, r in enumerate(remaining) if j not in drop]
-    layout = [i for i in remaining]
-    if not problem.feasible(layout):
-        ranked = sorted(layout, key=lambda i: i)
-        layout = _snap(problem, problem.positions[ranked])
-    return layout
-
-
-def best_random(problem, n, rng):
-    rng = np.random.default_rng(rng)
-    best, best_u = None, -np.inf
-    for _ in range(n):
-        chosen = []
-        for i in rng.permutation(problem.n_candidates):
-            if problem.partial_ok(chosen + [int(i)]):
-                chosen.append(int(i))
-            if len(chosen) == problem.count:
-                break
-        if len(chosen) == problem.count:
-            u = problem.utility_of(chosen)
-            if u > best_u:
-                best, best_u = chosen, u
-    return best
-
-
-def baselines(problem, *, length, support_positions, n_random=100, rng=0):
-    """Baseline layouts by name (None where a baseline cannot satisfy the constraints)."""
-    return {
-        "equally_spaced": equally_spaced(problem, length),
-        "rule_of_thumb": rule_of_thumb(problem, support_positions),
-        "effective_independence": effective_independence(problem),
-        f"best_of_{n_random}_random": best_random(problem, n_random, rng),
-    }

@@ -17,76 +17,22 @@
 
 import math
 import warnings
-from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 
 from .effects import EFFECTS, make_effect
-from .._errors import ConfigError, SensorplanWarning
-from ..inference.inversion import fit_problem
+from ..inference.laplace import fit_problem
+from ..inference.screening import check_case_data_scale
+from .gap import residual_gap
 from .joint import JointProblem
+from .results import Confounding, EffectFit, GapDiagnosis
 from ..model.prior import GMRFPrior
 from .._threads import single_threaded
 
-__all__ = ["GapDiagnosis", "diagnose"]
+__all__ = ["diagnose"]
 
 _SEPARABLE = ("support_rotational_spring", "vertical_support_spring", "position_offset", "axle_loads",
               "dynamic_amplification")
-
-
-@dataclass(frozen=True, eq=False)
-class GapDiagnosis:
-    """Result of :func:`diagnose` (JSON keys as in the CLI)."""
-
-    gap: dict
-    effects: tuple
-    causes: tuple
-    unexplained: bool
-    confounded: tuple
-    verdict: str
-    gap_after: dict
-    ei_edges: np.ndarray
-    ei_base: np.ndarray
-    ei_final: np.ndarray
-    residual_map: dict = field(default_factory=dict)
-
-    def summary(self):
-        g = self.gap
-        lines = [f"Sim-to-real gap: residual rms {g['rms_residual']:.3g}, systematic {g['systematic_rms']:.3g}, "
-                 f"noise {g['noise_rms']:.3g} (p = {g['p_value']:.2g}; "
-                 f"{'significant' if g['significant'] else 'not significant'})"]
-        if g["worst_positions_m"]:
-            lines.append("  gap concentrates at load positions [m]: "
-                         + ", ".join(f"{x:.2f}" for x in g["worst_positions_m"]))
-        lines.append(f"  {'effect':28s} {'log BF':>9s} {'held-out gain':>14s} {'rms after':>11s} "
-                     f"{'held-out rms':>13s} {'max EI shift':>13s}")
-        for e in self.effects:
-            gain = "n/a" if e["heldout_score_gain"] is None else f"{e['heldout_score_gain']:.2f}"
-            hrms = "n/a" if e["heldout_rms_after"] is None else f"{e['heldout_rms_after']:.3g}"
-            lines.append(f"  {e['name']:28s} {e['log_bayes_factor']:9.2f} {gain:>14s} {e['rms_after']:11.3g} "
-                         f"{hrms:>13s} {100 * e['max_ei_shift']:12.1f}%")
-        for c in self.confounded:
-            where = "" if c["separating_sensor_m"] is None else (
-                f"; a sensor at {c['separating_sensor_m']:.2f} m would separate them")
-            lines.append(f"  confounded: {c['name']} can be mimicked by an EI change "
-                         f"({100 * c['information_kept']:.0f} % of its information survives){where}")
-        lines.append(f"  verdict: {self.verdict}")
-        return "\n".join(lines)
-
-    def to_dict(self):
-        return {
-            "gap": self.gap,
-            "effects": list(self.effects),
-            "causes": list(self.causes),
-            "unexplained": bool(self.unexplained),
-            "confounded": list(self.confounded),
-            "verdict": self.verdict,
-            "gap_after": self.gap_after,
-            "ei_edges_m": self.ei_edges.tolist(),
-            "ei_base": self.ei_base.tolist(),
-            "ei_final": self.ei_final.tolist(),
-        }
 
 
 def _fit(case, crossings, effects, prior, start=None, masks=None):
@@ -160,83 +106,6 @@ def _heldout(case, crossings, effects, prior, start, folds):
     return logp, math.sqrt(sq / max(count, 1))
 
 
-def _gap(problem, theta, alpha):
-    """Residual split into noise and systematic parts, per sensor, with structure tests."""
-    residuals = problem.residuals(theta)
-    crossings = problem.crossings
-    names = problem.sensor_names
-    n_c = len(crossings)
-    rho = problem.noise.rho(crossings.crossings[0].positions)
-    by_sensor, p_values, p_structure = {}, [], []
-    if n_c >= 2:
-        lo = max(c.positions[0] for c in crossings)
-        hi = min(c.positions[-1] for c in crossings)
-        ref = crossings.crossings[0].positions
-        grid = ref[(ref >= lo) & (ref <= hi)]
-    else:
-        grid = crossings.crossings[0].positions
-    means = []
-    for i, name in enumerate(names):
-        stacked = np.stack([np.interp(grid, c.positions, r[i]) for c, r in zip(crossings, residuals)])
-        mean = stacked.mean(axis=0)
-        if n_c >= 2:
-            noise_var = float(np.mean(stacked.var(axis=0, ddof=1)))
-            sys_var = max(float(np.mean(mean**2)) - noise_var / n_c, 0.0)
-            chi2 = n_c * float(np.sum(mean**2)) / max(noise_var, 1e-300)
-            p_sys = float(stats.chi2.sf(chi2, grid.size))
-        else:
-            d = np.diff(stacked[0])
-            r1 = float(np.mean(rho)) if rho.size else 0.0
-            noise_var = float(np.mean(d**2)) / (2.0 * max(1.0 - r1, 1e-3))
-            sys_var = max(float(np.mean(mean**2)) - noise_var, 0.0)
-            p_sys = 1.0
-        p_lb = _ljung_box(problem, residuals, i, alpha)
-        p_values += [p_sys, p_lb]
-        p_structure.append(p_lb)
-        rms = math.sqrt(float(np.mean(np.concatenate([r[i] for r in residuals]) ** 2)))
-        by_sensor[name] = {"rms_residual": rms, "systematic_rms": math.sqrt(sys_var), "noise_rms": math.sqrt(noise_var),
-                           "p_systematic": p_sys, "p_ljung_box": p_lb}
-        means.append(mean / math.sqrt(max(noise_var, 1e-300)))
-    all_res = np.concatenate([r.ravel() for r in residuals])
-    sys_rms = math.sqrt(np.mean([v["systematic_rms"] ** 2 for v in by_sensor.values()]))
-    noise_rms = math.sqrt(np.mean([v["noise_rms"] ** 2 for v in by_sensor.values()]))
-    p_min = min(1.0, min(p_values) * len(p_values))  # Bonferroni
-    score = np.max(np.abs(np.stack(means)), axis=0)
-    worst = []
-    for k in np.argsort(score)[::-1]:
-        if all(abs(grid[k] - w) >= 1.0 for w in worst):
-            worst.append(float(grid[k]))
-        if len(worst) == 5:
-            break
-    # A gap is significant when the mean residual is both statistically and
-    # practically non-zero, or when the whitened residuals are correlated in
-    # load position (Ljung-Box): a gap that changes sign from crossing to
-    # crossing (vibration with a random phase, for instance) cancels in the
-    # mean but not in the correlation.
-    p_lb_min = min(1.0, min(p_structure) * len(p_structure))  # Bonferroni over sensors
-    significant = (p_min < 1e-3 and sys_rms > 0.1 * noise_rms) or p_lb_min < 1e-3
-    return {"rms_residual": float(np.sqrt(np.mean(all_res**2))), "systematic_rms": float(sys_rms),
-            "noise_rms": float(noise_rms), "by_sensor": by_sensor, "worst_positions_m": sorted(worst),
-            "p_value": float(p_min), "significant": bool(significant)}, (grid, np.stack(means))
-
-
-def _ljung_box(problem, residuals, i, alpha, lags=10):
-    q, dof = 0.0, 0
-    for c, r in zip(problem.crossings, residuals):
-        w = problem.noise.subset([i]).whiten(r[i:i + 1], c.positions)[0]
-        n = w.size
-        if n <= lags + 2:
-            continue
-        w = w - w.mean()
-        denom = float(w @ w)
-        if denom == 0.0:
-            continue
-        acf = np.array([float(w[:-k] @ w[k:]) / denom for k in range(1, lags + 1)])
-        q += n * (n + 2) * float(np.sum(acf**2 / (n - np.arange(1, lags + 1))))
-        dof += lags
-    return float(stats.chi2.sf(q, dof)) if dof else 1.0
-
-
 def _confounding(case, crossings, name, prior, base_start):
     """Fraction of the effect's information that survives unknown EI, and the best separating sensor."""
     problem = JointProblem(case, crossings, [make_effect(name)], prior)
@@ -299,7 +168,8 @@ def _separating_sensor(case, crossings, name, prior, theta, base_start, kept):
 
 
 @single_threaded
-def diagnose(case, crossings, *, effects=None, prior=None, bf_threshold=3.0, n_folds=4, progress=None):
+def diagnose(case, crossings, *, effects=None, prior=None, bf_threshold=3.0, n_folds=4, progress=None,
+             check_scale=True):
     """Diagnose the gap between ``case`` and measured ``crossings``.
 
     Parameters
@@ -314,11 +184,18 @@ def diagnose(case, crossings, *, effects=None, prior=None, bf_threshold=3.0, n_f
         "strong" on Jeffreys' scale).
     n_folds : int
         Folds of the held-out score.
+    progress : callable, optional
+        Called with (done, total) after each candidate effect.
+    check_scale : bool or str
+        Refuse data far larger or smaller than the model predicts (a unit
+        slip); a string names the data source in the message.
 
     Returns
     -------
     GapDiagnosis
     """
+    if check_scale:
+        check_case_data_scale(case, crossings, source=check_scale if isinstance(check_scale, str) else "data")
     prior = GMRFPrior() if prior is None else prior
     names = list(EFFECTS) if effects is None else list(effects)
     for n in names:
@@ -326,7 +203,7 @@ def diagnose(case, crossings, *, effects=None, prior=None, bf_threshold=3.0, n_f
     folds = _folds(crossings, n_folds)
     base_problem, base = _fit(case, crossings, [], prior)
     base_start = _start(base_problem, base)
-    gap, residual_map = _gap(base_problem, base.theta, base.noise_scale)
+    gap, residual_map = residual_gap(base_problem, base.theta, base.noise_scale)
     base_heldout, base_heldout_rms = _heldout(case, crossings, [], prior, base_start, folds)
     ei_base = np.exp(base.theta[:base_problem.n_elements])
     results, fits = [], {}
@@ -338,23 +215,23 @@ def diagnose(case, crossings, *, effects=None, prior=None, bf_threshold=3.0, n_f
         shift = ei / ei_base - 1.0
         sl = problem.slices[0]
         std = np.sqrt(np.clip(np.diag(fit.covariance)[sl], 0, None))
-        results.append({
-            "name": name,
-            "log_bayes_factor": float(fit.log_evidence - base.log_evidence),
-            "heldout_score_gain": None if score is None else float(score - base_heldout),
-            "rms_after": float(math.sqrt(np.mean(np.concatenate([r.ravel() for r in problem.residuals(fit.theta)]) ** 2))),
-            "heldout_rms_after": hrms,
-            "parameters": {n: {"map": float(v), "std": float(s)} for n, v, s in
-                           zip(problem.effects[0].names, fit.theta[sl], std)},
-            "ei_shift": shift.tolist(),
-            "max_ei_shift": float(np.max(np.abs(shift))),
-        })
+        results.append(EffectFit(
+            name=name,
+            log_bayes_factor=float(fit.log_evidence - base.log_evidence),
+            heldout_score_gain=None if score is None else float(score - base_heldout),
+            rms_after=float(math.sqrt(np.mean(np.concatenate([r.ravel() for r in problem.residuals(fit.theta)]) ** 2))),
+            heldout_rms_after=hrms,
+            parameters={n: {"map": float(v), "std": float(s)} for n, v, s in
+                        zip(problem.effects[0].names, fit.theta[sl], std)},
+            ei_shift=tuple(shift.tolist()),
+            max_ei_shift=float(np.max(np.abs(shift))),
+        ))
         if progress is not None:
             progress(k + 1, len(names))
-    results.sort(key=lambda r: r["log_bayes_factor"], reverse=True)
+    results.sort(key=lambda r: r.log_bayes_factor, reverse=True)
     # forward selection
     selected, current, current_problem = [], base, base_problem
-    remaining = [r["name"] for r in results]
+    remaining = [r.name for r in results]
     current_start = base_start
     current_heldout = base_heldout
     while remaining:
@@ -378,27 +255,27 @@ def diagnose(case, crossings, *, effects=None, prior=None, bf_threshold=3.0, n_f
         selected.append(name)
         remaining.remove(name)
         current, current_problem, current_start = fit, problem, _start(problem, fit)
-    gap_after, _ = _gap(current_problem, current.theta, current.noise_scale)
+    gap_after, _ = residual_gap(current_problem, current.theta, current.noise_scale)
     confounded = []
     for r in results:
-        if r["name"] in selected:
+        if r.name in selected:
             continue
-        kept, where = _confounding(case, crossings, r["name"], prior, base_start)
+        kept, where = _confounding(case, crossings, r.name, prior, base_start)
         if kept < 0.2:
-            confounded.append({"name": r["name"], "information_kept": kept, "separating_sensor_m": where})
-    unexplained = bool(gap_after["significant"])
+            confounded.append(Confounding(r.name, kept, where))
+    unexplained = bool(gap_after.significant)
     if selected and not unexplained:
         verdict = "causes found: " + ", ".join(selected)
     elif selected:
         verdict = ("partly explained by " + ", ".join(selected) + "; a significant gap remains (unexplained)"
-                   if gap["significant"] else "causes found: " + ", ".join(selected)
+                   if gap.significant else "causes found: " + ", ".join(selected)
                    + "; the residual structure after the fit is significant (unexplained remainder)")
-    elif gap["significant"]:
+    elif gap.significant:
         verdict = "unexplained: a significant gap remains that no candidate effect explains"
     else:
         verdict = "none: the model is adequate (no significant gap)"
     if confounded and not selected:
-        verdict += "; confounded with an EI change: " + ", ".join(c["name"] for c in confounded)
+        verdict += "; confounded with an EI change: " + ", ".join(c.name for c in confounded)
     return GapDiagnosis(gap, tuple(results), tuple(selected), unexplained, tuple(confounded), verdict, gap_after,
                         case.mesh.edges.copy(), ei_base, np.exp(current.theta[:current_problem.n_elements]),
                         {"grid_m": residual_map[0], "normalised_mean_residual": residual_map[1]})

@@ -8,31 +8,24 @@ which rows (load positions) of each crossing enter the likelihood, so the
 same problem serves fitting and held-out prediction.
 """
 
-from dataclasses import replace
 
 import numpy as np
 
-from .effects import State
 from .._errors import ConfigError
+from ..inference.laplace import Linearisation, WhitenedData
 from ..model.forward import influence_lines
-from ..inference.inversion import _Linearisation
 from ..model.loads import Vehicle
-from ..model.noise import NoiseModel
 from ..model.sensors import SensorLayout
+from .effects import State
 
 __all__ = []
 
-_DEFAULT_STD = {"rotation": 1e-6, "deflection": 1e-4}
 
+class JointProblem(WhitenedData):
+    """The case's model extended by ``effects``, fitted jointly with log EI (rows in ``masks``)."""
 
-class JointProblem:
     def __init__(self, case, crossings, effects, prior, *, masks=None):
-        self.case = case
-        self.crossings = crossings
-        index = [case.sensors.names.index(n) for n in crossings.sensor_names]
-        self.sensors = case.sensors.subset(index)
-        self.noise = case.noise.subset(index) if case.noise is not None else NoiseModel(
-            [_DEFAULT_STD[k] for k in self.sensors.kinds])
+        super().__init__(case, crossings, masks=masks)
         self.n_sensors = self.sensors.n_sensors
         self.sensor_names = self.sensors.names
         self.n_crossings = len(crossings)
@@ -56,12 +49,6 @@ class JointProblem:
         diag = np.concatenate([np.full(self.n_elements, 1.0 / prior.marginal_std**2)]
                               + [1.0 / e.std**2 for e in self.effects])
         self.fixed = np.diag(diag)
-        self.masks = [np.ones(c.n_loads, bool) for c in crossings] if masks is None else masks
-        self.white_data = [self.noise.whiten(c.values[:, m], c.positions[m]) for c, m in zip(crossings, self.masks)]
-        self.n_data = sum(w.size for w in self.white_data)
-        self.log_det_noise = sum(
-            self.noise.log_det_gamma(c.positions[m]) * self.n_sensors + 2.0 * m.sum() * np.sum(np.log(self.noise.std))
-            for c, m in zip(crossings, self.masks) if m.any())
         self._ei = None
         self._cache = {}
         self._last = None
@@ -141,7 +128,7 @@ class JointProblem:
             rr += float(r @ r)
             jtj += wj.T @ wj
             jtr += wj.T @ r
-        out = _Linearisation(rr, jtj, jtr)
+        out = Linearisation(rr, jtj, jtr)
         self._last = (key, out)
         return out
 

@@ -1,6 +1,5 @@
 """Posterior results of the Bayesian identification of EI(x)."""
 
-import math
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -178,7 +177,7 @@ class PosteriorResult:
                  f"hyperparameters by {self.hyper_method}",
                  f"  converged: {self.converged} after {self.n_iter} iterations; log evidence "
                  f"{self.log_evidence:.3f}",
-                 f"  noise std: " + ", ".join(f"{n}={s:.3g}" for n, s in zip(self.sensor_names, self.noise_std))
+                 "  noise std: " + ", ".join(f"{n}={s:.3g}" for n, s in zip(self.sensor_names, self.noise_std))
                  + f" (scale {self.noise_scale:.3f} of configured); tau = {self.tau:.4g}"]
         if self.excluded_crossings:
             lines.append("  excluded crossings: " + ", ".join(self.excluded_crossings))

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-__all__ = ["screen_crossings"]
+__all__ = ["screen_crossings", "check_case_data_scale"]
 
 
 def screen_crossings(crossings, *, min_correlation=0.5, rms_factor=2.5):
@@ -71,3 +71,11 @@ def check_data_scale(crossings, predictions, names, *, factor=30.0, source="data
             raise DataError(
                 f"{source}: column '{name}' is {ratio:.3g} times the model's prediction at nominal EI; "
                 "this looks like a unit slip (values must be rad for rotation, m for deflection).")
+
+
+def check_case_data_scale(case, crossings, *, source="data"):
+    """:func:`check_data_scale` of ``crossings`` against ``case`` at nominal EI."""
+    sensors = case.sensors.subset([case.sensors.names.index(n) for n in crossings.sensor_names])
+    nominal = case.influence_lines(sensors=sensors, positions=crossings.crossings[0].positions)
+    check_data_scale(crossings, dict(zip(crossings.sensor_names, nominal.predictions)), crossings.sensor_names,
+                     source=source)

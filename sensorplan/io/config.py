@@ -10,8 +10,8 @@ import tomllib
 from importlib import resources
 from pathlib import Path
 
-from ..model.case import Case
 from .._errors import ConfigError
+from ..model.case import Case
 from ..model.loads import LoadSweep, Vehicle
 from ..model.noise import NoiseModel
 from ..model.sensors import SensorLayout

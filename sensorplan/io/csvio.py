@@ -9,16 +9,16 @@ Writing is atomic: the file appears complete or not at all.
 import csv
 import io
 import math
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from ..model.crossings import Crossing, Crossings
 from .._errors import DataError
+from ..model.crossings import Crossing, Crossings
+from .output import atomic_write_text
 
-__all__ = ["read_crossings", "write_crossings", "atomic_write_text"]
+__all__ = ["read_crossings", "write_crossings", "format_crossings", "write_table", "format_table",
+           "atomic_write_text"]
 
 # Plausibility limits per reading (a traffic crossing never tilts a bridge by
 # 0.02 rad = 20 mm/m, nor deflects it by 1 m): larger values are unit slips.
@@ -26,27 +26,13 @@ _LIMITS = {"rotation": (0.02, "rad", "mm/m or micro-radians given as rad? Conver
            "deflection": (1.0, "m", "mm given as m? Convert to m")}
 
 
-def atomic_write_text(path, text):
-    """Write ``text`` to ``path`` through a temporary file and a rename."""
-    path = Path(path)
-    directory = path.parent if str(path.parent) else Path(".")
-    directory.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the usual file mode
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def write_crossings(path, crossings):
     """Write crossings to a CSV file (atomically)."""
+    atomic_write_text(path, format_crossings(crossings))
+
+
+def format_crossings(crossings):
+    """The CSV text of ``crossings``."""
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     with_factor = any(np.any(c.load_factor != 1.0) for c in crossings)
@@ -58,7 +44,7 @@ def write_crossings(path, crossings):
             if with_factor:
                 row.append(repr(float(c.load_factor[k])))
             writer.writerow(row)
-    atomic_write_text(path, buf.getvalue())
+    return buf.getvalue()
 
 
 def read_crossings(path, sensors=None):
@@ -162,9 +148,14 @@ def _check_magnitudes(crossings, sensors, source):
 
 def write_table(path, header, columns):
     """Write named columns of numbers to a CSV file (atomically)."""
+    atomic_write_text(path, format_table(header, columns))
+
+
+def format_table(header, columns):
+    """CSV text of named columns of numbers."""
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow(header)
     for row in zip(*columns):
         writer.writerow([repr(float(v)) for v in row])
-    atomic_write_text(path, buf.getvalue())
+    return buf.getvalue()

@@ -37,8 +37,8 @@ class Case:
     ei: np.ndarray
     vehicle: Vehicle
     sensors: SensorLayout
-    noise: NoiseModel = None
-    sweep: LoadSweep = None
+    noise: NoiseModel | None = None
+    sweep: LoadSweep | None = None
     name: str = "case"
 
     def __post_init__(self):
@@ -73,6 +73,33 @@ class Case:
             noise = NoiseModel(np.full(sensors.n_sensors, float(np.median(self.noise.std))),
                                self.noise.correlation_length)
         return replace(self, sensors=sensors, noise=noise)
+
+    @property
+    def default_kind(self):
+        """The kind of new sensors when none is given: the case's own kind, rotation if mixed."""
+        kinds = set(self.sensors.kinds)
+        return kinds.pop() if len(kinds) == 1 else "rotation"
+
+    def noise_std_for(self, kind, noise_std=None):
+        """Noise std of a new sensor of ``kind`` [rad or m].
+
+        ``noise_std`` if given (checked positive), else the median noise of the
+        case's sensors of the same kind; a ConfigError if there is none.
+        """
+        from .._errors import ConfigError
+
+        unit = "rad" if kind == "rotation" else "m"
+        if noise_std is not None:
+            if not (np.isfinite(noise_std) and noise_std > 0):
+                raise ConfigError(f"The 'noise_std' of new {kind} sensors must be a positive number in {unit}. "
+                                  f"Got {noise_std!r} instead.")
+            return float(noise_std)
+        same = ([s for k, s in zip(self.sensors.kinds, self.noise.std) if k == kind]
+                if self.noise is not None else [])
+        if not same:
+            raise ConfigError(f"The case has no {kind} sensor to take the noise level from; give the noise std "
+                              f"of the new sensors (--noise-std, in {unit}).")
+        return float(np.median(same))
 
     def ei_at(self, x):
         """Nominal EI at positions ``x`` [m]."""

@@ -15,10 +15,11 @@ from functools import cached_property
 import numpy as np
 
 from .._errors import ConfigError
-from .forward import influence_lines
 from .._threads import single_threaded
+from .forward import influence_lines
 
-__all__ = ["FisherBlocks", "fisher_blocks", "Identifiability", "identifiability"]
+__all__ = ["FisherBlocks", "fisher_blocks", "Identifiability", "identifiability", "Informativeness",
+           "informativeness"]
 
 _UNITS = {"compliance": "(N m^2)^2 / unit^2", "ei": "1 / (N m^2)^2", "log_ei": "dimensionless"}
 
@@ -193,9 +194,9 @@ class Identifiability:
     threshold: float
     edges: np.ndarray
     n_elements: int
-    data_precision: np.ndarray = None
-    prior_precision: np.ndarray = None
-    data_dof: float = None
+    data_precision: np.ndarray | None = None
+    prior_precision: np.ndarray | None = None
+    data_dof: float | None = None
 
     @property
     def effective_rank(self):
@@ -278,3 +279,68 @@ def identifiability(information, *, prior_precision=None, threshold=1e-6, edges=
         dof = float(np.trace(np.linalg.solve(post, information)))
     return Identifiability(vals, vecs, float(threshold), edges, n if n_elements is None else n_elements,
                            data, prior, dof)
+
+
+@dataclass(frozen=True, eq=False)
+class Informativeness:
+    """What a set of sensors sees: Fisher blocks (curves) and the identifiability of log EI.
+
+    Attributes
+    ----------
+    blocks : FisherBlocks
+        Per-sensor information in the requested parameterisation.
+    identifiability : Identifiability
+        Eigen-analysis of the log-EI information against the GMRF prior.
+    supports_m : tuple of float
+        Support positions [m] (for figures).
+    """
+
+    blocks: FisherBlocks
+    identifiability: "Identifiability"
+    supports_m: tuple
+
+    def summary(self):
+        return self.blocks.summary() + "\n" + self.identifiability.summary()
+
+    def to_dict(self):
+        return {"blocks": self.blocks.to_dict(), "identifiability": self.identifiability.to_dict()}
+
+
+def informativeness(case, *, positions=None, kind=None, noise_std=None, n_crossings=1, parameterisation="ei",
+                    prior=None):
+    """Informativeness curves and identifiability of the case's sensors or of new ``positions``.
+
+    Parameters
+    ----------
+    case : Case
+    positions : sequence of float, optional
+        Positions [m] of new sensors of ``kind`` (default: the case's sensors).
+    kind : {"rotation", "deflection"}, optional
+        Default: the case's kind (:attr:`Case.default_kind`).
+    noise_std : float, optional
+        Noise std of the new sensors [rad or m] (default :meth:`Case.noise_std_for`).
+    n_crossings : int
+    parameterisation : {"ei", "log_ei", "compliance"}
+        Parameters of the curves; the identifiability is always in log EI.
+    prior : GMRFPrior, optional
+        Prior of the identifiability analysis (default ``GMRFPrior()``).
+
+    Returns
+    -------
+    Informativeness
+    """
+    from .prior import GMRFPrior
+    from .sensors import SensorLayout
+
+    sensors = None
+    if positions is not None:
+        case.bridge.check_on_bridge(positions, "positions", "--positions")
+        kind = case.default_kind if kind is None else kind
+        noise = case.noise_std_for(kind, noise_std)
+        sensors = SensorLayout.candidates(list(positions), kind, noise_std=[noise] * len(positions))
+    blocks = fisher_blocks(case, sensors=sensors, parameterisation=parameterisation, n_crossings=n_crossings)
+    log_blocks = blocks if parameterisation == "log_ei" else fisher_blocks(
+        case, sensors=sensors, parameterisation="log_ei", n_crossings=n_crossings)
+    prior = GMRFPrior() if prior is None else prior
+    ident = identifiability(log_blocks, prior_precision=prior.precision(case.n_elements))
+    return Informativeness(blocks, ident, tuple(float(x) for x in case.bridge.support_positions))

@@ -28,20 +28,19 @@ Signs: w(x) downward, theta = dw/dx, x from the left end.  Under a sagging
 load a tiltmeter near a span's left support reads positive.
 """
 
-import math
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 import scipy.linalg
 
-from .diagrams import RAMP, STEP, element_products, end_value_and_slope, point_actions
 from .._errors import ConfigError
+from .._threads import single_threaded
+from .._validation import as_float_array
+from .diagrams import RAMP, STEP, element_products, end_value_and_slope, point_actions
 from .loads import LoadSweep, Vehicle
 from .sensors import SensorLayout
 from .structure import Bridge, Mesh
-from .._validation import as_float_array
-from .._threads import single_threaded
 
 __all__ = ["InfluenceLines", "influence_lines", "bending_moments", "support_reactions",
            "expand_ei"]

@@ -12,7 +12,6 @@ priors centred on the configured stiffness.
 """
 
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sparse

@@ -38,9 +38,9 @@ class SensorLayout:
     """
 
     positions: np.ndarray
-    kinds: tuple = None
-    names: tuple = None
-    noise_std: tuple = None
+    kinds: tuple | None = None
+    names: tuple | None = None
+    noise_std: tuple | None = None
 
     def __post_init__(self):
         pos = as_float_array(self.positions, "positions", "SensorLayout")

@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from .crossings import Crossing, Crossings
 from .._errors import ConfigError
+from .crossings import Crossing, Crossings
 
 __all__ = ["simulate_crossings"]
 

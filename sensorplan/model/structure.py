@@ -75,8 +75,8 @@ class Bridge:
     """
 
     spans: tuple
-    rotational_springs: tuple = None
-    vertical_springs: tuple = None
+    rotational_springs: tuple | None = None
+    vertical_springs: tuple | None = None
 
     def __post_init__(self):
         spans = as_float_tuple(self.spans, "spans", "Bridge", low=0.0, low_open=True)

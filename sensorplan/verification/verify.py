@@ -15,83 +15,21 @@ results are identical whatever the number of workers.
 import math
 import warnings
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import stats
 
 from .._errors import ConfigError, SensorplanWarning
+from .._threads import single_threaded
 from ..inference.inversion import invert
 from ..model.noise import NoiseModel
 from ..model.sensors import SensorLayout
 from ..model.simulate import simulate_crossings
-from ..model.structure import Mesh
-from .._threads import single_threaded
+from .results import VerificationResult, _aggregate
+from .scenarios import Scenario, element_average_ei, make_scenarios, truth_mesh
 
-__all__ = ["Scenario", "make_scenarios", "verify_layouts", "VerificationResult", "LayoutScore"]
-
-METRICS = ("rmse", "localisation_error_m", "detection_rate", "false_alarm_rate", "coverage95", "band_width")
-EXTRA_METRICS = ("control_coverage95",)
-
-
-@dataclass(frozen=True)
-class Scenario:
-    """A synthetic truth: ``kind`` is "local", "span" or "control"."""
-
-    kind: str
-    start: float = 0.0  # damaged zone [m]
-    stop: float = 0.0
-    severity: float = 0.0  # fraction of EI lost
-
-    @property
-    def centre(self):
-        return 0.5 * (self.start + self.stop)
-
-    def truth(self, mesh, nominal):
-        """EI on ``mesh`` (per element) for this scenario."""
-        ei = np.array(nominal, dtype=float)
-        if self.kind == "control":
-            return ei
-        inside = (mesh.midpoints > self.start) & (mesh.midpoints < self.stop)
-        ei[inside] *= 1.0 - self.severity
-        return ei
-
-
-def make_scenarios(case, n_locations=8, *, severity=0.25, length=2.0, n_controls=None, spans=True):
-    """Local losses scanned across the bridge, span-wise softening and undamaged controls."""
-    if not 0.0 < severity < 1.0:
-        raise ConfigError(f"The 'severity' parameter must be in (0, 1). Got {severity!r} instead.")
-    total = case.bridge.length
-    if not 0.0 < length < total:
-        raise ConfigError(f"The 'length' parameter must be in (0, {total:g}) m. Got {length!r} instead.")
-    if int(n_locations) != n_locations or n_locations < 1:
-        raise ConfigError(f"The 'scenarios' parameter must be a positive integer. Got {n_locations!r} instead.")
-    h = float(np.min(case.mesh.lengths))
-    # centres spread over the bridge, shifted by a fraction of an element so
-    # that damage edges fall inside inversion elements
-    centres = length / 2 + (total - length) * (np.arange(n_locations) + 0.5) / n_locations + 0.37 * h
-    centres = np.clip(centres, length / 2, total - length / 2)
-    out = [Scenario("local", c - length / 2, c + length / 2, severity) for c in centres]
-    if spans:
-        xs = case.bridge.support_positions
-        out += [Scenario("span", a, b, severity) for a, b in zip(xs[:-1], xs[1:])]
-    n_controls = max(5, n_locations // 2) if n_controls is None else int(n_controls)
-    out += [Scenario("control")] * n_controls
-    return out
-
-
-def truth_mesh(case):
-    """Finer, differently aligned mesh: 4 k + 1 elements in a span of k elements."""
-    counts = np.bincount(case.bridge.span_of(case.mesh.midpoints), minlength=case.bridge.n_spans)
-    return Mesh._from_counts(case.bridge, [4 * int(k) + 1 for k in counts])
-
-
-def element_average_ei(fine_mesh, fine_ei, mesh):
-    """EI of each element of ``mesh`` equivalent to ``fine_ei`` (average compliance, paper eq. v_avg)."""
-    lo = np.maximum(mesh.edges[:-1, None], fine_mesh.edges[None, :-1])
-    hi = np.minimum(mesh.edges[1:, None], fine_mesh.edges[None, 1:])
-    overlap = np.clip(hi - lo, 0.0, None)
-    return mesh.lengths / (overlap @ (1.0 / fine_ei))
+__all__ = ["verify_layouts"]
 
 
 @dataclass(frozen=True)
@@ -105,7 +43,7 @@ class _Task:
     detection_threshold: float
     window: int
     start: tuple = (1.0, None)  # warm start of (noise scale, tau)
-    noise_std: float = None
+    noise_std: float | None = None
 
 
 @single_threaded
@@ -165,84 +103,6 @@ def _score(case, post, scenario, truth, threshold, window):
         ratio = post.ei_mean / post.ei_nominal
         out["localisation_error_m"] = float(abs(mesh.midpoints[np.argmin(ratio)] - scenario.centre))
     return out
-
-
-@dataclass(frozen=True, eq=False)
-class LayoutScore:
-    """Aggregated metrics of one layout with Monte-Carlo standard errors."""
-
-    layout_m: tuple
-    n_scenarios: int
-    metrics: dict  # name -> (mean, standard error)
-    records: tuple  # one dict per scenario
-
-    def to_dict(self):
-        out = {"layout_m": list(self.layout_m), "n_scenarios": self.n_scenarios}
-        for name in METRICS + EXTRA_METRICS:
-            mean, se = self.metrics[name]
-            out[name] = mean
-            out[name + "_se"] = se
-        return out
-
-
-@dataclass(frozen=True, eq=False)
-class VerificationResult:
-    """Verification of several layouts on the same scenarios and seeds."""
-
-    layouts: tuple  # LayoutScore
-    scenarios: tuple
-    n_crossings: int
-    seed: int
-    severity: float
-    length: float
-    names: tuple = ()
-
-    def summary(self):
-        head = (f"Verification: {sum(s.kind == 'local' for s in self.scenarios)} local losses of "
-                f"{100 * self.severity:.0f} % over {self.length:g} m, "
-                f"{sum(s.kind == 'span' for s in self.scenarios)} span softenings, "
-                f"{sum(s.kind == 'control' for s in self.scenarios)} undamaged controls; "
-                f"{self.n_crossings} crossings each; seed {self.seed}")
-        lines = [head, f"  {'layout':30s} {'rmse':>13s} {'loc. err [m]':>14s} {'detection':>13s} "
-                       f"{'false alarm':>13s} {'coverage95':>13s} {'band width':>13s}"]
-        for name, score in zip(self.names or [None] * len(self.layouts), self.layouts):
-            label = name or ", ".join(f"{x:g}" for x in score.layout_m)
-            cells = [f"{score.metrics[m][0]:6.3f}±{score.metrics[m][1]:5.3f}" for m in METRICS]
-            lines.append(f"  {label[:30]:30s} " + " ".join(f"{c:>13s}" for c in cells))
-        lines.append("  (mean ± Monte-Carlo standard error; rmse and band width relative to EI)")
-        return "\n".join(lines)
-
-    def to_dict(self):
-        layouts = []
-        for name, score in zip(self.names or [None] * len(self.layouts), self.layouts):
-            d = score.to_dict()
-            if name:
-                d["name"] = name
-            layouts.append(d)
-        return {"layouts": layouts, "n_crossings": self.n_crossings, "seed": self.seed,
-                "severity": self.severity, "damage_length_m": self.length}
-
-
-def _aggregate(layout, records):
-    def mean_se(values):
-        values = np.asarray([v for v in values if v is not None and np.isfinite(v)], dtype=float)
-        if values.size == 0:
-            return (float("nan"), float("nan"))
-        se = float(values.std(ddof=1) / math.sqrt(values.size)) if values.size > 1 else float("nan")
-        return (float(values.mean()), se)
-
-    damaged = [r for r in records if r["kind"] != "control"]
-    controls = [r for r in records if r["kind"] == "control"]
-    metrics = {
-        "rmse": mean_se([r["rmse"] for r in records]),
-        "localisation_error_m": mean_se([r.get("localisation_error_m") for r in records if r["kind"] == "local"]),
-        "detection_rate": mean_se([r["detected"] for r in damaged]),
-        "false_alarm_rate": mean_se([r["false_alarm"] for r in controls]),
-        "coverage95": mean_se([r["coverage95"] for r in records]),
-        "band_width": mean_se([r["band_width"] for r in records]),
-        "control_coverage95": mean_se([r["coverage95"] for r in controls]),
-    }
-    return LayoutScore(tuple(float(x) for x in layout), len(records), metrics, tuple(records))
 
 
 @single_threaded

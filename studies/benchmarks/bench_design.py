@@ -172,11 +172,11 @@ def make_candidates(case, n_candidates):
 
 
 def build(n_elements, n_candidates, count, crit):
-    from sensorplan.design.recommend import build_problem
+    from sensorplan.design.recommend import CandidateGrid, build_problem
 
     case = make_case(n_elements)
     cands = make_candidates(case, n_candidates)
-    return case, cands, build_problem(case, count, crit, candidates=cands)
+    return case, cands, build_problem(case, count, crit, grid=CandidateGrid(positions=cands))
 
 
 # ----------------------------------------------------------------------- child processes --
@@ -189,7 +189,7 @@ def _efficiency(problem, utility, bound_utility):
 
 
 def task_relaxation(spec):
-    from sensorplan.design.recommend import solve_relaxation
+    from sensorplan.design.relaxation import solve_relaxation
     from sensorplan.design.selection import exchange, round_weights
 
     def run(n, c, r):
@@ -232,22 +232,22 @@ def task_greedy(spec):
 
 def task_recommend(spec):
     from sensorplan.design.criteria import make_criterion
-    from sensorplan.design.recommend import recommend
+    from sensorplan.design.recommend import CandidateGrid, recommend
 
     def run(n, c, r):
         case = make_case(n)
         cands = make_candidates(case, c)
         t0 = time.perf_counter()
-        res = recommend(case, r, spec["crit"], curve_max=0, candidates=cands)
+        res = recommend(case, r, spec['crit'], curve_max=0, grid=CandidateGrid(positions=cands))
         return res, time.perf_counter() - t0
 
     run(*WARM)
     res, dt = run(*spec["size"])
     best = res.best_baseline()
     crit = make_criterion(spec["crit"], res.n_params)
-    b_eff = None if best is None else crit.efficiency(res.baselines[best]["value"], res.bound)
+    b_eff = None if best is None else crit.efficiency(res.baseline(best).value, res.bound)
     sign = 1.0 if crit.maximise else -1.0
-    return {"time": dt, "gap": res.solver.get("relative_gap"), "t_relaxation": res.solver.get("time_s"),
+    return {"time": dt, "gap": res.solver.relative_gap, "t_relaxation": res.solver.time_s,
             "efficiency": res.efficiency, "value": res.value, "bound": res.bound, "method": res.method,
             "utility": sign * res.value, "best_baseline": best, "baseline_eff": b_eff,
             "layout_m": list(res.layout_m)}
@@ -259,11 +259,11 @@ class _Budget(Exception):
 
 def task_profile(spec):
     """cProfile of recommend() for the criteria in turn, stopped after a time budget."""
-    from sensorplan.design.recommend import recommend
+    from sensorplan.design.recommend import CandidateGrid, recommend
 
     def run(n, c, r, crit):
         case = make_case(n)
-        return recommend(case, r, crit, curve_max=0, candidates=make_candidates(case, c))
+        return recommend(case, r, crit, curve_max=0, grid=CandidateGrid(positions=make_candidates(case, c)))
 
     for crit in spec["crits"]:
         run(*WARM, crit)

@@ -152,44 +152,44 @@ def run_one(bridge, effect, seed):
     except Exception as exc:  # keep the study going; the record says what failed
         return {"bridge": bridge, "effect": effect, "seed": seed, "error": f"{type(exc).__name__}: {exc}",
                 "seconds": time.perf_counter() - t0}
-    entries = {e["name"]: e for e in d.effects}
-    confounded = [c["name"] for c in d.confounded]
+    entries = {e.name: e for e in d.effects}
+    confounded = [c.name for c in d.confounded]
     rec = {
         "bridge": bridge, "effect": effect, "seed": seed,
         "causes": ";".join(d.causes),
         "confounded": ";".join(confounded),
         "unexplained": bool(d.unexplained),
-        "gap_significant": bool(d.gap["significant"]),
-        "top_effect": d.effects[0]["name"],
-        "top_log_bf": d.effects[0]["log_bayes_factor"],
-        "second_effect": d.effects[1]["name"] if len(d.effects) > 1 else "",
-        "second_log_bf": d.effects[1]["log_bayes_factor"] if len(d.effects) > 1 else math.nan,
+        "gap_significant": bool(d.gap.significant),
+        "top_effect": d.effects[0].name,
+        "top_log_bf": d.effects[0].log_bayes_factor,
+        "second_effect": d.effects[1].name if len(d.effects) > 1 else "",
+        "second_log_bf": d.effects[1].log_bayes_factor if len(d.effects) > 1 else math.nan,
         "true_log_bf": math.nan, "true_heldout_gain": math.nan, "true_rms_after": math.nan,
         "true_heldout_rms": math.nan, "true_max_ei_shift": math.nan, "true_rank": "",
         "true_information_kept": "",
         "noise_floor": noise_rms,
-        "base_rms": d.gap["rms_residual"],
-        "systematic_rms_before": d.gap["systematic_rms"],
-        "systematic_rms_after": d.gap_after["systematic_rms"],
-        "p_value_before": d.gap["p_value"],
-        "p_value_after": d.gap_after["p_value"],
-        "min_heldout_rms": min((e["heldout_rms_after"] for e in d.effects
-                                if e["heldout_rms_after"] is not None), default=math.nan),
+        "base_rms": d.gap.rms_residual,
+        "systematic_rms_before": d.gap.systematic_rms,
+        "systematic_rms_after": d.gap_after.systematic_rms,
+        "p_value_before": d.gap.p_value,
+        "p_value_after": d.gap_after.p_value,
+        "min_heldout_rms": min((e.heldout_rms_after for e in d.effects
+                                if e.heldout_rms_after is not None), default=math.nan),
         "verdict": d.verdict,
-        "log_bfs": ";".join(f"{e['name']}={e['log_bayes_factor']:.2f}" for e in d.effects),
-        "heldout_gains": ";".join(f"{e['name']}={e['heldout_score_gain']:.2f}" for e in d.effects
-                                  if e["heldout_score_gain"] is not None),
+        "log_bfs": ";".join(f"{e.name}={e.log_bayes_factor:.2f}" for e in d.effects),
+        "heldout_gains": ";".join(f"{e.name}={e.heldout_score_gain:.2f}" for e in d.effects
+                                  if e.heldout_score_gain is not None),
         "error": "",
     }
     if true is not None and true in entries:
         e = entries[true]
-        rec.update({"true_log_bf": e["log_bayes_factor"],
-                    "true_heldout_gain": math.nan if e["heldout_score_gain"] is None else e["heldout_score_gain"],
-                    "true_rms_after": e["rms_after"],
-                    "true_heldout_rms": math.nan if e["heldout_rms_after"] is None else e["heldout_rms_after"],
+        rec.update({"true_log_bf": e.log_bayes_factor,
+                    "true_heldout_gain": math.nan if e.heldout_score_gain is None else e.heldout_score_gain,
+                    "true_rms_after": e.rms_after,
+                    "true_heldout_rms": math.nan if e.heldout_rms_after is None else e.heldout_rms_after,
                     "true_max_ei_shift": e["max_ei_shift"],
-                    "true_rank": [x["name"] for x in d.effects].index(true) + 1})
-        kept = [c["information_kept"] for c in d.confounded if c["name"] == true]
+                    "true_rank": [x.name for x in d.effects].index(true) + 1})
+        kept = [c.information_kept for c in d.confounded if c.name == true]
         rec["true_information_kept"] = f"{kept[0]:.3f}" if kept else ""
     rec["predicted"] = predicted_label(rec)
     rec["right"] = is_right(rec) if effect in LIBRARY else ""
@@ -381,8 +381,8 @@ def report(records, bridges, effects, elapsed):
         held = np.array([r["true_heldout_rms"] / r["noise_floor"] for r in lib])
         inside = np.abs(held - 1.0) <= TARGET_SHRINK
         right_held = np.array([r["true_heldout_rms"] / r["noise_floor"] for r in lib if r["right"]])
-        print(f"  (base fit / true-effect fit / held-out: medians over datasets; held-out = heldout_rms_after "
-              f"of the true effect's entry)")
+        print("  (base fit / true-effect fit / held-out: medians over datasets; held-out = heldout_rms_after "
+              "of the true effect's entry)")
         print(f"  all library-effect datasets: held-out/noise median {np.median(held):.3f}, "
               f"max {held.max():.3f}; within 20 %: {fmt_pct(int(inside.sum()), held.size)}")
         if right_held.size:
@@ -470,10 +470,11 @@ def summary(results, records):
 
 
 def figures(records, m, rows, out):
-    from sensorplan.plotting import _pyplot, save_figure
+    from matplotlib.patches import Rectangle
 
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(9.5, 5.2), layout="constrained")
+    from sensorplan.plotting import new_figure, save_figure
+
+    fig, ax = new_figure((9.5, 5.2))
     frac = m / np.maximum(m.sum(axis=1, keepdims=True), 1)
     im = ax.imshow(frac, cmap="Blues", vmin=0, vmax=1, aspect="auto")
     for i in range(m.shape[0]):
@@ -486,7 +487,7 @@ def figures(records, m, rows, out):
             right = (t in LIBRARY and (p == t or p == CONFOUNDED)) or (t == NONE and p == ADEQUATE) or (
                 t == OUT_OF_LIBRARY and p == UNEXPLAINED)
             if right:
-                ax.add_patch(plt.Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, edgecolor="C3", linewidth=1.5))
+                ax.add_patch(Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, edgecolor="C3", linewidth=1.5))
     ax.set_xticks(range(len(PREDICTED)), [short(p) for p in PREDICTED], rotation=35, ha="right")
     ax.set_yticks(range(len(rows)), rows)
     ax.set_xlabel("diagnosis: first selected cause (or verdict when none)")
@@ -497,7 +498,7 @@ def figures(records, m, rows, out):
 
     lib = [r for r in records if not r["error"] and r["effect"] in LIBRARY]
     if lib:
-        fig, ax = plt.subplots(figsize=(9, 4), layout="constrained")
+        fig, ax = new_figure((9, 4))
         names = [e for e in LIBRARY if any(r["effect"] == e for r in lib)]
         bridges = list(dict.fromkeys(r["bridge"] for r in lib))
         for k, b in enumerate(bridges):

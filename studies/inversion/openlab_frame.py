@@ -37,7 +37,7 @@ import sensorplan as sp  # noqa: E402
 from sensorplan.io.config import example_case  # noqa: E402
 from sensorplan.inference.inversion import invert  # noqa: E402
 from sensorplan.model.simulate import simulate_crossings  # noqa: E402
-from sensorplan.plotting import _pyplot, plot_ei_posterior, plot_fit, save_figure  # noqa: E402
+from sensorplan.plotting import new_figure, plot_ei_posterior, plot_fit, save_figure  # noqa: E402
 
 N_FINE = 120
 MESHES = (6, 30)
@@ -141,14 +141,13 @@ def main(out):
           f"{w30.mean():.2f} vs {w6.mean():.2f} on average (wider on the finer mesh in "
           f"{np.mean(w30 > w6):.0%} of the 1 m elements)")
 
-    plt = _pyplot()
     for n, res in results.items():
-        fig, ax = plt.subplots(figsize=(9, 3.8), layout="constrained")
+        fig, ax = new_figure((9, 3.8))
         plot_ei_posterior(res, ax=ax, supports=supports, truth=(fine.mesh.edges, fine.ei))
         ax.set_ylim(0.3 * NOMINAL_EI, 1.9 * NOMINAL_EI)  # the truth stairs start from a zero baseline
         ax.set_title(f"openLAB-like frame: EI from {N_CROSSINGS} synthetic crossings, {n} elements")
         print("figure:", save_figure(fig, Path(out) / f"inversion_openlab_{n}el.png"))
-    fig, axes = plt.subplots(len(MESHES), 2, figsize=(11, 3.4 * len(MESHES)), layout="constrained")
+    fig, axes = new_figure((11, 3.4 * len(MESHES)), len(MESHES), 2)
     for row, (n, res) in zip(axes, results.items()):
         for i, ax in enumerate(row):
             plot_fit(res, i, ax=ax)

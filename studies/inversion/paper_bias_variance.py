@@ -39,7 +39,7 @@ from sensorplan.model.case import Case  # noqa: E402
 from sensorplan.inference.inversion import invert  # noqa: E402
 from sensorplan.model.prior import GMRFPrior, difference_operator  # noqa: E402
 from sensorplan.model.simulate import simulate_crossings  # noqa: E402
-from sensorplan.plotting import _pyplot, save_figure  # noqa: E402
+from sensorplan.plotting import new_figure, save_figure  # noqa: E402
 
 L = 20.0
 EI0 = 1e10
@@ -166,8 +166,7 @@ def main(out, quick=False):
     report("for comparison, lambda by evidence maximisation once per R:", evid, ns)
     print(f"\n  runtime {time.perf_counter() - t0:.0f} s")
 
-    plt = _pyplot()
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4), layout="constrained", sharey=True)
+    fig, axes = new_figure((11, 4), 1, 2, sharey=True)
     for ax, (title, results) in zip(axes, [("tau by quasi-optimality (once per R)", quasi),
                                            ("tau by evidence (once per R)", evid)]):
         for r, res in results.items():

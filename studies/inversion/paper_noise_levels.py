@@ -33,7 +33,7 @@ import sensorplan as sp  # noqa: E402
 from sensorplan.model.case import Case  # noqa: E402
 from sensorplan.inference.inversion import invert  # noqa: E402
 from sensorplan.model.simulate import simulate_crossings  # noqa: E402
-from sensorplan.plotting import _pyplot, plot_ei_posterior, plot_fit, save_figure  # noqa: E402
+from sensorplan.plotting import new_figure, plot_ei_posterior, plot_fit, save_figure  # noqa: E402
 
 L = 20.0
 EI0 = 1e10
@@ -158,8 +158,7 @@ def main(out):
           f"(at {SIGMAS_MM_PER_M[0]} mm/m: "
           f"{averaged[0]['widths'][ends].mean() / averaged[0]['widths'][interior].mean():.1f}x)")
 
-    plt = _pyplot()
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7), layout="constrained", sharey=True)
+    fig, axes = new_figure((11, 7), 2, 2, sharey=True)
     for ax, (s_mm, res) in zip(axes.ravel(), results):
         plot_ei_posterior(res, ax=ax, supports=coarse.bridge.support_positions,
                           truth=(fine_mesh.edges, ei_fine))
@@ -167,7 +166,7 @@ def main(out):
         ax.set_ylim(0.4 * EI0, 1.6 * EI0)  # the truth stairs are drawn from a zero baseline
     print("figure:", save_figure(fig, Path(out) / "inversion_noise_levels.png"))
     res = results[0][1]
-    fig, axes = plt.subplots(1, 2, figsize=(11, 3.6), layout="constrained")
+    fig, axes = new_figure((11, 3.6), 1, 2)
     for i, ax in enumerate(axes):
         plot_fit(res, i, ax=ax)
         ax.set_title(f"{res.sensor_names[i]} at x = {SENSORS[i]:g} m, sigma = {results[0][0]:g} mm/m")

@@ -500,11 +500,10 @@ def per_step(plateaus, edges, start=None):
 
 
 def _plot(elastic, steps_span, steps_split, out):
-    from sensorplan.plotting import _pyplot, save_figure
+    from sensorplan.plotting import new_figure, save_figure
 
-    plt = _pyplot()
     x = np.linspace(0.0, 30.0, 241)
-    fig, axes = plt.subplots(1, 3, figsize=(16, 4.6), layout="constrained")
+    fig, axes = new_figure((16, 4.6), 1, 3)
     case, result, plats = elastic
     for k, p in enumerate(plats):
         axes[0].plot(x, 1e3 * deflection_line(case, result, x, p.force), color=f"C{k}",
@@ -530,7 +529,7 @@ def _plot(elastic, steps_span, steps_split, out):
                  "DOI 10.25532/OPARA-852, CC BY-SA 4.0)", fontsize=9)
     paths = [save_figure(fig, Path(out) / "openlab_pe21_deflection_lines.png")]
 
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2), layout="constrained")
+    fig, axes = new_figure((12, 4.2), 1, 2)
     force = np.array([p.force / 1e3 for p, _, _ in steps_span])
     for ax, fits, title in ((axes[0], steps_span, "one EI per span"),
                             (axes[1], steps_split, "span 2 split at 21 m")):
@@ -552,8 +551,8 @@ def _plot(elastic, steps_span, steps_split, out):
 
 def main(out, table=TABLE, folder=None):
     plateaus = read_plateaus(folder)
-    print(f"openLAB PE 2.1 load test, 6 May 2025 (Herbers, Richter, Walker, Marx, TU Dresden; "
-          f"DOI 10.25532/OPARA-852; CC BY-SA 4.0)")
+    print("openLAB PE 2.1 load test, 6 May 2025 (Herbers, Richter, Walker, Marx, TU Dresden; "
+          "DOI 10.25532/OPARA-852; CC BY-SA 4.0)")
     print(f"data: {data_dir(folder)}")
     print(f"derived table: {write_table(plateaus, table)}\n")
     _print_table(plateaus)
@@ -600,8 +599,8 @@ def main(out, table=TABLE, folder=None):
           "shares the load more.")
 
     _, lone = fit([plateaus[0]], hyper="evidence", start=result)
-    print(f"\nWhy fixed noise per step: evidence maximisation on step 1 alone (5 readings, 4 of them "
-          f"informative, 5 parameters)")
+    print("\nWhy fixed noise per step: evidence maximisation on step 1 alone (5 readings, 4 of them "
+          "informative, 5 parameters)")
     print(f"estimates a noise std of {1e3 * lone.noise_std[0]:.3f} mm - it overfits; so each step "
           f"is fitted with the stated {1e3 * NOISE_STD:.1f} mm.")
 

@@ -109,7 +109,7 @@ def lwa5_per_100kn(steps, table=pe21.TABLE):
 # --------------------------------------------------------------------------- reading the diagnosis
 
 def effect(diagnosis, name):
-    return next(e for e in diagnosis.effects if e["name"] == name)
+    return next(e for e in diagnosis.effects if e.name == name)
 
 
 def effect_prior(case, crossings, name, prior=PRIOR):
@@ -243,8 +243,8 @@ def detectability(synthetic, levels=DETECT_LEVELS, seeds=DETECT_SEEDS, prior=PRI
                 Crossing(c.label, c.positions, c.values + level * rng.standard_normal(c.values.shape), c.load_factor)
                 for c in synthetic))
             d = diagnose(case, noisy, prior=prior, effects=[VERTICAL])
-            p = effect(d, VERTICAL)["parameters"]["log_k_vert_2"]
-            rows.append((level, seed, effect(d, VERTICAL)["log_bayes_factor"], VERTICAL in d.causes, p["map"],
+            p = effect(d, VERTICAL).parameters["log_k_vert_2"]
+            rows.append((level, seed, effect(d, VERTICAL).log_bayes_factor, VERTICAL in d.causes, p["map"],
                          p["std"]))
     return rows
 
@@ -267,7 +267,7 @@ class Outcome:
     @property
     def rank(self):
         """1-based rank of the support spring by log Bayes factor."""
-        return [e["name"] for e in self.diagnosis.effects].index(VERTICAL) + 1
+        return [e.name for e in self.diagnosis.effects].index(VERTICAL) + 1
 
 
 def run(plateaus, steps=ELASTIC_STEPS, *, sensors=KEPT, effects=None, prior=PRIOR, noise_std=NOISE_STD):
@@ -290,7 +290,7 @@ def print_outcome(o):
     d = o.diagnosis
     print(d.summary())
     v = o.vertical
-    top = d.effects[0]["name"]
+    top = d.effects[0].name
     print(f"\n  top-ranked effect: {top} (log BF {d.effects[0]['log_bayes_factor']:.2f}); "
           f"{VERTICAL} ranks {o.rank} of {len(d.effects)} with log BF {v['log_bayes_factor']:.2f}; "
           f"selected causes: {', '.join(d.causes) if d.causes else 'none'}")
@@ -340,7 +340,7 @@ def main(folder=None, quick=False):
         print(f"  {r['k']:9.3g} {r['log_evidence']:7.2f} {1e3 * r['rms']:7.3f} {1e3 * r['noise']:8.3f} "
               f"{r['ei'][0]:9.3g} {r['ei'][1]:9.3g} {1e3 * settle:15.3f}")
 
-    print(f"\nNoise level: the same diagnosis (support spring alone) with other stated levels")
+    print("\nNoise level: the same diagnosis (support spring alone) with other stated levels")
     for noise in (1e-4, 4e-4):
         o = run(plateaus, ELASTIC_STEPS, effects=[VERTICAL], noise_std=noise)
         s2 = o.supports[2]
@@ -355,7 +355,7 @@ def main(folder=None, quick=False):
     k30 = math.exp(s5.map)
     bridge5, ei5 = fitted_model(with5.case, with5.diagnosis)
     fp = fingerprint(k30, ei5, elastic.crossings)
-    sigma = elastic.diagnosis.gap["rms_residual"]
+    sigma = elastic.diagnosis.gap.rms_residual
     n = elastic.crossings.n_sensors * len(elastic.crossings)
     print(f"\nFingerprint of that bearing (k30 = {k30:.3g} N/m, EI {ei5[0]:.3g}, {ei5[1]:.3g}) in "
           f"{', '.join(KEPT)}, steps 1-2, noise-free:")
@@ -385,8 +385,8 @@ def main(folder=None, quick=False):
     case = full.case
     lines = sp.influence_lines(case.bridge, case.mesh, full.diagnosis.ei_base, case.sensors, case.vehicle,
                                [pe21.LOAD_X]).predictions[:, 0]
-    amp = effect(full.diagnosis, "dynamic_amplification")["parameters"]
-    shift = effect(full.diagnosis, "position_offset")["parameters"]
+    amp = effect(full.diagnosis, "dynamic_amplification").parameters
+    shift = effect(full.diagnosis, "position_offset").parameters
     secant = np.array([p.deflection[3] / p.force for p in plateaus])
     print(f"  base EI (one value for all steps): {full.diagnosis.ei_base[0]:.3g}, {full.diagnosis.ei_base[1]:.3g} "
           f"N m^2 (steps 1-2: {elastic.diagnosis.ei_base[0]:.3g}, {elastic.diagnosis.ei_base[1]:.3g})")

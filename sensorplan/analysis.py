@@ -1,0 +1,93 @@
+"""Everything the report shows, computed as result objects (no rendering here).
+
+Owns: :func:`analyse` and :class:`Analysis`.  May import: model, inference,
+design, verification, diagnosis (never plotting, report or cli).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Analysis", "analyse"]
+
+
+@dataclass(frozen=True, eq=False)
+class Analysis:
+    """The results of one study of a case.
+
+    Attributes
+    ----------
+    case : Case
+    candidates : FisherBlocks
+        Informativeness (EI parameters) of 9 evenly spaced candidate tiltmeters.
+    design : DesignResult
+    verification : VerificationResult
+        The recommended layout and the feasible baselines, on the same scenarios.
+    posterior : PosteriorResult or None
+        EI identified from ``data`` (when given).
+    diagnosis : GapDiagnosis or None
+        Sim-to-real gap of ``data`` (when given).
+    """
+
+    case: object
+    candidates: object
+    design: object
+    verification: object
+    posterior: object = None
+    diagnosis: object = None
+
+    @property
+    def verified_names(self):
+        return ("recommended",) + tuple(b.name for b in self.design.baselines if b.feasible)
+
+
+def analyse(case, *, data=None, count=None, criterion="D", spacing=None, n_scenarios=6, n_crossings=10, seed=0,
+            progress=None):
+    """Run the analyses of a report: informativeness, layout, verification, identification, gap.
+
+    Parameters
+    ----------
+    case : Case
+    data : Crossings, optional
+        Measured crossings: adds the identified EI and the gap diagnosis.
+    count : int, optional
+        Sensors to place (default: as many as the case has).
+    criterion : str
+        Design criterion.
+    spacing : float, optional
+        Candidate spacing [m] (default: about length / 60).
+    n_scenarios, n_crossings, seed : verification settings.
+    progress : callable, optional
+        Called with a short message after each stage.
+
+    Returns
+    -------
+    Analysis
+    """
+    from .design.recommend import CandidateGrid, recommend
+    from .model.fisher import fisher_blocks
+    from .model.sensors import SensorLayout
+    from .verification.verify import verify_layouts
+
+    count = case.sensors.n_sensors if count is None else int(count)
+    spacing = spacing if spacing is not None else max(0.25, round(case.bridge.length / 60.0 * 4) / 4)
+    positions = np.linspace(0.0, case.bridge.length, 9)
+    candidates = fisher_blocks(case, sensors=SensorLayout.candidates(
+        positions, noise_std=[float(np.median(case.noise.std))] * positions.size), parameterisation="ei")
+    design = recommend(case, count, criterion, grid=CandidateGrid(spacing=spacing), rng=seed)
+    if progress:
+        progress("layout recommended")
+    feasible = [b for b in design.baselines if b.feasible]
+    verification = verify_layouts(case, [design.layout_m] + [b.layout_m for b in feasible],
+                                  names=["recommended"] + [b.name for b in feasible], n_locations=n_scenarios,
+                                  n_crossings=n_crossings, seed=seed)
+    if progress:
+        progress("layouts verified")
+    posterior = diagnosis = None
+    if data is not None:
+        from .diagnosis.diagnose import diagnose
+        from .inference.inversion import invert
+
+        posterior = invert(case, data)
+        diagnosis = diagnose(case, data)
+    return Analysis(case, candidates, design, verification, posterior, diagnosis)

@@ -1,0 +1,48 @@
+"""``sensorplan invert``: Bayesian identification of EI(x) from crossings (CSV)."""
+
+import sys
+from pathlib import Path
+
+from ._common import add_case_arguments, add_out_arguments, load_case, stage_figure, stage_json
+
+NAME = "invert"
+HELP = "Bayesian identification of EI(x) from crossings (CSV)"
+EPILOG = """example:
+  sensorplan simulate --example openlab-like --crossings 10 --noise --seed 1 --out data.csv
+  sensorplan invert --example openlab-like --data data.csv --elements 30 --json posterior.json --out out/invert
+"""
+
+
+def add_arguments(p):
+    add_case_arguments(p)
+    p.add_argument("--data", type=Path, required=True, help="crossings CSV (crossing,position_m,<sensors>)")
+    p.add_argument("--elements", type=int, help="number of elements of the inversion mesh")
+    add_out_arguments(p, json_default="posterior.json")
+
+
+def run(args, out, files):
+    import warnings
+
+    from .. import plotting
+    from .._errors import SensorplanWarning
+    from ..inference.inversion import invert
+    from ..io.csvio import read_crossings
+    from ..model.structure import Mesh
+
+    case = load_case(args)
+    data = read_crossings(args.data, case.sensors)
+    if args.elements is not None:
+        case = case.with_mesh(Mesh.uniform(case.bridge, args.elements))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", SensorplanWarning)
+        result = invert(case, data, check_scale=str(args.data))
+    for w in caught:
+        print(f"sensorplan invert: warning: {w.message}", file=sys.stderr)
+    figures = [stage_figure(files, plotting.plot_ei_posterior(result, supports=case.bridge.support_positions),
+                            args.out / "ei_posterior.png")]
+    for name in result.sensor_names:
+        figures.append(stage_figure(files, plotting.plot_fit(result, name), args.out / f"fit_{name}.png"))
+    json_path = stage_json(files, args.json or args.out / "posterior.json", result.to_dict())
+    out(result.summary())
+    out(f"posterior written to {json_path}; figures: " + ", ".join(str(p) for p in figures))
+    return 0

@@ -1,0 +1,73 @@
+"""``sensorplan recommend``: certified layout, baselines, criterion versus R (and --verify)."""
+
+
+from ._common import (add_case_arguments, add_out_arguments, kind_and_noise, load_case, parse_positions,
+                      parse_zones, stage_figure, stage_json)
+from .verify import add_verify_arguments, run_verification
+
+NAME = "recommend"
+HELP = "recommend where to put R sensors (certified layout + baselines)"
+EPILOG = """example:
+  sensorplan recommend --example openlab-like --count 3 --criterion D --exclude 14.5:15.5 --out out/design
+"""
+
+
+def add_arguments(p):
+    from ..design.criteria import CRITERIA
+
+    add_case_arguments(p)
+    p.add_argument("--count", type=int, help="number of new sensors R (default: as many as the case has)")
+    p.add_argument("--criterion", choices=list(CRITERIA), default="D", help="design criterion (default D)")
+    p.add_argument("--spacing", type=float, default=0.5, help="candidate grid spacing in m (default 0.5)")
+    p.add_argument("--exclude", type=parse_zones, help="exclusion zones start:stop in m, e.g. 14:16,29:30")
+    p.add_argument("--fixed", type=parse_positions, help="existing sensors in m, e.g. 11,19")
+    p.add_argument("--min-spacing", type=float, default=0.0, help="minimum distance between sensors in m")
+    p.add_argument("--kind", choices=["rotation", "deflection"],
+                   help="sensor kind (default: the kind of the case's sensors)")
+    p.add_argument("--noise-std", type=float,
+                   help="noise std of the new sensors in SI units (rad or m); default: the case's sensors'")
+    p.add_argument("--crossings", type=int, default=1, help="crossings per measurement campaign (default 1)")
+    p.add_argument("--springs", action="store_true", help="treat the spring stiffnesses as nuisance parameters")
+    p.add_argument("--solver", choices=["auto", "fast", "cvxpy"], default="auto", help="relaxation solver")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random baseline (default 0)")
+    add_out_arguments(p, json_default="design.json")
+    add_verify_arguments(p, with_flag=True)
+
+
+def run(args, out, files):
+    from .. import plotting
+    from ..design.recommend import CandidateGrid, Constraints, recommend
+
+    case = load_case(args)
+    args.kind, args.noise_std = kind_and_noise(args, case)
+    count = case.sensors.n_sensors if args.count is None else args.count
+    if args.fixed:
+        case.bridge.check_on_bridge(args.fixed, "fixed", "--fixed")
+    result = recommend(case, count, args.criterion,
+                       grid=CandidateGrid(spacing=args.spacing, exclude=tuple(args.exclude or ())), kind=args.kind, noise_std=args.noise_std, n_crossings=args.crossings,
+                       constraints=Constraints(fixed=tuple(args.fixed or ()), min_spacing=args.min_spacing),
+                       springs=args.springs, solver=args.solver, rng=args.seed)
+    outdir = args.out
+    figures = [
+        stage_figure(files, plotting.plot_layout(result), outdir / "layout.png"),
+        stage_figure(files, plotting.plot_informativeness(result.informativeness, supports=result.supports_m),
+                     outdir / "layout_informativeness.png"),
+        stage_figure(files, plotting.plot_posterior_std(result), outdir / "posterior_std.png"),
+    ]
+    if result.curve:
+        figures.append(stage_figure(files, plotting.plot_criterion_curve(result), outdir / "criterion_vs_R.png"))
+    payload = result.to_dict()
+    verification = None
+    if args.verify:
+        names = ["recommended"] + [b.name for b in result.baselines if b.feasible]
+        layouts = [result.layout_m] + [b.layout_m for b in result.baselines if b.feasible]
+        verification, _, vfig = run_verification(args, case, layouts, names, files,
+                                                 json_path=outdir / "verification.json")
+        payload["verification"] = verification.to_dict()
+        figures.append(vfig)
+    json_path = stage_json(files, args.json or outdir / "design.json", payload)
+    out(result.summary())
+    if verification is not None:
+        out(verification.summary())
+    out(f"design written to {json_path}; figures: " + ", ".join(str(p) for p in figures))
+    return 0

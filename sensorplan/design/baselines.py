@@ -1,0 +1,122 @@
+"""Baseline layouts a recommendation is compared with, behind one registry.
+
+A baseline is a function ``(problem, context) -> candidate indices or None``
+registered under a label (formatted with the context's fields); None means
+the baseline cannot satisfy the constraints.
+
+Owns: the baselines.  May import: errors, design.problem.
+"""
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+__all__ = ["BASELINES", "BaselineContext", "register_baseline", "baselines"]
+
+BASELINES: dict[str, Callable] = {}
+
+
+@dataclass(frozen=True)
+class BaselineContext:
+    """What baselines may use besides the problem: the bridge and the random baseline's settings."""
+
+    length: float
+    support_positions: tuple
+    n_random: int = 100
+    rng: object = 0
+
+
+def register_baseline(label):
+    """Register ``function(problem, context)`` under ``label`` (may contain ``{n_random}``)."""
+    def decorator(function):
+        BASELINES[label] = function
+        return function
+    return decorator
+
+
+def _snap(problem, targets):
+    """Nearest feasible free candidate for each target position, in order."""
+    chosen = []
+    for t in targets:
+        order = np.argsort(np.abs(problem.positions - t))
+        for i in order:
+            i = int(i)
+            if i not in chosen and problem.partial_ok(chosen + [i]):
+                chosen.append(i)
+                break
+        if len(chosen) == problem.count:
+            break
+    return chosen if len(chosen) == problem.count else None
+
+
+@register_baseline("equally_spaced")
+def equally_spaced(problem, context):
+    """Sensors at the centres of R equal stretches of the bridge."""
+    length = context.length
+    targets = length * (np.arange(problem.count) + 0.5) / problem.count
+    return _snap(problem, targets)
+
+
+@register_baseline("rule_of_thumb")
+def rule_of_thumb(problem, context):
+    """The paper's rule: stations in (0, L/3) and (2L/3, L) of the spans, spans in turn."""
+    support_positions = context.support_positions
+    fractions = [1 / 6, 5 / 6, 1 / 12, 11 / 12, 1 / 4, 3 / 4, 1 / 24, 23 / 24, 5 / 24, 19 / 24]
+    targets = []
+    for f in fractions:
+        for a, b in zip(support_positions[:-1], support_positions[1:]):
+            targets.append(a + f * (b - a))
+    return _snap(problem, targets)
+
+
+@register_baseline("effective_independence")
+def effective_independence(problem, context):
+    """Kammer's Effective Independence (1991), by backward elimination.
+
+    The effective independence of a candidate is its share of the
+    information, E_i = tr(Q^{-1} I_i) with Q the precision of all remaining
+    candidates (the sum over its rows of Kammer's E = diag(J Q^{-1} J^T));
+    the candidate with the smallest share is removed, a few at a time when
+    many remain, until R are left.
+    """
+    remaining = list(range(problem.n_candidates))
+    while len(remaining) > problem.count:
+        q = problem.layout_precision(remaining)
+        inv = scipy.linalg.cho_solve((np.linalg.cholesky(q), True), np.eye(q.shape[0]))
+        share = problem.flat_blocks[remaining] @ inv.ravel()
+        n_drop = max(1, (len(remaining) - problem.count) // 10)
+        drop = set(np.argsort(share)[:n_drop].tolist())
+        remaining = [r for j, r in enumerate(remaining) if j not in drop]
+    layout = [i for i in remaining]
+    if not problem.feasible(layout):
+        ranked = sorted(layout, key=lambda i: i)
+        layout = _snap(problem, problem.positions[ranked])
+    return layout
+
+
+@register_baseline("best_of_{n_random}_random")
+def best_random(problem, context):
+    """The best of ``n_random`` random feasible layouts."""
+    n = context.n_random
+    rng = np.random.default_rng(context.rng)
+    best, best_u = None, -np.inf
+    for _ in range(n):
+        chosen = []
+        for i in rng.permutation(problem.n_candidates):
+            if problem.partial_ok(chosen + [int(i)]):
+                chosen.append(int(i))
+            if len(chosen) == problem.count:
+                break
+        if len(chosen) == problem.count:
+            u = problem.utility_of(chosen)
+            if u > best_u:
+                best, best_u = chosen, u
+    return best
+
+
+def baselines(problem, *, length, support_positions, n_random=100, rng=0):
+    """Baseline layouts (candidate indices) by name; None where one cannot satisfy the constraints."""
+    context = BaselineContext(float(length), tuple(support_positions), int(n_random), rng)
+    return {label.format(n_random=n_random): function(problem, context) for label, function in BASELINES.items()}

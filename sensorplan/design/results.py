@@ -1,0 +1,207 @@
+"""Result types of the placement: the design, its baselines, solver statistics, the curve.
+
+Owns: DesignResult, Baseline, SolverStats, CurvePoint.  May import: model, errors.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["DesignResult", "Baseline", "SolverStats", "CurvePoint"]
+
+
+def _jsonable(v):
+    return isinstance(v, (str, int, float, bool, type(None)))
+
+
+@dataclass(frozen=True)
+class Baseline:
+    """A baseline layout, its criterion value and its efficiency relative to the recommended layout.
+
+    ``layout_m`` is None when the baseline cannot meet the constraints.
+    """
+
+    name: str
+    layout_m: tuple | None
+    value: float | None
+    relative: float | None = None
+
+    @property
+    def feasible(self) -> bool:
+        return self.layout_m is not None
+
+    def to_dict(self):
+        return None if not self.feasible else {"layout_m": list(self.layout_m), "value": self.value}
+
+
+@dataclass(frozen=True)
+class SolverStats:
+    """How the relaxation was solved.
+
+    Attributes
+    ----------
+    solver : str
+    status : str
+        "optimal" when the certified gap met the tolerance.
+    relative_gap : float
+        (bound - utility) / max(1, |bound|) of the relaxation.
+    time_s : float
+    method : str
+        Solver path ("fast" or "cvxpy-clarabel").
+    details : dict
+        Solver-specific counters (rounds, working set, iterations, fallbacks, warnings).
+    """
+
+    solver: str
+    status: str
+    relative_gap: float
+    time_s: float
+    method: str
+    details: dict = field(default_factory=dict)
+
+    @property
+    def optimal(self) -> bool:
+        return self.status == "optimal"
+
+    def to_dict(self):
+        out = {k: v for k, v in self.details.items() if _jsonable(v)}
+        out.update(solver=self.solver, status=self.status, relative_gap=self.relative_gap, time_s=self.time_s,
+                   relaxation_method=self.method)
+        return out
+
+
+@dataclass(frozen=True)
+class CurvePoint:
+    """Criterion of the best layout found and the relaxation bound for ``count`` sensors.
+
+    ``value`` and ``bound`` are None when that count failed (``reason`` says why).
+    """
+
+    count: int
+    value: float | None
+    bound: float | None
+    reason: str = ""
+
+    @property
+    def failed(self) -> bool:
+        return self.value is None
+
+    def to_dict(self):
+        out = {"count": self.count, "value": self.value, "bound": self.bound}
+        if self.failed:
+            out["failed"] = self.reason
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class DesignResult:
+    """A recommended layout with its certificate and the baselines.
+
+    Attributes
+    ----------
+    criterion : str
+    description : str
+        What the criterion measures.
+    maximise : bool
+        Whether larger criterion values are better.
+    count : int
+        Number of new sensors.
+    n_params : int
+        Dimension of the per-parameter efficiency.
+    layout_m : tuple of float
+        Sorted positions of the recommended sensors [m].
+    value : float
+        Criterion value of the layout.
+    bound : float
+        Relaxation bound on the criterion of every feasible layout (upper when
+        maximised, lower otherwise), certified by a dual bound.
+    efficiency : float
+        Certified lower bound on the layout's efficiency against the best
+        possible layout (not a proof of optimality unless it is 1).
+    method : str
+        How the layout was found.
+    baselines : tuple of Baseline
+    solver : SolverStats
+    curve : tuple of CurvePoint
+        Criterion versus number of sensors.
+    informativeness : FisherBlocks
+        Fisher blocks (EI parameters) of the recommended sensors.
+    """
+
+    criterion: str
+    description: str
+    maximise: bool
+    count: int
+    n_params: int
+    layout_m: tuple
+    value: float
+    bound: float
+    efficiency: float
+    method: str
+    baselines: tuple
+    solver: SolverStats
+    candidates_m: np.ndarray
+    weights: np.ndarray
+    fixed_m: tuple = ()
+    curve: tuple = ()
+    kind: str = "rotation"
+    layout_index: tuple = field(default=(), repr=False)
+    edges: np.ndarray | None = None
+    supports_m: tuple = ()
+    posterior_std: dict = field(default_factory=dict)
+    informativeness: object = field(default=None, repr=False)
+
+    def baseline(self, name):
+        """The baseline called ``name``."""
+        for b in self.baselines:
+            if b.name == name:
+                return b
+        raise KeyError(name)
+
+    def summary(self):
+        lines = [f"Recommended {self.count} {self.kind} sensor(s), {self.criterion}-optimal "
+                 f"({self.description}, {self.n_params} parameters)",
+                 "  positions [m]: " + ", ".join(f"{x:.2f}" for x in self.layout_m)]
+        if self.fixed_m:
+            lines.append("  existing sensors [m]: " + ", ".join(f"{x:.2f}" for x in self.fixed_m))
+        gap = self.value - self.bound
+        lines.append(f"  criterion {self.value:.6g}; relaxation bound {self.bound:.6g}; gap {gap:.3g}; "
+                     f"certified efficiency >= {100 * self.efficiency:.2f} %  (method: {self.method})")
+        s = self.solver
+        lines.append(f"  relaxation: {s.solver}, status {s.status}, relative duality gap "
+                     f"{s.relative_gap:.1e}, {s.time_s:.2f} s"
+                     + ("" if s.optimal else "  <- NOT optimal: treat the bound with care"))
+        lines.append(f"  {'baseline':28s} {'criterion':>12s} {'vs layout':>10s}  positions [m]")
+        for b in self.baselines:
+            if not b.feasible:
+                lines.append(f"  {b.name:28s} {'infeasible':>12s}")
+                continue
+            lines.append(f"  {b.name:28s} {b.value:12.6g} {100 * b.relative:9.1f}%  "
+                         + ", ".join(f"{x:.2f}" for x in b.layout_m))
+        failed = [p for p in self.curve if p.failed]
+        if failed:
+            lines.append("  criterion vs R failed for R = " + ", ".join(f"{p.count} ({p.reason})" for p in failed))
+        return "\n".join(lines)
+
+    def best_baseline(self):
+        """Name of the best feasible baseline (None if none is feasible)."""
+        sign = 1.0 if self.maximise else -1.0
+        feasible = [b for b in self.baselines if b.feasible]
+        return max(feasible, key=lambda b: sign * b.value).name if feasible else None
+
+    def to_dict(self):
+        return {
+            "criterion": self.criterion,
+            "count": self.count,
+            "n_params": self.n_params,
+            "layout_m": list(self.layout_m),
+            "value": self.value,
+            "bound": self.bound,
+            "efficiency": self.efficiency,
+            "method": self.method,
+            "baselines": {b.name: b.to_dict() for b in self.baselines},
+            "fixed_m": list(self.fixed_m),
+            "kind": self.kind,
+            "solver": self.solver.to_dict(),
+            "curve": [p.to_dict() for p in self.curve],
+        }

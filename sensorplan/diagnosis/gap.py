@@ -1,0 +1,90 @@
+"""The gap between a fitted model and the data: noise and systematic parts, structure tests.
+
+Owns: residual statistics of the diagnosis.  May import: the foundations.
+"""
+
+import math
+
+import numpy as np
+from scipy import stats
+
+from .results import Gap, SensorGap
+
+__all__ = ["residual_gap"]
+
+
+def residual_gap(problem, theta, alpha):
+    """Residual split into noise and systematic parts, per sensor, with structure tests."""
+    residuals = problem.residuals(theta)
+    crossings = problem.crossings
+    names = problem.sensor_names
+    n_c = len(crossings)
+    rho = problem.noise.rho(crossings.crossings[0].positions)
+    by_sensor, p_values, p_structure = {}, [], []
+    if n_c >= 2:
+        lo = max(c.positions[0] for c in crossings)
+        hi = min(c.positions[-1] for c in crossings)
+        ref = crossings.crossings[0].positions
+        grid = ref[(ref >= lo) & (ref <= hi)]
+    else:
+        grid = crossings.crossings[0].positions
+    means = []
+    for i, name in enumerate(names):
+        stacked = np.stack([np.interp(grid, c.positions, r[i]) for c, r in zip(crossings, residuals)])
+        mean = stacked.mean(axis=0)
+        if n_c >= 2:
+            noise_var = float(np.mean(stacked.var(axis=0, ddof=1)))
+            sys_var = max(float(np.mean(mean**2)) - noise_var / n_c, 0.0)
+            chi2 = n_c * float(np.sum(mean**2)) / max(noise_var, 1e-300)
+            p_sys = float(stats.chi2.sf(chi2, grid.size))
+        else:
+            d = np.diff(stacked[0])
+            r1 = float(np.mean(rho)) if rho.size else 0.0
+            noise_var = float(np.mean(d**2)) / (2.0 * max(1.0 - r1, 1e-3))
+            sys_var = max(float(np.mean(mean**2)) - noise_var, 0.0)
+            p_sys = 1.0
+        p_lb = _ljung_box(problem, residuals, i, alpha)
+        p_values += [p_sys, p_lb]
+        p_structure.append(p_lb)
+        rms = math.sqrt(float(np.mean(np.concatenate([r[i] for r in residuals]) ** 2)))
+        by_sensor[name] = SensorGap(rms, math.sqrt(sys_var), math.sqrt(noise_var), p_sys, p_lb)
+        means.append(mean / math.sqrt(max(noise_var, 1e-300)))
+    all_res = np.concatenate([r.ravel() for r in residuals])
+    sys_rms = math.sqrt(np.mean([v.systematic_rms ** 2 for v in by_sensor.values()]))
+    noise_rms = math.sqrt(np.mean([v.noise_rms ** 2 for v in by_sensor.values()]))
+    p_min = min(1.0, min(p_values) * len(p_values))  # Bonferroni
+    score = np.max(np.abs(np.stack(means)), axis=0)
+    worst = []
+    for k in np.argsort(score)[::-1]:
+        if all(abs(grid[k] - w) >= 1.0 for w in worst):
+            worst.append(float(grid[k]))
+        if len(worst) == 5:
+            break
+    # A gap is significant when the mean residual is both statistically and
+    # practically non-zero, or when the whitened residuals are correlated in
+    # load position (Ljung-Box): a gap that changes sign from crossing to
+    # crossing (vibration with a random phase, for instance) cancels in the
+    # mean but not in the correlation.
+    p_lb_min = min(1.0, min(p_structure) * len(p_structure))  # Bonferroni over sensors
+    significant = (p_min < 1e-3 and sys_rms > 0.1 * noise_rms) or p_lb_min < 1e-3
+    return Gap(float(np.sqrt(np.mean(all_res**2))), float(sys_rms), float(noise_rms), by_sensor, tuple(sorted(worst)),
+               float(p_min), bool(significant)), (grid, np.stack(means))
+
+
+def _ljung_box(problem, residuals, i, alpha, lags=10):
+    q, dof = 0.0, 0
+    for c, r in zip(problem.crossings, residuals):
+        w = problem.noise.subset([i]).whiten(r[i:i + 1], c.positions)[0]
+        n = w.size
+        if n <= lags + 2:
+            continue
+        w = w - w.mean()
+        denom = float(w @ w)
+        if denom == 0.0:
+            continue
+        acf = np.array([float(w[:-k] @ w[k:]) / denom for k in range(1, lags + 1)])
+        q += n * (n + 2) * float(np.sum(acf**2 / (n - np.arange(1, lags + 1))))
+        dof += lags
+    return float(stats.chi2.sf(q, dof)) if dof else 1.0
+
+
