@@ -29,7 +29,7 @@ _EXPORTS = {
     "FisherBlocks": "model.fisher", "fisher_blocks": "model.fisher",
     "Identifiability": "model.fisher", "identifiability": "model.fisher",
     "Informativeness": "model.fisher", "informativeness": "model.fisher",
-    "PosteriorResult": "inference.posterior", "invert": "inference.inversion",
+    "PosteriorResult": "inference.posterior", "CrossingFit": "inference.posterior", "invert": "inference.inversion",
     "DesignResult": "design.results", "Baseline": "design.results", "SolverStats": "design.results",
     "CurvePoint": "design.results", "recommend": "design.recommend", "CandidateGrid": "design.recommend",
     "Constraints": "design.recommend", "Criterion": "design.criteria", "register_criterion": "design.criteria",

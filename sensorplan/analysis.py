@@ -4,9 +4,15 @@ Owns: :func:`analyse` and :class:`Analysis`.  May import: model, inference,
 design, verification, diagnosis (never plotting, report or cli).
 """
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from .model.case import Case
+    from .model.crossings import Crossings
 
 __all__ = ["Analysis", "analyse"]
 
@@ -41,8 +47,9 @@ class Analysis:
         return ("recommended",) + tuple(b.name for b in self.design.baselines if b.feasible)
 
 
-def analyse(case, *, data=None, count=None, criterion="D", spacing=None, n_scenarios=6, n_crossings=10, seed=0,
-            progress=None):
+def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None = None, criterion: str = "D",
+            spacing: float | None = None, n_scenarios: int = 6, n_crossings: int = 10, seed: int = 0,
+            progress: "Callable[[str], None] | None" = None) -> Analysis:
     """Run the analyses of a report: informativeness, layout, verification, identification, gap.
 
     Parameters
@@ -73,7 +80,8 @@ def analyse(case, *, data=None, count=None, criterion="D", spacing=None, n_scena
     spacing = spacing if spacing is not None else max(0.25, round(case.bridge.length / 60.0 * 4) / 4)
     positions = np.linspace(0.0, case.bridge.length, 9)
     candidates = fisher_blocks(case, sensors=SensorLayout.candidates(
-        positions, noise_std=[float(np.median(case.noise.std))] * positions.size), parameterisation="ei")
+        positions, case.default_kind, noise_std=[case.noise_std_for(case.default_kind)] * positions.size),
+        parameterisation="ei")
     design = recommend(case, count, criterion, grid=CandidateGrid(spacing=spacing), rng=seed)
     if progress:
         progress("layout recommended")

@@ -118,7 +118,7 @@ def render_report(analysis):
                     zip(blocks.sensors.positions, blocks.peaks(), blocks.curves.max(axis=1))])
     sections.append(("Informativeness of candidate positions", _figure(
         plotting.plot_informativeness(blocks, supports=supports, log=True),
-        "Fisher informativeness curves of candidate tiltmeter positions",
+        f"Fisher informativeness curves of candidate {blocks.sensors.kinds[0]} sensor positions",
         "the higher a sensor's curve over an element, the better that sensor alone pins down EI there; "
         "flat, low stretches are what no single sensor at that position can see.") + peaks))
 

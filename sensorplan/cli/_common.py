@@ -26,7 +26,8 @@ def add_out_arguments(parser, *, json_default):
 
 
 def load_case(args):
-    from ..io.config import example_case, load_case as load
+    from ..io.config import example_case
+    from ..io.config import load_case as load
 
     return load(args.config) if args.config is not None else example_case(args.example)
 

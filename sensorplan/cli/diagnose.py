@@ -2,7 +2,14 @@
 
 from pathlib import Path
 
-from ._common import add_case_arguments, add_out_arguments, load_case, progress, stage_figure, stage_json
+from ._common import (
+    add_case_arguments,
+    add_out_arguments,
+    load_case,
+    progress,
+    stage_figure,
+    stage_json,
+)
 
 NAME = "diagnose"
 HELP = "diagnose the sim-to-real gap between the model and crossings (CSV)"

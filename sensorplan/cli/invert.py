@@ -3,7 +3,13 @@
 import sys
 from pathlib import Path
 
-from ._common import add_case_arguments, add_out_arguments, load_case, stage_figure, stage_json
+from ._common import (
+    add_case_arguments,
+    add_out_arguments,
+    load_case,
+    stage_figure,
+    stage_json,
+)
 
 NAME = "invert"
 HELP = "Bayesian identification of EI(x) from crossings (CSV)"

@@ -1,8 +1,16 @@
 """``sensorplan recommend``: certified layout, baselines, criterion versus R (and --verify)."""
 
 
-from ._common import (add_case_arguments, add_out_arguments, kind_and_noise, load_case, parse_positions,
-                      parse_zones, stage_figure, stage_json)
+from ._common import (
+    add_case_arguments,
+    add_out_arguments,
+    kind_and_noise,
+    load_case,
+    parse_positions,
+    parse_zones,
+    stage_figure,
+    stage_json,
+)
 from .verify import add_verify_arguments, run_verification
 
 NAME = "recommend"

@@ -1,7 +1,15 @@
 """``sensorplan verify``: score layouts by Bayesian inversion of synthetic damage."""
 
-from ._common import (add_case_arguments, add_out_arguments, kind_and_noise, load_case, parse_positions, progress,
-                      stage_figure, stage_json)
+from ._common import (
+    add_case_arguments,
+    add_out_arguments,
+    kind_and_noise,
+    load_case,
+    parse_positions,
+    progress,
+    stage_figure,
+    stage_json,
+)
 
 NAME = "verify"
 HELP = "verify layouts by Bayesian inversion of synthetic damage"

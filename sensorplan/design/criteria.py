@@ -32,7 +32,15 @@ import numpy as np
 import scipy.linalg
 
 from .._errors import ConfigError
-from .linalg import _chol, _eigen_split, _gram_sym, _inv, _logdet, _sym, _whitened_blocks
+from .linalg import (
+    _chol,
+    _eigen_split,
+    _gram_sym,
+    _inv,
+    _logdet,
+    _sym,
+    _whitened_blocks,
+)
 
 __all__ = ["Criterion", "DCriterion", "DsCriterion", "ACriterion", "ECriterion", "CRITERIA",
            "register_criterion", "make_criterion"]

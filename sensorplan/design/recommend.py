@@ -6,6 +6,7 @@ Owns: option groups (CandidateGrid, Constraints), problem assembly,
 
 import math
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -20,6 +21,9 @@ from .problem import DesignProblem
 from .relaxation import solve_relaxation
 from .results import Baseline, CurvePoint, DesignResult, SolverStats
 from .selection import exchange, greedy, round_weights
+
+if TYPE_CHECKING:
+    from ..model.case import Case
 
 __all__ = ["recommend", "build_problem", "candidate_positions", "CandidateGrid", "Constraints"]
 
@@ -181,9 +185,12 @@ def _best_layout(problem, relaxation, starts, greedy_layout=None):
 
 
 @single_threaded
-def recommend(case, count, criterion="D", *, grid=None, constraints=None, kind="rotation", noise_std=None,
-              n_crossings=1, prior=None, springs=False, region=None, functionals=None, solver="auto",
-              n_random=100, rng=0, curve_max=None):
+def recommend(case: "Case", count: int, criterion: str = "D", *, grid: CandidateGrid | None = None,
+              constraints: Constraints | None = None, kind: str = "rotation", noise_std: float | None = None,
+              n_crossings: int = 1, prior: GMRFPrior | None = None, springs: bool = False,
+              region: tuple[float, float] | None = None, functionals: "np.ndarray | None" = None,
+              solver: str = "auto", n_random: int = 100, rng: "int | np.random.Generator" = 0,
+              curve_max: int | None = None) -> DesignResult:
     """Recommend where to put ``count`` new sensors.
 
     Parameters

@@ -17,17 +17,23 @@
 
 import math
 import warnings
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .effects import EFFECTS, make_effect
+from .._threads import single_threaded
 from ..inference.laplace import fit_problem
 from ..inference.screening import check_case_data_scale
+from ..model.crossings import Crossings
+from ..model.prior import GMRFPrior
+from .effects import EFFECTS, make_effect
 from .gap import residual_gap
 from .joint import JointProblem
 from .results import Confounding, EffectFit, GapDiagnosis
-from ..model.prior import GMRFPrior
-from .._threads import single_threaded
+
+if TYPE_CHECKING:
+    from ..model.case import Case
 
 __all__ = ["diagnose"]
 
@@ -168,8 +174,9 @@ def _separating_sensor(case, crossings, name, prior, theta, base_start, kept):
 
 
 @single_threaded
-def diagnose(case, crossings, *, effects=None, prior=None, bf_threshold=3.0, n_folds=4, progress=None,
-             check_scale=True):
+def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | None" = None,
+             prior: GMRFPrior | None = None, bf_threshold: float = 3.0, n_folds: int = 4,
+             progress: "Callable[[int, int], None] | None" = None, check_scale: bool | str = True) -> GapDiagnosis:
     """Diagnose the gap between ``case`` and measured ``crossings``.
 
     Parameters
@@ -230,12 +237,13 @@ def diagnose(case, crossings, *, effects=None, prior=None, bf_threshold=3.0, n_f
             progress(k + 1, len(names))
     results.sort(key=lambda r: r.log_bayes_factor, reverse=True)
     # forward selection
-    selected, current, current_problem = [], base, base_problem
+    selected: list[str] = []
+    current, current_problem = base, base_problem
     remaining = [r.name for r in results]
     current_start = base_start
     current_heldout = base_heldout
     while remaining:
-        best = None
+        best: tuple | None = None
         for name in remaining:
             if not selected:
                 problem, fit = fits[name]
@@ -244,6 +252,8 @@ def diagnose(case, crossings, *, effects=None, prior=None, bf_threshold=3.0, n_f
             bf = fit.log_evidence - current.log_evidence
             if best is None or bf > best[1]:
                 best = (name, bf, problem, fit)
+        if best is None:
+            break
         name, bf, problem, fit = best
         if bf < bf_threshold:
             break

@@ -6,6 +6,7 @@ tiltmeters, ``noise_std_mm`` for deflection sensors.
 """
 
 import math
+import os
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -37,7 +38,7 @@ _TILT_UNITS = {"noise_std_mm_per_m": 1e-3, "noise_std_urad": 1e-6}
 _DEFLECTION_UNITS = {"noise_std_mm": 1e-3}
 
 
-def load_case(path):
+def load_case(path: "str | os.PathLike[str]") -> Case:
     """Read a case from a TOML file.
 
     Errors name the file, the section and the field, in one line.
@@ -60,7 +61,7 @@ def case_from_toml(text, *, source="config", name="case"):
     return case_from_dict(data, source=source, name=name)
 
 
-def example_case(name):
+def example_case(name: str) -> Case:
     """One of the embedded examples: ``simply-supported``, ``openlab-like``, ``three-span``."""
     if name not in EXAMPLES:
         raise ConfigError(f"Unknown example {name!r}. Choose one of: {', '.join(EXAMPLES)}.")

@@ -9,13 +9,18 @@ Writing is atomic: the file appears complete or not at all.
 import csv
 import io
 import math
+import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .._errors import DataError
 from ..model.crossings import Crossing, Crossings
 from .output import atomic_write_text
+
+if TYPE_CHECKING:
+    from ..model.sensors import SensorLayout
 
 __all__ = ["read_crossings", "write_crossings", "format_crossings", "write_table", "format_table",
            "atomic_write_text"]
@@ -26,7 +31,7 @@ _LIMITS = {"rotation": (0.02, "rad", "mm/m or micro-radians given as rad? Conver
            "deflection": (1.0, "m", "mm given as m? Convert to m")}
 
 
-def write_crossings(path, crossings):
+def write_crossings(path: "str | os.PathLike[str]", crossings: Crossings) -> None:
     """Write crossings to a CSV file (atomically)."""
     atomic_write_text(path, format_crossings(crossings))
 
@@ -47,7 +52,7 @@ def format_crossings(crossings):
     return buf.getvalue()
 
 
-def read_crossings(path, sensors=None):
+def read_crossings(path: "str | os.PathLike[str]", sensors: "SensorLayout | None" = None) -> Crossings:
     """Read crossings from ``path``.
 
     Parameters

@@ -38,7 +38,7 @@ class Case:
     vehicle: Vehicle
     sensors: SensorLayout
     noise: NoiseModel | None = None
-    sweep: LoadSweep | None = None
+    sweep: LoadSweep = None  # type: ignore[assignment]  # None: filled in by __post_init__
     name: str = "case"
 
     def __post_init__(self):

@@ -9,14 +9,22 @@ never as a dense inverse.  Parameterisations follow the paper's chain rule
 (eq. fisher-ei): dy/dEI = -dy/dv / EI^2, dy/dlog EI = -dy/dv / EI.
 """
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .._errors import ConfigError
 from .._threads import single_threaded
 from .forward import influence_lines
+
+if TYPE_CHECKING:
+    from .case import Case
+    from .noise import NoiseModel
+    from .prior import GMRFPrior
+    from .sensors import SensorLayout
 
 __all__ = ["FisherBlocks", "fisher_blocks", "Identifiability", "identifiability", "Informativeness",
            "informativeness"]
@@ -109,8 +117,9 @@ class FisherBlocks:
 
 
 @single_threaded
-def fisher_blocks(case, *, sensors=None, noise=None, ei=None, parameterisation="log_ei",
-                  springs=False, n_crossings=1, chunk_size=64):
+def fisher_blocks(case: "Case", *, sensors: "SensorLayout | None" = None, noise: "NoiseModel | None" = None,
+                  ei: "np.ndarray | None" = None, parameterisation: str = "log_ei", springs: bool = False,
+                  n_crossings: int = 1, chunk_size: int = 64) -> "FisherBlocks":
     """Per-sensor Fisher information blocks for ``case``.
 
     Parameters
@@ -242,8 +251,9 @@ class Identifiability:
         return out
 
 
-def identifiability(information, *, prior_precision=None, threshold=1e-6, edges=None,
-                    n_elements=None):
+def identifiability(information: "FisherBlocks | np.ndarray", *, prior_precision: "np.ndarray | None" = None,
+                    threshold: float = 1e-6, edges: "np.ndarray | None" = None,
+                    n_elements: int | None = None) -> "Identifiability":
     """Eigen-analysis of a total information matrix.
 
     Parameters
@@ -277,7 +287,7 @@ def identifiability(information, *, prior_precision=None, threshold=1e-6, edges=
         prior = np.diag(prior_precision).copy()
         post = information + prior_precision
         dof = float(np.trace(np.linalg.solve(post, information)))
-    return Identifiability(vals, vecs, float(threshold), edges, n if n_elements is None else n_elements,
+    return Identifiability(vals, vecs, float(threshold), np.asarray(edges), n if n_elements is None else n_elements,
                            data, prior, dof)
 
 
@@ -306,8 +316,9 @@ class Informativeness:
         return {"blocks": self.blocks.to_dict(), "identifiability": self.identifiability.to_dict()}
 
 
-def informativeness(case, *, positions=None, kind=None, noise_std=None, n_crossings=1, parameterisation="ei",
-                    prior=None):
+def informativeness(case: "Case", *, positions: "Sequence[float] | None" = None, kind: str | None = None,
+                    noise_std: float | None = None, n_crossings: int = 1, parameterisation: str = "ei",
+                    prior: "GMRFPrior | None" = None) -> Informativeness:
     """Informativeness curves and identifiability of the case's sensors or of new ``positions``.
 
     Parameters

@@ -33,6 +33,7 @@ from functools import cached_property
 
 import numpy as np
 import scipy.linalg
+from numpy.typing import ArrayLike
 
 from .._errors import ConfigError
 from .._threads import single_threaded
@@ -237,7 +238,8 @@ def _check_inputs(bridge, mesh, sensors, positions):
 
 
 @single_threaded
-def influence_lines(bridge, mesh, ei, sensors, vehicle, positions):
+def influence_lines(bridge: Bridge, mesh: Mesh, ei: "ArrayLike", sensors: SensorLayout, vehicle: Vehicle,
+                    positions: "ArrayLike") -> "InfluenceLines":
     """Influence lines of ``sensors`` for ``vehicle`` at reference-axle ``positions``.
 
     Parameters
@@ -280,7 +282,7 @@ def influence_lines(bridge, mesh, ei, sensors, vehicle, positions):
         "ur,u,uk->rk", sensor_reactions, c, load_reactions)
     for arr in (kernel, spring_kernel, predictions):
         arr.setflags(write=False)
-    return InfluenceLines(bridge, mesh, sensors, vehicle, positions, ei,
+    return InfluenceLines(bridge, mesh, sensors, vehicle, np.asarray(positions), np.asarray(ei),
                           bridge.spring_stiffness(), predictions, kernel, spring_kernel)
 
 

@@ -38,8 +38,8 @@ class SensorLayout:
     """
 
     positions: np.ndarray
-    kinds: tuple | None = None
-    names: tuple | None = None
+    kinds: tuple = None  # type: ignore[assignment]  # None: all rotation (filled in by __post_init__)
+    names: tuple = None  # type: ignore[assignment]  # None: S1, S2, ... (filled in by __post_init__)
     noise_std: tuple | None = None
 
     def __post_init__(self):

@@ -1,15 +1,23 @@
 """Synthetic crossings from the forward model."""
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._errors import ConfigError
 from .crossings import Crossing, Crossings
 
+if TYPE_CHECKING:
+    from .case import Case
+    from .structure import Bridge
+
 __all__ = ["simulate_crossings"]
 
 
-def simulate_crossings(case, n_crossings=1, *, noise=False, rng=None, ei=None, bridge=None,
-                       positions=None):
+def simulate_crossings(case: "Case", n_crossings: int = 1, *, noise: bool = False,
+                       rng: "np.random.Generator | int | None" = None, ei: "ArrayLike | None" = None,
+                       bridge: "Bridge | None" = None, positions: "ArrayLike | None" = None) -> Crossings:
     """Predicted (``noise=False``) or noisy synthetic crossings of ``case``.
 
     Parameters
@@ -30,14 +38,15 @@ def simulate_crossings(case, n_crossings=1, *, noise=False, rng=None, ei=None, b
     if int(n_crossings) != n_crossings or n_crossings < 1:
         raise ConfigError(f"The 'crossings' parameter must be a positive integer. "
                           f"Got {n_crossings!r} instead.")
-    if noise and case.noise is None:
+    noise_model = case.noise
+    if noise and noise_model is None:
         raise ConfigError("Noise was requested but the case has no noise_std; add "
                           "noise_std to [sensors].")
     if noise and rng is None:
         raise ConfigError("A seed (rng) is required for noisy simulations.")
     pos = case.sweep.positions if positions is None else np.asarray(positions, dtype=float)
     clean = case.influence_lines(ei, positions=pos, bridge=bridge).predictions
-    draws = case.noise.sample(pos, rng, n_crossings) if noise else np.zeros((n_crossings,) + clean.shape)
+    draws = noise_model.sample(pos, rng, n_crossings) if noise and noise_model is not None else np.zeros((n_crossings,) + clean.shape)
     ones = np.ones(pos.size)
     return Crossings(case.sensors.names, tuple(
         Crossing(str(i + 1), pos, clean + draws[i], ones) for i in range(n_crossings)))

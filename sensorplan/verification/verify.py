@@ -14,8 +14,10 @@ results are identical whatever the number of workers.
 
 import math
 import warnings
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable, Sequence
+from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import stats
@@ -28,6 +30,9 @@ from ..model.sensors import SensorLayout
 from ..model.simulate import simulate_crossings
 from .results import VerificationResult, _aggregate
 from .scenarios import Scenario, element_average_ei, make_scenarios, truth_mesh
+
+if TYPE_CHECKING:
+    from ..model.case import Case
 
 __all__ = ["verify_layouts"]
 
@@ -106,9 +111,11 @@ def _score(case, post, scenario, truth, threshold, window):
 
 
 @single_threaded
-def verify_layouts(case, layouts, *, names=None, n_locations=8, severity=0.25, length=2.0, n_controls=None,
-                   n_crossings=10, seed=0, kind="rotation", noise_std=None, executor=None, workers=1,
-                   detection_threshold=0.9, progress=None):
+def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float]]", *, names: "Sequence[str] | None" = None,
+                   n_locations: int = 8, severity: float = 0.25, length: float = 2.0, n_controls: int | None = None,
+                   n_crossings: int = 10, seed: int = 0, kind: str = "rotation", noise_std: float | None = None,
+                   executor: "Executor | None" = None, workers: int = 1, detection_threshold: float = 0.9,
+                   progress: "Callable[[int, int], None] | None" = None) -> VerificationResult:
     """Score ``layouts`` (lists of positions [m]) on the same synthetic scenarios.
 
     Parameters
@@ -139,16 +146,16 @@ def verify_layouts(case, layouts, *, names=None, n_locations=8, severity=0.25, l
     """
     if case.noise is None:
         raise ConfigError("Verification needs a noise model: set noise_std in [sensors].")
-    layouts = [tuple(float(x) for x in layout) for layout in layouts]
-    if not layouts:
+    layout_list = [tuple(float(x) for x in layout) for layout in layouts]
+    if not layout_list:
         raise ConfigError("Give at least one layout to verify.")
-    for layout in layouts:
+    for layout in layout_list:
         case.bridge.check_on_bridge(layout, "layout", "verify")
     scenarios = make_scenarios(case, n_locations, severity=severity, length=length, n_controls=n_controls)
     seeds = np.random.SeedSequence(seed).spawn(len(scenarios))
     window = max(1, int(round(length / float(np.mean(case.mesh.lengths)))))
     tasks = []
-    for layout in layouts:
+    for layout in layout_list:
         # warm start: hyperparameters of a pilot inversion (the first scenario,
         # computed here, before dispatch, so results do not depend on workers)
         pilot = _run_task(_Task(case, layout, kind, scenarios[0], seeds[0], int(n_crossings),
@@ -171,6 +178,6 @@ def verify_layouts(case, layouts, *, names=None, n_locations=8, severity=0.25, l
         if own is not None:
             own.shutdown()
     n = len(scenarios)
-    scores = tuple(_aggregate(layout, results[k * n:(k + 1) * n]) for k, layout in enumerate(layouts))
+    scores = tuple(_aggregate(layout, results[k * n:(k + 1) * n]) for k, layout in enumerate(layout_list))
     return VerificationResult(scores, tuple(scenarios), int(n_crossings), int(seed), float(severity),
                               float(length), tuple(names) if names else ())
