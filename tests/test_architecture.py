@@ -21,6 +21,7 @@ LAYERS = {
     "_errors": 0, "examples": 0,
     "_validation": 0.5, "_threads": 0.5,
     "model": 1,
+    "detection": 1.5,
     "inference": 2, "design": 2, "io": 2,
     "verification": 3, "diagnosis": 3,
     "analysis": 4,
