@@ -23,6 +23,7 @@ from fe_reference import fe_response
 
 from sensorplan import Bridge, Case, LoadSweep, Mesh, NoiseModel, SensorLayout, Vehicle
 from sensorplan._errors import ConfigError
+from sensorplan.cli import main
 from sensorplan.detection.detectability import detectability
 from sensorplan.detection.signatures import schur_d_squared, whitened_signatures
 from sensorplan.io.config import example_case
@@ -290,7 +291,7 @@ def test_power_grows_with_severity_and_the_min_detectable_loss_does_not_depend_o
 
 
 # ----------------------------------------------------------------------------------------------
-# results and validation
+# results, validation, CLI
 
 def test_result_keys_and_summary():
     result = detectability(example_case("openlab-like"), n_crossings=10, step=1.0)
@@ -317,3 +318,27 @@ def test_bad_options_are_one_line_config_errors(option, value):
         detectability(case, **kwargs)
     message = str(info.value)
     assert "\n" not in message and f"'{option}'" in message
+
+
+def test_cli_writes_json_and_figure(tmp_path, capsys):
+    assert main(["detectability", "--example", "openlab-like", "--layout", "5,11,19,25", "--severity", "0.3",
+                 "--length", "1.5", "--crossings", "4", "--nuisance", "levels", "--step", "1.0",
+                 "--false-alarm", "0.01", "--out", str(tmp_path)]) == 0
+    data = json.loads((tmp_path / "detectability.json").read_text())
+    assert data["severity"] == 0.3 and data["n_crossings"] == 4 and data["nuisance"] == "levels"
+    assert data["false_alarm_rate"] == 0.01 and data["length_m"] == 1.5 and data["sensors_m"] == [5, 11, 19, 25]
+    assert (tmp_path / "detectability.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "Detectability of a 30 % EI loss" in capsys.readouterr().out
+    js = tmp_path / "sub" / "map.json"
+    assert main(["detectability", "--example", "simply-supported", "--kind", "deflection", "--layout", "10",
+                 "--json", str(js), "--out", str(tmp_path / "fig"), "--quiet"]) == 1  # no deflection noise known
+    assert capsys.readouterr().out == ""
+
+
+@pytest.mark.parametrize("argv", [["--severity", "1.5"], ["--layout", "5,31"], ["--step", "-1"]])
+def test_cli_errors_are_one_line(tmp_path, capsys, argv):
+    assert main(["detectability", "--example", "openlab-like", *argv, "--out", str(tmp_path)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "Traceback" not in err[0]
+    assert argv[0].lstrip("-") in err[0]
+    assert not (tmp_path / "detectability.json").exists() and not (tmp_path / "detectability.png").exists()
