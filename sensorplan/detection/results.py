@@ -120,8 +120,8 @@ class DetectabilityMap:
                          f"{'> 99 %' if loss is None else f'{100 * loss:.0f} %':>9s}")
         lines.append(f"  worst: {self._describe(int(np.argmin(self.power)))}")
         lines.append(f"  best: {self._describe(int(np.argmax(self.power)))}")
-        lines.append(f"  blind spots (power < {BLIND_POWER:g}): {_stretch_text(self.blind_spots)}")
-        lines.append(f"  well covered (power >= {POWER_TARGET:g}): {_stretch_text(self.covered)}")
+        lines.append(f"  blind spots (power < {BLIND_POWER:g}), zone centres: {_stretch_text(self.blind_spots)}")
+        lines.append(f"  well covered (power >= {POWER_TARGET:g}), zone centres: {_stretch_text(self.covered)}")
         return "\n".join(lines)
 
     def to_dict(self):
