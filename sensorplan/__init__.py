@@ -29,6 +29,8 @@ _EXPORTS = {
     "FisherBlocks": "model.fisher", "fisher_blocks": "model.fisher",
     "Identifiability": "model.fisher", "identifiability": "model.fisher",
     "Informativeness": "model.fisher", "informativeness": "model.fisher",
+    "DetectabilityMap": "detection.results", "detectability": "detection.detectability",
+    "DamageDetection": "detection.scan", "detect_damage": "detection.scan",
     "PosteriorResult": "inference.posterior", "CrossingFit": "inference.posterior", "invert": "inference.inversion",
     "DesignResult": "design.results", "Baseline": "design.results", "SolverStats": "design.results",
     "CurvePoint": "design.results", "recommend": "design.recommend", "CandidateGrid": "design.recommend",

@@ -13,7 +13,7 @@ import numpy as np
 
 __all__ = ["plot_informativeness", "plot_spectrum", "plot_eigenvectors", "plot_ei_posterior", "plot_fit", "plot_layout",
            "plot_posterior_std", "plot_criterion_curve", "plot_verification", "plot_residual_map",
-           "plot_shrinkage", "plot_ei_before_after", "plot_influence_lines", "save_figure",
+           "plot_shrinkage", "plot_ei_before_after", "plot_influence_lines", "plot_detectability", "save_figure",
            "mark_bridge", "new_figure"]
 
 
@@ -313,3 +313,30 @@ def plot_influence_lines(lines, *, ax=None, supports=None):
     ax.set_title("Influence lines at nominal EI")
     ax.legend(fontsize=8)
     return ax
+
+
+def plot_detectability(result, *, axes=None):
+    """Detection power (top) and minimum detectable EI loss (bottom) of a DetectabilityMap; returns two Axes."""
+    if axes is None:
+        _, axes = new_figure((8, 5.6), 2, 1, sharex=True)
+    x = result.centres_m
+    axes[0].plot(x, result.power, "o-", markersize=3, linewidth=1.4, label="power")
+    axes[0].axhline(0.9, color="C2", linestyle=":", linewidth=1.0, label="0.9 (min detectable loss)")
+    axes[0].axhline(result.false_alarm_rate, color="C3", linestyle=":", linewidth=1.0,
+                    label=f"false alarm rate {result.false_alarm_rate:g}")
+    axes[0].set_ylim(-0.03, 1.03)
+    axes[0].set_ylabel("detection power [-]")
+    axes[0].set_title(f"Detectability of a {100 * result.severity:g} % EI loss over {result.length_m:g} m "
+                      f"({result.n_crossings} crossing(s), nuisance: {result.nuisance})")
+    axes[1].plot(x, 100 * result.min_detectable_loss_array, "o-", markersize=3, linewidth=1.4, color="C1")
+    axes[1].set_ylim(0.0, 100.0)
+    axes[1].set_ylabel("min detectable\nEI loss [%]")
+    axes[1].set_xlabel("centre of the damaged zone [m]")
+    for i, ax in enumerate(axes):
+        mark_bridge(ax, result.supports_m)
+        y0 = ax.get_ylim()[0]
+        ax.plot(result.sensors_m, np.full(len(result.sensors_m), y0), "^", color="k", markersize=7,
+                clip_on=False, zorder=5, label="sensors" if i == 0 else None)
+        ax.set_xlim(0.0, float(result.supports_m[-1]))
+    axes[0].legend(fontsize=7, loc="best")
+    return axes

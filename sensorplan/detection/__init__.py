@@ -1,9 +1,16 @@
-"""Damage detection: what a layout can detect, and a detector that reaches it.
+"""Damage detection: the physical limit of detection, and a detector that reaches it.
 
-:mod:`.nuisance` (what an undamaged bridge may do), :mod:`.scan` (the scan
-test with a calibrated false-alarm rate and the estimates of the zone and the
-loss).
+:mod:`.nuisance` says what an undamaged bridge may do (smooth or per-span EI
+changes); :mod:`.signatures` computes, per sensor, the whitened damage
+signature of a local EI loss (exact forward difference) and the whitened
+columns of the nuisance it competes with (plus the elastic support springs);
+:mod:`.detectability` turns them into a map of the optimal detection power
+and the smallest detectable loss along the bridge (:mod:`.results` holds the
+result type); :mod:`.scan` is the detector: a scan test over zones with a
+calibrated false-alarm rate and the estimates of the zone and the loss.  The
+per-sensor Gram matrices of :meth:`.signatures.Signatures.grams` are what a
+design criterion sums over a layout (:func:`.signatures.schur_d_squared`).
 
-Owns: detectability and damage detection.
+Owns: damage signatures, nuisance projection, detectability maps, the detector.
 May import: model and the foundations.
 """

@@ -1,0 +1,45 @@
+"""``sensorplan detectability``: where along the bridge a local EI loss can be detected at all."""
+
+from ._common import add_case_arguments, add_out_arguments, load_case, parse_positions, stage_figure, stage_json
+
+NAME = "detectability"
+HELP = "detection power and minimum detectable EI loss along the bridge"
+EPILOG = """example:
+  sensorplan detectability --example openlab-like --severity 0.25 --length 2 --crossings 10 --out out/detect
+  sensorplan detectability --example three-span --layout 4,14,20,26,36 --nuisance levels
+"""
+
+
+def add_arguments(p):
+    add_case_arguments(p)
+    p.add_argument("--layout", type=parse_positions,
+                   help="sensor positions in m, e.g. 3.5,8,12 (default: the case's sensors)")
+    p.add_argument("--kind", choices=["rotation", "deflection"],
+                   help="kind of the --layout sensors (default: the kind of the case's sensors)")
+    p.add_argument("--severity", type=float, default=0.25,
+                   help="fraction of EI lost over the damaged zone, in (0, 1) (default 0.25)")
+    p.add_argument("--length", type=float, default=2.0, help="length of the damaged zone in m (default 2)")
+    p.add_argument("--false-alarm", type=float, default=0.05,
+                   help="false alarm rate of the detector, in (0, 0.5) (default 0.05)")
+    p.add_argument("--crossings", type=int, default=10, help="number of identical crossings (default 10)")
+    p.add_argument("--nuisance", choices=["smooth", "levels"], default="smooth",
+                   help="what must not be mistaken for damage, besides elastic springs: a quadratic log-EI "
+                        "trend per span (smooth, default) or one EI factor per span (levels)")
+    p.add_argument("--step", type=float, default=0.5, help="spacing of the damage centres in m (default 0.5)")
+    add_out_arguments(p, json_default="detectability.json")
+
+
+def run(args, out, files):
+    from .. import plotting
+    from ..detection.detectability import detectability
+
+    case = load_case(args)
+    result = detectability(case, layout=args.layout, kind=args.kind, severity=args.severity, length=args.length,
+                           false_alarm=args.false_alarm, n_crossings=args.crossings, nuisance=args.nuisance,
+                           step=args.step)
+    json_path = stage_json(files, args.json or args.out / "detectability.json", result.to_dict())
+    axes = plotting.plot_detectability(result)
+    figure = stage_figure(files, axes[0], args.out / "detectability.png")
+    out(result.summary())
+    out(f"detectability map written to {json_path}; figure: {figure}")
+    return 0

@@ -1,0 +1,156 @@
+"""Result type of the detectability analysis: DetectabilityMap."""
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+__all__ = ["DetectabilityMap", "POWER_TARGET", "BLIND_POWER"]
+
+POWER_TARGET = 0.9  # power that defines the minimum detectable loss
+BLIND_POWER = 0.5  # below this power a stretch is reported as a blind spot
+_MAX_ROWS = 15
+
+
+@dataclass(frozen=True, eq=False)
+class DetectabilityMap:
+    """How well a local EI loss can be told apart from noise and nuisance, along the bridge.
+
+    Attributes
+    ----------
+    centres_m : ndarray, shape (n_centres,)
+        Centres of the damaged zones [m].
+    d : ndarray, shape (n_centres,)
+        Detectability: norm of the whitened, nuisance-projected damage
+        signature over all crossings (signal-to-noise ratio of the optimal
+        detector).
+    power : ndarray, shape (n_centres,)
+        Probability of detecting the loss, Phi(d - z_(1 - false_alarm_rate)).
+    min_detectable_loss : tuple of (float or None)
+        Smallest loss fraction detected with power >= 0.9 at each centre,
+        from the exact forward model; None when it would be >= 0.99.
+    false_alarm_rate, n_crossings, severity, nuisance :
+        The options the map was computed for.
+    length_m : float
+        Length of the damaged zone [m].
+    sensors_m, supports_m : ndarray
+        Sensor and support positions [m].
+    sensor_kinds : tuple of str
+    d_unit : ndarray, shape (n_centres,)
+        d for a unit relative compliance increase r = s / (1 - s) = 1 over
+        the zone, linearised (the basis of :attr:`min_detectable_loss`).
+    nuisance_names : tuple of str
+        The nuisance parameters projected out.
+    min_detectable_loss_linear : tuple of (float or None)
+        The first-order estimate s = r / (1 + r), d_unit r = z_(1 - alpha) + z_0.9,
+        exact for statically determinate bridges, optimistic elsewhere.
+    """
+
+    centres_m: np.ndarray
+    d: np.ndarray
+    power: np.ndarray
+    min_detectable_loss: tuple
+    false_alarm_rate: float
+    n_crossings: int
+    severity: float
+    length_m: float
+    nuisance: str
+    sensors_m: np.ndarray
+    supports_m: np.ndarray
+    sensor_kinds: tuple = ()
+    d_unit: np.ndarray | None = None
+    nuisance_names: tuple = ()
+    min_detectable_loss_linear: tuple = ()
+
+    @property
+    def n_centres(self):
+        return self.centres_m.size
+
+    @cached_property
+    def min_detectable_loss_array(self):
+        """:attr:`min_detectable_loss` as floats, NaN where it is None (for plots)."""
+        return np.array([np.nan if v is None else v for v in self.min_detectable_loss], dtype=float)
+
+    def stretches(self, mask):
+        """Contiguous runs of centres where ``mask`` holds, as ((first, last) [m], ...)."""
+        mask = np.asarray(mask, dtype=bool)
+        out = []
+        start = None
+        for i, flag in enumerate(mask):
+            if flag and start is None:
+                start = i
+            if start is not None and (not flag or i == mask.size - 1):
+                stop = i if flag else i - 1
+                out.append((float(self.centres_m[start]), float(self.centres_m[stop])))
+                start = None
+        return tuple(out)
+
+    @cached_property
+    def blind_spots(self):
+        """Stretches of centres where the power is below 0.5."""
+        return self.stretches(self.power < BLIND_POWER)
+
+    @cached_property
+    def covered(self):
+        """Stretches of centres where the power is at least 0.9."""
+        return self.stretches(self.power >= POWER_TARGET)
+
+    def _describe(self, i):
+        loss = self.min_detectable_loss[i]
+        text = "not detectable below 99 %" if loss is None else f"{100 * loss:.0f} %"
+        return f"centre {self.centres_m[i]:.2f} m: power {self.power[i]:.2f}, min detectable loss {text}"
+
+    def summary(self):
+        kinds = sorted(set(self.sensor_kinds))
+        lines = [
+            f"Detectability of a {100 * self.severity:g} % EI loss over {self.length_m:g} m "
+            f"({self.n_crossings} crossing(s), false alarm rate {100 * self.false_alarm_rate:g} %, "
+            f"nuisance: {self.nuisance})",
+            f"  sensors ({', '.join(kinds)}) at {_positions(self.sensors_m)} m; "
+            f"supports at {_positions(self.supports_m)} m",
+            f"  {'centre [m]':>10s} {'d':>8s} {'power':>6s} {'min loss':>9s}",
+        ]
+        rows = np.arange(self.n_centres)
+        if rows.size > _MAX_ROWS:
+            rows = np.unique(np.round(np.linspace(0, self.n_centres - 1, _MAX_ROWS - 2)).astype(int))
+            rows = np.union1d(rows, [np.argmin(self.power), np.argmax(self.power)])
+        for i in rows:
+            loss = self.min_detectable_loss[i]
+            lines.append(f"  {self.centres_m[i]:10.2f} {self.d[i]:8.2f} {self.power[i]:6.2f} "
+                         f"{'> 99 %' if loss is None else f'{100 * loss:.0f} %':>9s}")
+        lines.append(f"  worst: {self._describe(int(np.argmin(self.power)))}")
+        lines.append(f"  best: {self._describe(int(np.argmax(self.power)))}")
+        lines.append(f"  blind spots (power < {BLIND_POWER:g}), zone centres: {_stretch_text(self.blind_spots)}")
+        lines.append(f"  well covered (power >= {POWER_TARGET:g}), zone centres: {_stretch_text(self.covered)}")
+        return "\n".join(lines)
+
+    def to_dict(self):
+        return {
+            "centres_m": self.centres_m.tolist(),
+            "power": self.power.tolist(),
+            "min_detectable_loss": list(self.min_detectable_loss),
+            "false_alarm_rate": self.false_alarm_rate,
+            "n_crossings": self.n_crossings,
+            "severity": self.severity,
+            "length_m": self.length_m,
+            "nuisance": self.nuisance,
+            "d": self.d.tolist(),
+            "d_unit": None if self.d_unit is None else self.d_unit.tolist(),
+            "sensors_m": self.sensors_m.tolist(),
+            "sensor_kinds": list(self.sensor_kinds),
+            "supports_m": self.supports_m.tolist(),
+            "nuisance_names": list(self.nuisance_names),
+            "min_detectable_loss_linear": list(self.min_detectable_loss_linear),
+            "blind_spots_m": [list(s) for s in self.blind_spots],
+            "covered_m": [list(s) for s in self.covered],
+        }
+
+
+def _positions(values):
+    return ", ".join(f"{x:g}" for x in values)
+
+
+def _stretch_text(stretches):
+    if not stretches:
+        return "none"
+    return ", ".join(f"{a:g}-{b:g} m" if a != b else f"{a:g} m" for a, b in stretches)
