@@ -226,20 +226,20 @@ def plot_criterion_curve(design, *, ax=None):
 
 
 def plot_verification(verification, *, axes=None, supports=None):
-    """Detection probability and localisation error versus damage location, per layout."""
+    """Scan statistic (relative to its threshold) and localisation error versus damage location, per layout."""
     if axes is None:
         _, axes = new_figure((8, 5.6), 2, 1, sharex=True)
     names = verification.names or [", ".join(f"{x:g}" for x in s.layout_m) for s in verification.layouts]
     for name, score in zip(names, verification.layouts):
         local = [r for r in score.records if r["kind"] == "local"]
         x = [r["centre_m"] for r in local]
-        axes[0].plot(x, [r["detection_probability"] for r in local], "o-", markersize=4, label=name)
-        axes[1].plot(x, [r["localisation_error_m"] for r in local], "o-", markersize=4, label=name)
-    axes[0].set_ylabel("posterior probability\nof the loss")
-    axes[0].set_ylim(-0.03, 1.03)
+        axes[0].plot(x, [r["statistic"] / r["threshold"] for r in local], "o-", markersize=4, label=name)
+        axes[1].plot(x, [r.get("localisation_error_m", np.nan) for r in local], "o-", markersize=4, label=name)
+    axes[0].axhline(1.0, color="k", linestyle="--", linewidth=0.8)
+    axes[0].set_ylabel("scan statistic / threshold\n(> 1: detected)")
     axes[0].set_title(f"Verification: {100 * verification.severity:.0f} % EI loss over "
                       f"{verification.length:g} m, {verification.n_crossings} crossings")
-    axes[1].set_ylabel("localisation error [m]")
+    axes[1].set_ylabel("localisation error [m]\n(detected losses)")
     axes[1].set_xlabel("centre of the damage [m]")
     for ax in axes:
         if supports is not None:

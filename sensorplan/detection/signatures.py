@@ -41,11 +41,11 @@ from .._errors import ConfigError
 from .._threads import single_threaded
 from ..model.forward import influence_lines
 from ..model.structure import Mesh
+from .nuisance import NUISANCES, nuisance_matrix
 
 __all__ = ["NUISANCES", "Signatures", "SignatureModel", "whitened_signatures", "nuisance_jacobian", "schur_d_squared",
            "centre_grid", "zone_mesh_edges", "IDENTIFIABLE_RTOL"]
 
-NUISANCES = ("smooth", "levels")
 # Nuisance directions whose singular value, after scaling every column to unit
 # norm, is below this fraction of the largest are taken as not identifiable
 # from the layout and are not projected out (pseudo-inverse cut-off).
@@ -202,25 +202,13 @@ def zone_mesh_edges(mesh, bridge, points):
 def nuisance_jacobian(case, lines, nuisance):
     """Nuisance Jacobian (n_sensors, n_loads, n_nuisance) and names, from undamaged ``lines``.
 
-    ``lines`` are the case's influence lines on ``case.mesh`` at nominal EI.
+    ``lines`` are the case's influence lines on ``case.mesh`` at nominal EI;
+    the columns on log EI come from :func:`.nuisance.nuisance_matrix`.
     """
-    if nuisance not in NUISANCES:
-        raise ConfigError(f"The 'nuisance' parameter must be one of {', '.join(map(repr, NUISANCES))}. "
-                          f"Got {nuisance!r} instead.")
-    bridge, mesh = case.bridge, case.mesh
-    span = bridge.span_of(mesh.midpoints)
-    xs = bridge.support_positions
+    bridge = case.bridge
+    columns = lines.jacobian("log_ei") @ nuisance_matrix(bridge, case.mesh, nuisance)
     powers = (0,) if nuisance == "levels" else (0, 1, 2)
-    weights, names = [], []
-    for i, span_length in enumerate(bridge.spans):
-        centre = 0.5 * (xs[i] + xs[i + 1])
-        a = (mesh.edges[:-1] - centre) / span_length
-        b = (mesh.edges[1:] - centre) / span_length
-        for p in powers:
-            average = (b ** (p + 1) - a ** (p + 1)) / ((p + 1) * (b - a))  # element average of xi^p
-            weights.append(np.where(span == i, average, 0.0))
-            names.append(f"span{i + 1}_{_LABELS[p]}")
-    columns = lines.jacobian("log_ei") @ np.array(weights).T
+    names = [f"span{i + 1}_{_LABELS[p]}" for i in range(bridge.n_spans) for p in powers]
     names += [f"log_k_{name}" for name in bridge.spring_names]
     return np.concatenate([columns, lines.spring_log_jacobian], axis=2), tuple(names)
 

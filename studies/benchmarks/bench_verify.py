@@ -92,7 +92,7 @@ REPEATS = 2
 INVERT_REPEATS = 7
 WORKERS = (1, 2)
 TARGET_PER_S = 50.0
-DETECTION_THRESHOLD = 0.9  # verify_layouts' default
+FALSE_ALARM = 0.05  # verify_layouts' default
 DAMAGE_LENGTH = 2.0  # m, verify_layouts' default
 
 
@@ -112,9 +112,8 @@ def scenario_inputs(case):
     """Per-scenario (case with the layout's sensors, data, warm start), as inside verify_layouts."""
     scenarios = make_scenarios(case, N_LOCATIONS, length=DAMAGE_LENGTH)
     seeds = np.random.SeedSequence(SEED).spawn(len(scenarios))
-    window = max(1, int(round(DAMAGE_LENGTH / float(np.mean(case.mesh.lengths)))))
     pilot = _run_task(_Task(case, LAYOUT, "rotation", scenarios[0], seeds[0], N_CROSSINGS,
-                            DETECTION_THRESHOLD, window), posterior=True)
+                            FALSE_ALARM, "smooth"), posterior=True)
     start = (pilot.noise_scale, pilot.tau)
     # the same steps as sensorplan.verification.verify._run_task, up to the inversion
     sensors = SensorLayout.candidates(list(LAYOUT), "rotation",
@@ -140,7 +139,7 @@ def run_invert(inv_case, data, start):
 def run_verify(case, workers):
     t0 = time.perf_counter()
     result = verify_layouts(case, [LAYOUT], n_locations=N_LOCATIONS, n_crossings=N_CROSSINGS, seed=SEED,
-                            workers=workers, length=DAMAGE_LENGTH, detection_threshold=DETECTION_THRESHOLD)
+                            workers=workers, length=DAMAGE_LENGTH)
     return time.perf_counter() - t0, result
 
 

@@ -187,7 +187,7 @@ def run_one(bridge, effect, seed):
                     "true_heldout_gain": math.nan if e.heldout_score_gain is None else e.heldout_score_gain,
                     "true_rms_after": e.rms_after,
                     "true_heldout_rms": math.nan if e.heldout_rms_after is None else e.heldout_rms_after,
-                    "true_max_ei_shift": e["max_ei_shift"],
+                    "true_max_ei_shift": e.max_ei_shift,
                     "true_rank": [x.name for x in d.effects].index(true) + 1})
         kept = [c.information_kept for c in d.confounded if c.name == true]
         rec["true_information_kept"] = f"{kept[0]:.3f}" if kept else ""

@@ -1,0 +1,78 @@
+"""The damage detector: its false-alarm rate, its power against the physical limit, its estimates.
+
+References: the nominal false-alarm rate (binomial standard errors over
+replicates), the known-location power of ``sensorplan.detectability``
+(checked against an independent finite-element computation in
+test_detectability.py), and the true zone and loss of the simulated damage.
+Truths are simulated on the finer, differently aligned truth mesh of the
+verification (no inverse crime).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import sensorplan as sp
+from sensorplan.verification.scenarios import Scenario, truth_mesh
+
+
+def two_span(correlation=0.0):
+    case = sp.example_case("openlab-like")
+    layout = sp.SensorLayout([4.0, 11.0, 19.0, 26.0], noise_std=5e-6)
+    return case.with_sensors(layout, sp.NoiseModel([5e-6] * 4, correlation))
+
+
+def simulate(case, scenario, seed, *, ei_variation=0.0, n_crossings=10):
+    mesh = truth_mesh(case)
+    fine = case.with_mesh(mesh)
+    truth = scenario.truth(mesh, fine.ei) * np.exp(ei_variation * np.sin(np.pi * mesh.midpoints / 15.0 + 0.3))
+    bridge = case.bridge.with_spring_stiffness(case.bridge.spring_stiffness() * np.array([2.0, 0.5]))
+    return sp.simulate_crossings(fine, n_crossings, noise=True, rng=seed, ei=truth, bridge=bridge)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("correlation", "variation"), [(0.0, 0.0), (0.5, 0.15)])
+def test_false_alarm_rate_is_nominal(correlation, variation):
+    # undamaged bridges (springs off nominal, optionally a smooth +-15 % EI variation and AR(1) noise)
+    case = two_span(correlation)
+    n = 120
+    alarms = [sp.detect_damage(case, simulate(case, Scenario("control"), 100 + k, ei_variation=variation),
+                               rng=k, n_null=4000).detected for k in range(n)]
+    rate = float(np.mean(alarms))
+    # nominal 0.05; the binomial standard error with 120 replicates is 0.02
+    assert abs(rate - 0.05) <= 0.05, rate
+
+
+def test_strong_loss_is_found_and_estimated():
+    case = two_span()
+    # zones whose known-location power under the smooth nuisance is >= 0.95 (from the detectability map)
+    limit = sp.detectability(case, severity=0.3, length=2.0, n_crossings=10, step=1.0)
+    strong = [c for c, p in zip(limit.centres_m, limit.power) if p >= 0.95]
+    assert len(strong) >= 5
+    centres = strong[:: max(1, len(strong) // 5)][:5]
+    found, covered = 0, 0
+    for k, c in enumerate(centres):
+        scenario = Scenario("local", c - 1.0, c + 1.0, 0.3)
+        d = sp.detect_damage(case, simulate(case, scenario, 7 + k), rng=k, n_null=4000)
+        if d.detected:
+            found += 1
+            assert abs(d.centre_m - c) <= 1.5, (c, d.centre_m)
+            covered += d.loss_ci95[0] <= 0.3 <= d.loss_ci95[1]
+    assert found >= 4
+    assert covered >= math.ceil(0.8 * found) - 1
+
+
+def test_noise_free_data_give_a_finite_verdict():
+    case = two_span()
+    data = sp.simulate_crossings(case, 2, noise=False)
+    d = sp.detect_damage(case, data, n_null=2000)
+    assert np.isfinite(d.statistic) and not d.detected
+    assert set(d.to_dict()) >= {"detected", "false_alarm_rate", "statistic", "threshold", "centre_m", "length_m",
+                                "loss", "loss_ci95"}
+
+
+def test_bad_false_alarm_rate_is_refused():
+    case = two_span()
+    with pytest.raises(sp.ConfigError, match="false_alarm"):
+        sp.detect_damage(case, sp.simulate_crossings(case, 1), false_alarm=0.7)
