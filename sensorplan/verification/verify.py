@@ -18,7 +18,6 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import stats
 
 from .._errors import ConfigError, SensorplanWarning
 from .._threads import single_threaded
@@ -68,12 +67,10 @@ def _run_task(task, *, posterior=False):
 
 
 def _zone_probability(post, weights, threshold):
-    """P(weighted mean of log(EI / nominal) <= log threshold) under the Laplace posterior."""
+    """P(weighted mean of log(EI / nominal) <= log threshold) under the posterior (mixture)."""
     n = post.n_elements
     a = weights / weights.sum()
-    mean = a @ (post.theta[:n] - np.log(post.ei_nominal))
-    sd = math.sqrt(max(a @ post.covariance[:n, :n] @ a, 1e-300))
-    return float(stats.norm.cdf((math.log(threshold) - mean) / sd))
+    return post.mixture.linear_cdf(a, math.log(threshold) + float(a @ np.log(post.ei_nominal[:n])))
 
 
 def _score(case, post, scenario, truth, threshold, window):
