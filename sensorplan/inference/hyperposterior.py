@@ -198,16 +198,22 @@ def _mode(surrogate, log_tau, v):
 
     start = min(max(log_tau, lo), hi)
     best_u = start
-    for direction in (1.0, -1.0):
-        u = start
-        while lo <= u + direction <= hi:
-            u += direction
+    for direction in (-1.0, 1.0):
+        # unit steps near the start, then doubling, until 15 below the best (or the bound)
+        u, step, n = start, 1.0, 0
+        while True:
+            u = min(max(u + direction * step, lo), hi)
             if weight(u) > weight(best_u):
                 best_u = u
-            if weight(u) < weight(best_u) - 30.0:
+            n += 1
+            if weight(u) < weight(best_u) - 15.0 or u in (lo, hi):
                 break
-    res = scipy.optimize.minimize_scalar(lambda u: -weight(float(u)), bounds=(max(lo, best_u - 1.0),
-                                         min(hi, best_u + 1.0)), method="bounded", options={"xatol": 1e-3})
+            step = 1.0 if n < 4 else 2.0 * step
+    keys = sorted(cache)
+    i = keys.index(best_u)
+    left, right = keys[max(i - 1, 0)], keys[min(i + 1, len(keys) - 1)]
+    res = scipy.optimize.minimize_scalar(lambda u: -weight(float(u)), bounds=(left, right), method="bounded",
+                                         options={"xatol": 1e-3})
     u_hat = float(res.x) if -res.fun >= weight(best_u) else best_u
     delta = 0.1
     curvature = (weight(u_hat + delta) - 2.0 * weight(u_hat) + weight(u_hat - delta)) / delta**2
