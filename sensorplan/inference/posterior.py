@@ -223,8 +223,9 @@ class PosteriorResult:
         return out
 
     def summary(self):
+        how = "integrated out" if self.hyper_method == "integrated" else f"by {self.hyper_method}"
         lines = [f"Bayesian identification of EI: {self.n_elements} elements, {self.n_springs} springs, "
-                 f"hyperparameters by {self.hyper_method}",
+                 f"hyperparameters {how}",
                  f"  converged: {self.converged} after {self.n_iter} iterations; log evidence "
                  f"{self.log_evidence:.3f}",
                  "  noise std: " + ", ".join(f"{n}={s:.3g}" for n, s in zip(self.sensor_names, self.noise_std))
