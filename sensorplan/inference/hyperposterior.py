@@ -30,6 +30,7 @@ the noise scale alpha) and are integrated out instead of being estimated:
 Owns: the quadrature over log tau.  May import: model, errors.
 """
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -37,6 +38,7 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
+from .._errors import DataError
 from .laplace import solve_map
 from .mixture import GaussianMixture
 
@@ -154,35 +156,80 @@ class _Node:
     converged: bool
 
 
-def _solve_node(ctx, surrogate, log_tau, v, *, max_iter, tol):
-    """Laplace posterior at ``log_tau``, starting from the Gauss-Newton step of ``surrogate``."""
-    sl = surrogate.at(log_tau)
-    v = sl.best_v(v)
-    x = sl.map_point(v)
-    n_iter, previous = 0, math.inf
-    for _ in range(8):
-        lin = ctx.problem.evaluate(x)
-        n_iter += 1
-        if lin is None:
-            break
+def _objective(lin, theta, sl, v, theta0):
+    """Negative log posterior |r|^2 / (2 alpha^2) + (theta - theta0)^T Q (theta - theta0) / 2 at v = log alpha."""
+    d = theta - theta0
+    return 0.5 * lin.rr * math.exp(-2.0 * v) + 0.5 * d @ (sl.precision @ d)
+
+
+def _gauss_newton(ctx, x, lin, log_tau, v, max_iter):
+    """Gauss-Newton from ``x`` with a backtracking (Armijo) line search on the negative log posterior.
+
+    Returns the node once the next step's decrement is below NODE_TOL (its
+    MAP is that next step), or None when no step decreases the objective or
+    ``max_iter`` evaluations are spent; also the number of evaluations.
+    """
+    n_iter = 0
+    while lin is not None and n_iter < max_iter:
         here = _Surrogate(lin, x, ctx)
         sl = here.at(log_tau)
         v = sl.best_v(v)
-        x_new = sl.map_point(v)
-        decrement = sl.decrement(x_new - x, v)
+        step = sl.map_point(v) - x
+        decrement = sl.decrement(step, v)
         if decrement < NODE_TOL:
-            return _Node(log_tau, v, x_new, sl.covariance(v), sl.log_weight(v), here, n_iter, True)
-        if decrement > 0.25 * previous:
-            break  # not converging quadratically: use the safeguarded iteration
-        previous, x = decrement, x_new
-    # Levenberg-Marquardt from the neighbour's MAP (a valid point), then one surrogate step for alpha.
+            return _Node(log_tau, v, x + step, sl.covariance(v), sl.log_weight(v), here, n_iter, True), n_iter
+        current = _objective(lin, x, sl, v, ctx.theta0)
+        t, accepted = 1.0, None
+        for _ in range(8):
+            trial = x + t * step
+            trial_lin = ctx.problem.evaluate(trial)
+            n_iter += 1
+            if trial_lin is not None and (_objective(trial_lin, trial, sl, v, ctx.theta0)
+                                          <= current - 1e-4 * t * decrement):
+                accepted = trial, trial_lin
+                break
+            t *= 0.5
+        if accepted is None:
+            break
+        x, lin = accepted
+    return None, n_iter
+
+
+def _levenberg_marquardt(ctx, theta, log_tau, v, *, max_iter, tol, n_iter):
+    """The node by the safeguarded MAP of :func:`solve_map` from ``theta``, then one surrogate step for alpha."""
     q = math.exp(log_tau) * ctx.rough + ctx.fixed
-    theta, lin, it, ok = solve_map(ctx.problem, surrogate.theta, math.exp(v), q, ctx.theta0,
-                                   max_iter=max_iter, tol=tol)
+    theta, lin, it, ok = solve_map(ctx.problem, theta, math.exp(v), q, ctx.theta0, max_iter=max_iter, tol=tol)
     here = _Surrogate(lin, theta, ctx)
     sl = here.at(log_tau)
     v = sl.best_v(v)
     return _Node(log_tau, v, sl.map_point(v), sl.covariance(v), sl.log_weight(v), here, n_iter + it, ok)
+
+
+def _solve_node(ctx, surrogate, log_tau, v, *, max_iter, tol):
+    """Laplace posterior at ``log_tau``, starting from the Gauss-Newton step of ``surrogate``.
+
+    Levenberg-Marquardt from the neighbour's MAP is the fallback.
+    """
+    sl = surrogate.at(log_tau)
+    v = sl.best_v(v)
+    x = sl.map_point(v)
+    node, n_iter = _gauss_newton(ctx, x, ctx.problem.evaluate(x), log_tau, v, max_iter)
+    n_iter += 1
+    if node is not None:
+        return dataclasses.replace(node, n_iter=n_iter)
+    return _levenberg_marquardt(ctx, surrogate.theta, log_tau, v, max_iter=max_iter, tol=tol, n_iter=n_iter)
+
+
+def _start_node(ctx, theta, log_tau, v, *, max_iter, tol):
+    """Laplace posterior at the start values, from ``theta`` (Levenberg-Marquardt as the fallback)."""
+    lin = ctx.problem.evaluate(theta)
+    if lin is None:
+        raise DataError("The start point gives an invalid model (non-positive EI).")
+    node, n_iter = _gauss_newton(ctx, theta, lin, log_tau, v, max_iter)
+    n_iter += 1
+    if node is not None:
+        return dataclasses.replace(node, n_iter=n_iter)
+    return _levenberg_marquardt(ctx, theta, log_tau, v, max_iter=max_iter, tol=tol, n_iter=n_iter)
 
 
 def _mode(surrogate, log_tau, v):
@@ -285,9 +332,9 @@ def integrate_problem(problem, rough, fixed, theta0, hyperprior, *, noise_scale=
     theta = theta0.copy() if start is None else np.asarray(start, dtype=float).copy()
     log_tau = min(max(math.log(tau), LOG_TAU_BOUNDS[0]), LOG_TAU_BOUNDS[1])
     v = math.log(noise_scale)
-    theta, lin, n_iter, converged = solve_map(problem, theta, noise_scale, math.exp(log_tau) * rough + fixed,
-                                              theta0, max_iter=max_iter, tol=tol)
-    surrogate = _Surrogate(lin, theta, ctx)
+    first = _start_node(ctx, theta, log_tau, v, max_iter=max_iter, tol=tol)
+    n_iter, converged = first.n_iter, first.converged
+    surrogate, v = first.surrogate, first.v
     centre = None
     for _ in range(8):
         u_hat, step = _mode(surrogate, log_tau, v)
