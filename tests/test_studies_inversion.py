@@ -30,3 +30,21 @@ def test_openlab_frame(tmp_path, monkeypatch, capsys):
     out = run("studies/inversion/openlab_frame.py", tmp_path, monkeypatch, capsys)
     assert out.count("span 1 identified softer than span 2") == 2  # 6 and 30 elements
     assert (tmp_path / "inversion_openlab_30el.png").is_file()
+
+
+def test_calibration_integrated_quick(tmp_path, monkeypatch, capsys):
+    # 40 replicates per case (deterministic seeds): the integrated bands are calibrated within a
+    # wide tolerance and tau never reaches a grid end; evidence maximisation covers less.
+    import json
+
+    out = run("studies/inversion/calibration_integrated.py", tmp_path, monkeypatch, capsys, "--quick")
+    assert "40 replicates per case" in out
+    results = json.loads((tmp_path / "calibration_integrated.json").read_text())
+    assert set(results) == {"white", "ar1", "low-signal"}
+    for name, case in results.items():
+        integrated, evidence = case["summary"]["integrated"], case["summary"]["evidence"]
+        assert integrated["n"] == evidence["n"] == 40
+        assert 0.88 <= integrated["coverage95"] <= 0.995, (name, integrated)
+        assert 0.62 <= integrated["coverage75"] <= 0.86, (name, integrated)
+        assert integrated["at_bound"] == 0 and integrated["warned"] <= 1, (name, integrated)
+        assert evidence["coverage95"] < integrated["coverage95"], (name, evidence, integrated)

@@ -11,13 +11,20 @@ Q(tau) = tau S + F (GMRF roughness S on log EI plus the fixed proper part F).
   decreases the objective.
 * Laplace covariance H^{-1}, H = J^T J / alpha^2 + Q at the MAP; exact for
   the linear-Gaussian case.
-* Hyperparameters by evidence maximisation: MacKay's fixed-point updates
-  alpha^2 = |r|^2 / (M - gamma), tau = gamma_tau / (d^T S d), which are the
-  stationarity conditions of the Laplace evidence, interleaved with the MAP.
-  Quasi-optimality and GCV choose tau on the linearised problem instead.
+* Hyperparameters integrated out (default, ``hyper="integrated"``): a PC
+  prior on tau^{-1/2} and a log-normal prior on alpha, alpha by Laplace,
+  log tau by quadrature; the posterior is a Gaussian mixture
+  (:mod:`.hyperposterior`).
+* Or point estimates: evidence maximisation (MacKay's fixed-point
+  conditions alpha^2 = |r|^2 / (M - gamma), tau = gamma_tau / (d^T S d) of
+  the Laplace evidence, interleaved with the MAP), quasi-optimality or GCV
+  on the linearised problem, or fixed values.
+* Checks of the result (:mod:`.checks`): noise scale far from 1, tau at the
+  end of its range, systematic residuals, each a SensorplanWarning.
 """
 
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -25,14 +32,17 @@ from .._errors import ConfigError, DataError, SensorplanWarning
 from .._threads import single_threaded
 from ..model.crossings import Crossings
 from ..model.forward import influence_lines
-from ..model.prior import GMRFPrior
+from ..model.prior import GMRFPrior, HyperPrior
+from .checks import fit_warnings
+from .hyperposterior import LOG_TAU_BOUNDS, integrate_problem
 from .laplace import Linearisation, WhitenedData, fit_problem
+from .mixture import GaussianMixture
 from .posterior import CrossingFit, PosteriorResult
 from .screening import check_case_data_scale, screen_crossings
 
 __all__ = ["invert", "HYPER_METHODS"]
 
-HYPER_METHODS = ("evidence", "fixed", "quasi-optimality", "gcv")
+HYPER_METHODS = ("integrated", "evidence", "fixed", "quasi-optimality", "gcv")
 
 
 class _Problem(WhitenedData):
@@ -176,9 +186,42 @@ def _prior_matrices(problem, prior):
     return rough, fixed
 
 
+@dataclass(frozen=True, eq=False)
+class _HyperFit:
+    """The posterior mixture and the summary numbers of one hyperparameter method."""
+
+    mixture: GaussianMixture
+    noise_scale: float
+    tau: float
+    log_evidence: float
+    converged: bool
+    n_iter: int
+    mass_at_bound: float  # tau mass at a hard end of its range (1.0 for a point estimate on a bound)
+    flat_side: bool  # that end is the flat one (large tau)
+
+
+def _fit(problem, rough, fixed, prior, hyper, hyperprior, noise_scale, tau, start, max_iter, max_outer, tol):
+    tau = prior.tau if tau is None else tau
+    if hyper == "integrated":
+        hyperprior = (HyperPrior() if hyperprior is None else hyperprior).for_prior(prior)
+        fit = integrate_problem(problem, rough, fixed, problem.theta0, hyperprior, noise_scale=noise_scale,
+                                tau=tau, start=start, max_iter=max_iter, tol=tol)
+        mix = fit.mixture
+        return _HyperFit(mix, float(mix.weights @ mix.noise_scales), float(np.exp(fit.log_tau_mode)),
+                         fit.log_evidence, fit.converged, fit.n_iter, fit.mass_at_bound,
+                         bool(mix.weights[-1] >= mix.weights[0]))
+    fit = fit_problem(problem, rough, fixed, problem.theta0, hyper=hyper, noise_scale=noise_scale, tau=tau,
+                      start=start, max_iter=max_iter, max_outer=max_outer, tol=tol)
+    log_tau = float(np.log(fit.tau))
+    lo, hi = LOG_TAU_BOUNDS
+    on_bound = hyper != "fixed" and (log_tau <= lo + 1e-3 or log_tau >= hi - 1e-3)
+    return _HyperFit(GaussianMixture.single(fit.theta, fit.covariance, fit.tau, fit.noise_scale), fit.noise_scale,
+                     fit.tau, fit.log_evidence, fit.converged, fit.n_iter, float(on_bound), log_tau > 0.5 * (lo + hi))
+
+
 @single_threaded
 def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisation="log_ei",
-           hyper="evidence", noise_scale=1.0, tau=None, screen=True, mesh=None, start=None,
+           hyper="integrated", hyperprior=None, noise_scale=1.0, tau=None, screen=True, mesh=None, start=None,
            max_iter=100, max_outer=200, tol=1e-10, check_scale=True):
     """Identify EI(x) (and spring stiffnesses) from measured crossings.
 
@@ -194,8 +237,15 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
         Estimate the elastic springs jointly (nuisance parameters).
     parameterisation : {"log_ei", "compliance"}
         ``compliance`` is the linear-Gaussian case of a determinate bridge.
-    hyper : {"evidence", "fixed", "quasi-optimality", "gcv"}
-        How the noise scale and tau are chosen.
+    hyper : {"integrated", "evidence", "fixed", "quasi-optimality", "gcv"}
+        How the noise scale and tau are treated: integrated out under
+        ``hyperprior`` (the posterior is a Gaussian mixture over log tau),
+        or point estimates (evidence maximisation, fixed values,
+        quasi-optimality or GCV).
+    hyperprior : HyperPrior, optional
+        Prior of tau and the noise scale for ``"integrated"`` (default
+        ``HyperPrior()``: PC prior with median smoothness_std, log-normal
+        noise scale).
     noise_scale, tau : float
         Start values (``fixed``: the values used).  ``tau`` defaults to the prior's.
     screen : bool
@@ -211,6 +261,9 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
     Returns
     -------
     PosteriorResult
+        With ``warnings`` (also emitted as SensorplanWarning) when the fit
+        is not to be trusted: noise scale outside [0.5, 2], tau at the end
+        of its range, or systematic residuals.
     """
     if hyper not in HYPER_METHODS:
         raise ConfigError(f"The 'hyper' parameter must be one of {HYPER_METHODS}. Got {hyper!r} instead.")
@@ -229,21 +282,25 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
     problem = _Problem(case, crossings, estimate_springs=estimate_springs and bool(case.bridge.spring_names),
                        parameterisation=parameterisation, mesh=mesh)
     rough, fixed = _prior_matrices(problem, prior)
-    fit = fit_problem(problem, rough, fixed, problem.theta0, hyper=hyper, noise_scale=noise_scale,
-                      tau=prior.tau if tau is None else tau, start=start, max_iter=max_iter,
-                      max_outer=max_outer, tol=tol)
-    theta, covariance, alpha, tau_value = fit.theta, fit.covariance, fit.noise_scale, fit.tau
+    fit = _fit(problem, rough, fixed, prior, hyper, hyperprior, noise_scale, tau, start, max_iter, max_outer, tol)
+    mixture, alpha = fit.mixture, fit.noise_scale
+    theta, covariance = mixture.mean, mixture.covariance
     messages = []
     if not fit.converged:
         messages.append("the MAP or the hyperparameter iteration did not converge")
         warnings.warn("sensorplan invert: the Gauss-Newton / evidence iteration did not converge; "
                       "results are reported with converged = false.", SensorplanWarning, stacklevel=2)
-    converged, total_iter, log_ev = fit.converged, fit.n_iter, fit.log_evidence
     fits = problem.fits(theta, covariance, alpha)
+    trust = fit_warnings(problem.noise, fits, problem.sensors.names, noise_scale=alpha,
+                         noise_configured=case.noise is not None, tau_at_bound=fit.mass_at_bound > 1e-3,
+                         tau_side="flat" if fit.flat_side else "rough")
+    for text in trust:
+        warnings.warn(f"sensorplan invert: {text}", SensorplanWarning, stacklevel=2)
     return PosteriorResult(
         edges=problem.mesh.edges.copy(), theta=theta, covariance=covariance,
         parameterisation=parameterisation, ei_nominal=problem.ei_nominal,
         spring_names=tuple(problem.spring_names), spring_nominal=problem.spring_nominal,
         sensor_names=problem.sensors.names, noise_std=alpha * problem.noise.std, noise_scale=alpha,
-        tau=tau_value, log_evidence=log_ev, converged=bool(converged), n_iter=total_iter,
-        excluded_crossings=tuple(excluded), fits=fits, hyper_method=hyper, messages=tuple(messages))
+        tau=fit.tau, log_evidence=fit.log_evidence, converged=bool(fit.converged), n_iter=fit.n_iter,
+        excluded_crossings=tuple(excluded), fits=fits, hyper_method=hyper, messages=tuple(messages),
+        mixture=mixture, tau_mass_at_bound=fit.mass_at_bound, warnings=trust)

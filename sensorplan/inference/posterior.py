@@ -1,4 +1,11 @@
-"""Posterior results of the Bayesian identification of EI(x)."""
+"""Posterior results of the Bayesian identification of EI(x).
+
+The posterior is a Gaussian mixture over the nodes of log tau
+(:class:`~sensorplan.inference.mixture.GaussianMixture`; one component when
+the hyperparameters are point estimates).  Intervals, standard deviations
+and means are those of the mixture; ``theta`` and ``covariance`` are its
+moment-matched mean and covariance.
+"""
 
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -7,6 +14,7 @@ import numpy as np
 from scipy import stats
 
 from .._errors import ConfigError
+from .mixture import GaussianMixture
 
 __all__ = ["PosteriorResult", "CrossingFit", "linear_gaussian_posterior"]
 
@@ -51,33 +59,50 @@ class CrossingFit:
 
 @dataclass(frozen=True, eq=False)
 class PosteriorResult:
-    """Laplace (or exact Gaussian) posterior of log EI per element and spring log-stiffnesses.
+    """Posterior of log EI per element and spring log-stiffnesses: a Laplace (or exact Gaussian) mixture.
 
     Attributes
     ----------
     edges : ndarray (n_elements + 1,)
         Element edges [m].
     theta : ndarray (n_params,)
-        MAP of the parameters: log EI per element then log k per spring
-        (or the compliance 1/EI for ``parameterisation="compliance"``).
+        Log EI per element then log k per spring (or the compliance 1/EI
+        for ``parameterisation="compliance"``): the MAP for a point estimate
+        of the hyperparameters, the mixture mean when they are integrated.
     covariance : ndarray (n_params, n_params)
-        Laplace covariance (exact in the linear-Gaussian case).
+        Laplace covariance (exact in the linear-Gaussian case), moment-matched
+        over the mixture when the hyperparameters are integrated.
     ei_nominal : ndarray (n_elements,)
     spring_names : tuple of str
     spring_nominal : ndarray
     noise_std : ndarray (n_sensors,)
         Estimated noise standard deviation of each sensor.
     noise_scale : float
-        Estimated multiplier of the configured noise.
+        Estimated multiplier of the configured noise (its posterior mean
+        when integrated).
     tau : float
-        Prior precision of one difference of log EI.
+        Prior precision of one difference of log EI (the mode of its
+        hyper-posterior when integrated).
     log_evidence : float
-        Laplace log marginal likelihood at the hyperparameters.
+        Laplace log marginal likelihood at the hyperparameters; when they
+        are integrated, log p(y) with the hyperparameters integrated over
+        their prior.
     converged : bool
     n_iter : int
         Gauss-Newton / Levenberg-Marquardt iterations in total.
     excluded_crossings : tuple of str
     fits : tuple of CrossingFit
+    hyper_method : str
+    messages : tuple of str
+        Convergence messages.
+    mixture : GaussianMixture
+        The posterior: weights, component means and covariances, and the
+        nodes (tau, alpha) of the hyper-posterior.
+    tau_mass_at_bound : float
+        Hyper-posterior mass of the end nodes of the log tau grid that were
+        cut by its hard bounds (0 when the grid ended on negligible weight).
+    warnings : tuple of str
+        Reasons not to trust the fit (see :mod:`sensorplan.inference.checks`).
     """
 
     edges: np.ndarray
@@ -98,6 +123,14 @@ class PosteriorResult:
     fits: tuple = ()
     hyper_method: str = "evidence"
     messages: tuple = field(default_factory=tuple)
+    mixture: GaussianMixture | None = None
+    tau_mass_at_bound: float = 0.0
+    warnings: tuple = field(default_factory=tuple)
+
+    def __post_init__(self):
+        if self.mixture is None:
+            object.__setattr__(self, "mixture", GaussianMixture.single(self.theta, self.covariance, self.tau,
+                                                                       self.noise_scale))
 
     @property
     def n_elements(self):
@@ -118,12 +151,28 @@ class PosteriorResult:
         t = self.theta[: self.n_elements]
         return np.exp(t) if self.parameterisation == "log_ei" else 1.0 / t
 
+    @property
+    def tau_at_bound(self):
+        """True when hyper-posterior mass of tau reaches a hard end of its grid (it should not)."""
+        return self.tau_mass_at_bound > 1e-3
+
     @cached_property
     def ei_mean(self):
-        """Posterior mean of EI [N m^2]: exp(eta + var/2) for the log-normal posterior."""
+        """Posterior mean of EI [N m^2]: sum_k w_k exp(eta_k + s_k^2/2) over the log-normal components."""
+        n = self.n_elements
         if self.parameterisation == "log_ei":
-            return np.exp(self.theta[: self.n_elements] + 0.5 * self.std[: self.n_elements] ** 2)
+            mix = self.mixture
+            return mix.weights @ np.exp(mix.thetas[:, :n] + 0.5 * mix.component_stds[:, :n] ** 2)
         return self.ei_map
+
+    def _quantiles(self, level, index):
+        """Lower and upper equal-tailed quantiles of the parameters ``index`` under the posterior."""
+        mix = self.mixture
+        if mix.n_components == 1:
+            z = stats.norm.ppf(0.5 + level / 2)
+            t, s = mix.thetas[0, index], mix.component_stds[0, index]
+            return t - z * s, t + z * s
+        return mix.quantile(0.5 - level / 2, index), mix.quantile(0.5 + level / 2, index)
 
     def credible_interval(self, level=0.95, *, method="lognormal", rng=None, n_samples=20000):
         """Equal-tailed credible interval of EI per element, shape (n_elements, 2) [N m^2].
@@ -133,9 +182,10 @@ class PosteriorResult:
         level : float
             Probability mass inside the interval, e.g. 0.75 or 0.95.
         method : {"lognormal", "delta", "sampling"}
-            ``lognormal`` maps the Gaussian quantiles of the parameter
-            through EI = exp(eta) (or 1/v); ``delta`` uses the delta method
-            (EI +- z EI sd); ``sampling`` maps draws of the Gaussian posterior.
+            ``lognormal`` maps the quantiles of the parameter (those of the
+            Gaussian mixture, per element) through EI = exp(eta) (or 1/v);
+            ``delta`` uses the delta method on the moment-matched Gaussian
+            (EI +- z EI sd); ``sampling`` maps draws of the posterior mixture.
         """
         if not 0.0 < level < 1.0:
             raise ConfigError(f"The 'level' parameter must be in (0, 1). Got {level!r} instead.")
@@ -144,8 +194,8 @@ class PosteriorResult:
         t, s = self.theta[:n], self.std[:n]
         to_ei = np.exp if self.parameterisation == "log_ei" else (lambda v: 1.0 / v)
         if method == "lognormal":
-            bounds = np.sort(np.stack([to_ei(t - z * s), to_ei(t + z * s)], axis=1), axis=1)
-            return bounds
+            low, high = self._quantiles(level, slice(0, n))
+            return np.sort(np.stack([to_ei(low), to_ei(high)], axis=1), axis=1)
         if method == "delta":
             deriv = self.ei_map if self.parameterisation == "log_ei" else self.ei_map**2
             half = z * deriv * s
@@ -153,32 +203,42 @@ class PosteriorResult:
         if method == "sampling":
             if rng is None:
                 raise ConfigError("method='sampling' needs an rng (numpy Generator or seed).")
-            rng = np.random.default_rng(rng)
-            cov = self.covariance[:n, :n]
-            draws = rng.multivariate_normal(t, cov, size=n_samples, method="eigh")
+            draws = self.mixture.sample(rng, n_samples, slice(0, n))
             values = to_ei(draws)
             return np.quantile(values, [0.5 - level / 2, 0.5 + level / 2], axis=0).T
         raise ConfigError(f"The 'method' parameter must be 'lognormal', 'delta' or 'sampling'. "
                           f"Got {method!r} instead.")
 
     def springs(self, level=0.95):
-        """Spring stiffness MAP and interval: {name: {"map", "low", "high", "nominal"}}."""
-        z = stats.norm.ppf(0.5 + level / 2)
+        """Spring stiffness and interval: {name: {"map", "low", "high", "nominal"}}.
+
+        "map" is exp of ``theta`` (the MAP, or the mixture mean of log k).
+        """
         out = {}
         n = self.n_elements
+        low, high = self._quantiles(level, slice(n, n + self.n_springs))
         for i, name in enumerate(self.spring_names):
-            t, s = self.theta[n + i], self.std[n + i]
-            out[name] = {"map": float(np.exp(t)), "low": float(np.exp(t - z * s)),
-                         "high": float(np.exp(t + z * s)), "nominal": float(self.spring_nominal[i])}
+            out[name] = {"map": float(np.exp(self.theta[n + i])), "low": float(np.exp(low[i])),
+                         "high": float(np.exp(high[i])), "nominal": float(self.spring_nominal[i])}
         return out
 
     def summary(self):
+        how = "integrated out" if self.hyper_method == "integrated" else f"by {self.hyper_method}"
         lines = [f"Bayesian identification of EI: {self.n_elements} elements, {self.n_springs} springs, "
-                 f"hyperparameters by {self.hyper_method}",
+                 f"hyperparameters {how}",
                  f"  converged: {self.converged} after {self.n_iter} iterations; log evidence "
                  f"{self.log_evidence:.3f}",
                  "  noise std: " + ", ".join(f"{n}={s:.3g}" for n, s in zip(self.sensor_names, self.noise_std))
                  + f" (scale {self.noise_scale:.3f} of configured); tau = {self.tau:.4g}"]
+        mix = self.mixture
+        if mix.n_components > 1:
+            cdf = np.cumsum(mix.weights)
+            lo, hi = mix.taus[np.searchsorted(cdf, 0.025)], mix.taus[min(np.searchsorted(cdf, 0.975), cdf.size - 1)]
+            lines.append(f"  tau integrated over {mix.n_components} nodes: mode {self.tau:.4g}, 95 % of the "
+                         f"hyper-posterior in [{lo:.3g}, {hi:.3g}]; mass at the grid ends "
+                         f"{self.tau_mass_at_bound:.1e}")
+        for text in self.warnings:
+            lines.append(f"  WARNING: {text}")
         if self.excluded_crossings:
             lines.append("  excluded crossings: " + ", ".join(self.excluded_crossings))
         ci = self.credible_interval(0.95)
@@ -209,6 +269,11 @@ class PosteriorResult:
             "n_iter": int(self.n_iter),
             "excluded_crossings": list(self.excluded_crossings),
             "hyperparameters": self.hyper_method,
+            "hyper_posterior": {"log_tau": self.mixture.log_tau.tolist(), "weights": self.mixture.weights.tolist(),
+                                "noise_scale": self.mixture.noise_scales.tolist(),
+                                "mass_at_bound": float(self.tau_mass_at_bound),
+                                "at_bound": bool(self.tau_at_bound)},
+            "warnings": list(self.warnings),
             "units": {"edges_m": "m", "ei": "N m^2", "springs": "N m/rad (rotational), N/m (vertical)",
                       "noise_std": "rad (rotation) or m (deflection)"},
         }

@@ -9,8 +9,13 @@ gmrf) and a weak marginal log-normal component that keeps Q invertible
 where the data are silent.  tau = 1 / smoothness_std^2 in the
 parameterisation below.  Spring log-stiffnesses get independent normal
 priors centred on the configured stiffness.
+
+:class:`HyperPrior` is the prior of the two hyperparameters of the
+inversion: a penalised-complexity prior on the smoothness std
+sigma = tau^{-1/2} and a log-normal prior on the noise scale alpha.
 """
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,7 +23,7 @@ import scipy.sparse as sparse
 
 from .._validation import as_float
 
-__all__ = ["GMRFPrior", "difference_operator"]
+__all__ = ["GMRFPrior", "HyperPrior", "difference_operator"]
 
 
 def difference_operator(n, order):
@@ -84,3 +89,75 @@ class GMRFPrior:
         q[np.arange(n_elements, n_elements + n_springs), np.arange(n_elements, n_elements + n_springs)] = (
             1.0 / self.spring_std**2)
         return q
+
+
+@dataclass(frozen=True)
+class HyperPrior:
+    """Prior of the hyperparameters tau (prior precision scale) and alpha (noise scale).
+
+    * The smoothness std sigma = tau^{-1/2} (the std of one difference of
+      log EI) has the penalised-complexity (PC) prior of Simpson et al.
+      (2017, Statist. Sci. 32(1), eq. 3.3): an exponential density
+      p(sigma) = lambda exp(-lambda sigma) with P(sigma > ``smoothness_scale``)
+      = ``smoothness_tail``.  It shrinks towards the flat field (sigma = 0,
+      the base model) at a constant rate, so a rough field must be paid for
+      by the data, and its tail in log tau decays like tau^{-1/2}: the flat
+      field is never ruled out, but it carries only the mass the data give it.
+    * log alpha ~ N(0, ``noise_log_std``^2): the configured noise is right
+      within a factor exp(noise_log_std) at one standard deviation.
+
+    Parameters
+    ----------
+    smoothness_scale : float, optional
+        The scale U of the PC prior; defaults to the GMRFPrior's
+        ``smoothness_std`` (see :meth:`for_prior`).
+    smoothness_tail : float
+        P(sigma > U); the default 0.5 makes U the prior median of sigma.
+    noise_log_std : float
+        Standard deviation of log alpha.
+    """
+
+    smoothness_scale: float | None = None
+    smoothness_tail: float = 0.5
+    noise_log_std: float = 1.0
+
+    def __post_init__(self):
+        if self.smoothness_scale is not None:
+            object.__setattr__(self, "smoothness_scale", as_float(
+                self.smoothness_scale, "smoothness_scale", "HyperPrior", low=0.0, low_open=True))
+        tail = as_float(self.smoothness_tail, "smoothness_tail", "HyperPrior", low=0.0, low_open=True)
+        if tail >= 1.0:
+            from .._errors import ConfigError
+
+            raise ConfigError(f"The 'smoothness_tail' parameter of HyperPrior must be a probability in (0, 1). "
+                              f"Got {self.smoothness_tail!r} instead.")
+        object.__setattr__(self, "smoothness_tail", tail)
+        object.__setattr__(self, "noise_log_std", as_float(self.noise_log_std, "noise_log_std", "HyperPrior",
+                                                           low=0.0, low_open=True))
+
+    def for_prior(self, prior):
+        """This hyperprior with the scale taken from ``prior.smoothness_std`` where not given."""
+        if self.smoothness_scale is not None:
+            return self
+        return HyperPrior(prior.smoothness_std, self.smoothness_tail, self.noise_log_std)
+
+    @property
+    def rate(self):
+        """lambda = -log(smoothness_tail) / smoothness_scale of the PC prior [1/std]."""
+        if self.smoothness_scale is None:
+            from .._errors import ConfigError
+
+            raise ConfigError("HyperPrior.smoothness_scale is not set; use HyperPrior.for_prior(prior).")
+        return -math.log(self.smoothness_tail) / self.smoothness_scale
+
+    def log_density_log_tau(self, log_tau):
+        """log p(log tau): the PC prior of sigma = exp(-log_tau / 2) with its Jacobian |d sigma / d log tau|."""
+        lam = self.rate
+        sigma = np.exp(-0.5 * np.asarray(log_tau, dtype=float))
+        return math.log(0.5 * lam) + np.log(sigma) - lam * sigma
+
+    def log_density_log_noise(self, log_noise_scale):
+        """log p(log alpha), the normal density of log alpha."""
+        s = self.noise_log_std
+        z = np.asarray(log_noise_scale, dtype=float) / s
+        return -0.5 * z**2 - math.log(s * math.sqrt(2.0 * math.pi))

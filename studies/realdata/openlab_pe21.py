@@ -31,6 +31,7 @@ import argparse
 import csv
 import math
 import sys
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -598,11 +599,15 @@ def main(out, table=TABLE, folder=None):
     print("  three girders (and part of which the monolithic pier takes), so span 1 of girder line 1 "
           "shares the load more.")
 
-    _, lone = fit([plateaus[0]], hyper="evidence", start=result)
+    with warnings.catch_warnings(record=True) as caught:  # invert flags the overfit: shown below
+        warnings.simplefilter("always", sp.SensorplanWarning)
+        _, lone = fit([plateaus[0]], hyper="evidence", start=result)
     print("\nWhy fixed noise per step: evidence maximisation on step 1 alone (5 readings, 4 of them "
           "informative, 5 parameters)")
     print(f"estimates a noise std of {1e3 * lone.noise_std[0]:.3f} mm - it overfits; so each step "
           f"is fitted with the stated {1e3 * NOISE_STD:.1f} mm.")
+    for w in caught:
+        print(f"  (invert warns: {str(w.message).split(':')[1].strip()})")
 
     steps_span = per_step(plateaus, SPAN_MESH, start=result)
     steps_split = per_step(plateaus, SPLIT_MESH, start=result)
