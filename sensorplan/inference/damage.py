@@ -8,15 +8,18 @@ the zone's two edges (the zone's level floats, held only by the proper
 marginal part), a rank-r downdate Q_h = Q - U U^T of the prior precision.
 For each component k of the posterior (a Laplace posterior N(theta_k, C_k)
 at a node tau_k), the posterior under h of the model linearised at theta_k
-is Gaussian with, by Woodbury and one exact Newton step,
+is Gaussian with, by one exact Newton step,
 
-    C_h = C_k + C_k U (I - U^T C_k U)^{-1} U^T C_k,
+    H_h = C_k^{-1} - U U^T,   C_h = H_h^{-1},
     theta_h = theta_k + C_h U U^T (theta_k - theta_0),
 
 and its log evidence relative to component k is
 
-    1/2 d^T U U^T d + 1/2 g^T C_h g + 1/2 log det(I - U^T Q_k^{-1} U)
-    - 1/2 log det(I - U^T C_k U),     d = theta_k - theta_0, g = U U^T d.
+    1/2 d^T g + 1/2 g^T C_h g + 1/2 log det Q_h / det Q_k
+    - 1/2 log det H_h / det C_k^{-1},     d = theta_k - theta_0, g = U U^T d
+
+(the precisions are downdated rather than the covariances by Woodbury,
+which loses accuracy when tau is large).
 
 The posterior averages the components: the undamaged ones with prior mass
 1 - p and the zones with p / H each (p = ``prior_damage``, H zones), weighted
@@ -39,15 +42,20 @@ def _edge_rows(n_elements, order, edge):
     return rows[(rows < edge) & (rows + order >= edge)]
 
 
-def damage_hypotheses(weights, thetas, covariances, taus, theta0, *, prior, n_elements, edges, zones,
-                      prior_damage=0.5, keep=0.999):
+def damage_hypotheses(weights, thetas, covariances, taus, noise_scales, theta0, information, *, prior, n_elements,
+                      edges, zones, prior_damage=0.5, keep=0.999, max_components=300):
     """Extend a posterior mixture with damage hypotheses (see the module docstring).
 
     Parameters
     ----------
-    weights, thetas, covariances, taus : the mixture's components (K,), (K, P), (K, P, P), (K,).
+    weights, thetas, covariances, taus, noise_scales : the mixture's components (K,), (K, P), (K, P, P),
+        (K,), (K,).
     theta0 : ndarray (P,)
         Prior mean (nominal log EI and log spring stiffnesses).
+    information : ndarray (P, P)
+        J^T J of the whitened data at the posterior mean (divided by alpha_k^2
+        per component): the precisions are rebuilt as J^T J / alpha_k^2 + Q
+        rather than inverted from C_k, which loses accuracy when tau is large.
     prior : GMRFPrior
     n_elements : int
     edges : ndarray (n_elements + 1,)
@@ -56,8 +64,9 @@ def damage_hypotheses(weights, thetas, covariances, taus, theta0, *, prior, n_el
         Candidate damaged zones [start, stop] [m].
     prior_damage : float
         Prior probability that some zone is damaged.
-    keep : float
-        Components are kept, largest weight first, up to this share of the total.
+    keep, max_components :
+        Components are kept, largest weight first, up to this share of the
+        total weight and at most this many.
 
     Returns
     -------
@@ -75,50 +84,93 @@ def damage_hypotheses(weights, thetas, covariances, taus, theta0, *, prior, n_el
             snapped.setdefault((i0, i1), len(snapped))
     zone_edges = list(snapped)
     n_zones = max(len(zone_edges), 1)
-    log_w, new_thetas, new_covs, comp, zone = [], [], [], [], []
+    zone_rows = []
+    for i0, i1 in zone_edges:
+        rows = [_edge_rows(n_elements, prior.order, e) for e in (i0, i1) if 0 < e < n_elements]
+        zone_rows.append(np.unique(np.concatenate(rows)) if rows else np.zeros(0, int))
+    by_size = {}
+    for h, rows in enumerate(zone_rows):
+        if rows.size:
+            by_size.setdefault(rows.size, []).append(h)
+    groups = [(np.array([zone_rows[h] for h in ids]), np.array(ids)) for ids in by_size.values()]
+    d_pad = np.zeros((d_op.shape[0], n_params))
+    d_pad[:, :n_elements] = d_op
+    candidates = []  # (log weight, k, h)
+    nodes = {}  # k -> (tau, H^-1 D^T, D H^-1 D^T, D d)
     for k in range(weights.size):
-        theta_k, cov_k, tau_k = thetas[k], covariances[k], taus[k]
+        candidates.append((np.log(weights[k]) + np.log1p(-prior_damage), k, -1))
+        if weights[k] < 1e-8:
+            continue
+        tau_k = taus[k]
         q_k = prior.precision(n_elements, n_params - n_elements, tau=tau_k)
-        q_chol = scipy.linalg.cho_factor(q_k)
-        d = theta_k - theta0
-        log_w.append(np.log(weights[k]) + np.log1p(-prior_damage))
-        new_thetas.append(theta_k)
-        new_covs.append(cov_k)
-        comp.append(k)
-        zone.append(-1)
-        for h, (i0, i1) in enumerate(zone_edges):
-            rows = np.unique(np.concatenate([_edge_rows(n_elements, prior.order, e) for e in (i0, i1)
-                                             if 0 < e < n_elements]))
-            if rows.size == 0:
-                continue
-            u = np.zeros((n_params, rows.size))
-            u[:n_elements] = np.sqrt(tau_k) * d_op[rows].T
-            cu = cov_k @ u
-            inner = np.eye(rows.size) - u.T @ cu
-            prior_inner = np.eye(rows.size) - u.T @ scipy.linalg.cho_solve(q_chol, u)
-            try:
-                inner_chol = np.linalg.cholesky(inner)
-                prior_chol = np.linalg.cholesky(prior_inner)
-            except np.linalg.LinAlgError:
-                continue
-            cov_h = cov_k + cu @ scipy.linalg.cho_solve((inner_chol, True), cu.T)
-            g = u @ (u.T @ d)
-            shift = cov_h @ g
-            log_ratio = (0.5 * float(d @ g) + 0.5 * float(g @ shift) + float(np.sum(np.log(np.diag(prior_chol))))
-                         - float(np.sum(np.log(np.diag(inner_chol)))))
-            log_w.append(np.log(weights[k]) + np.log(prior_damage / n_zones) + log_ratio)
-            new_thetas.append(theta_k + shift)
-            new_covs.append(0.5 * (cov_h + cov_h.T))
-            comp.append(k)
-            zone.append(h)
-    log_w = np.asarray(log_w)
+        h_factor = scipy.linalg.cho_factor(information / noise_scales[k] ** 2 + q_k)
+        x_h = scipy.linalg.cho_solve(h_factor, d_pad.T)
+        g_h = d_pad @ x_h
+        g_q = d_pad @ scipy.linalg.cho_solve(scipy.linalg.cho_factor(q_k), d_pad.T)
+        dd = d_pad @ (thetas[k] - theta0)
+        nodes[k] = (tau_k, x_h, g_h, dd)
+        for rows_group, zone_ids in groups:
+            # all zones with the same number r of released rows at once: (Z, r) row indices
+            ghr = g_h[rows_group[:, :, None], rows_group[:, None, :]]
+            ddr = dd[rows_group]
+            eye = np.eye(rows_group.shape[1])
+            sign_h, logdet_mh = np.linalg.slogdet(eye - tau_k * ghr)
+            sign_q, logdet_mq = np.linalg.slogdet(eye - tau_k * g_q[rows_group[:, :, None], rows_group[:, None, :]])
+            b = np.einsum("zij,zj->zi", ghr, ddr)
+            ok = (sign_h > 0) & (sign_q > 0)
+            m_b = np.linalg.solve(np.where(ok[:, None, None], eye - tau_k * ghr, eye), b[..., None])[..., 0]
+            # g = tau D_R^T D_R d:  d^T g, g^T H_h^-1 g (Woodbury on the well-conditioned H_k)
+            d_g = tau_k * np.einsum("zi,zi->z", ddr, ddr)
+            g_ch_g = tau_k**2 * np.einsum("zi,zi->z", ddr, b) + tau_k**3 * np.einsum("zi,zi->z", b, m_b)
+            log_ratio = 0.5 * d_g + 0.5 * g_ch_g + 0.5 * logdet_mq - 0.5 * logdet_mh
+            base = np.log(weights[k]) + np.log(prior_damage / n_zones)
+            for h, lr in zip(zone_ids[ok], log_ratio[ok]):
+                candidates.append((base + float(lr), k, int(h)))
+    log_w = np.array([c[0] for c in candidates])
     w = np.exp(log_w - log_w.max())
     w /= w.sum()
-    zone = np.asarray(zone)
-    damage_probability = float(w[zone >= 0].sum())
+    damage_probability = float(sum(wi for wi, c in zip(w, candidates) if c[2] >= 0))
     order = np.argsort(-w)
-    n_keep = int(np.searchsorted(np.cumsum(w[order]), keep) + 1)
+    n_keep = min(int(np.searchsorted(np.cumsum(w[order]), keep) + 1), max_components)
     chosen = np.sort(order[:n_keep])
+    new_thetas, new_covs = [], []
+    for i in chosen:
+        _, k, h = candidates[i]
+        if h < 0:
+            new_thetas.append(thetas[k])
+            new_covs.append(covariances[k])
+            continue
+        tau_k, x_h, g_h, dd = nodes[k]
+        rows = zone_rows[h]
+        x_r = x_h[:, rows]
+        m_inv = np.linalg.inv(np.eye(rows.size) - tau_k * g_h[np.ix_(rows, rows)])
+        h_inv_g = tau_k * x_r @ dd[rows]  # H_k^-1 g
+        shift = h_inv_g + tau_k * x_r @ (m_inv @ (x_r.T @ (tau_k * d_pad[rows].T @ dd[rows])))
+        cov_h = covariances[k] + tau_k * x_r @ m_inv @ x_r.T
+        new_thetas.append(thetas[k] + shift)
+        new_covs.append(0.5 * (cov_h + cov_h.T))
     w = w[chosen] / w[chosen].sum()
-    return (w, np.asarray(new_thetas)[chosen], np.asarray(new_covs)[chosen], np.asarray(comp)[chosen],
-            zone[chosen], damage_probability)
+    comp = np.array([candidates[i][1] for i in chosen])
+    zone = np.array([candidates[i][2] for i in chosen])
+    return w, np.asarray(new_thetas), np.asarray(new_covs), comp, zone, damage_probability
+
+
+def _inverse(matrix):
+    """Inverse of a symmetric positive definite matrix, symmetrised."""
+    out = scipy.linalg.cho_solve(scipy.linalg.cho_factor(0.5 * (matrix + matrix.T)), np.eye(matrix.shape[0]))
+    return 0.5 * (out + out.T)
+
+
+def _logdet(matrix):
+    return 2.0 * float(np.sum(np.log(np.diag(np.linalg.cholesky(0.5 * (matrix + matrix.T))))))
+
+
+def _released(q, n_elements, order, d_op, tau, i0, i1):
+    """Q_h: the prior precision ``q`` without the difference terms crossing element edges i0 and i1."""
+    rows = np.unique(np.concatenate([_edge_rows(n_elements, order, e) for e in (i0, i1) if 0 < e < n_elements]
+                                    or [np.zeros(0, int)]))
+    if rows.size == 0:
+        return None
+    out = q.copy()
+    out[:n_elements, :n_elements] -= tau * (d_op[rows].T @ d_op[rows])
+    return out

@@ -30,10 +30,12 @@ import numpy as np
 
 from .._errors import ConfigError, DataError, SensorplanWarning
 from .._threads import single_threaded
+from ..detection.scan import detect_damage
 from ..model.crossings import Crossings
 from ..model.forward import influence_lines
 from ..model.prior import GMRFPrior, HyperPrior
 from .checks import fit_warnings
+from .damage import damage_hypotheses
 from .hyperposterior import LOG_TAU_BOUNDS, integrate_problem
 from .laplace import Linearisation, WhitenedData, fit_problem
 from .mixture import GaussianMixture
@@ -222,7 +224,8 @@ def _fit(problem, rough, fixed, prior, hyper, hyperprior, noise_scale, tau, star
 @single_threaded
 def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisation="log_ei",
            hyper="integrated", hyperprior=None, noise_scale=1.0, tau=None, screen=True, mesh=None, start=None,
-           max_iter=100, max_outer=200, tol=1e-10, check_scale=True):
+           max_iter=100, max_outer=200, tol=1e-10, check_scale=True, detect=True, false_alarm=0.05,
+           nuisance="smooth", damage_prior=0.5, rng=0):
     """Identify EI(x) (and spring stiffnesses) from measured crossings.
 
     Parameters
@@ -257,6 +260,14 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
     check_scale : bool or str
         Refuse data far larger or smaller than the model predicts (a unit
         slip); a string names the data source in the message.
+    detect : bool
+        Run the damage detector (:func:`sensorplan.detect_damage`) on the
+        data and let the bands average over local-loss hypotheses
+        (:mod:`sensorplan.inference.damage`; log-EI parameterisation).
+    false_alarm, nuisance : the detector's false-alarm rate and nuisance.
+    damage_prior : float
+        Prior probability of a local loss somewhere, in the band averaging.
+    rng : seed or Generator of the detector's threshold simulation.
 
     Returns
     -------
@@ -284,6 +295,11 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
     rough, fixed = _prior_matrices(problem, prior)
     fit = _fit(problem, rough, fixed, prior, hyper, hyperprior, noise_scale, tau, start, max_iter, max_outer, tol)
     mixture, alpha = fit.mixture, fit.noise_scale
+    detection = probability = None
+    if detect and parameterisation == "log_ei":
+        inv_case = case if mesh is None else case.with_mesh(mesh)
+        detection = detect_damage(inv_case, crossings, false_alarm=false_alarm, nuisance=nuisance, rng=rng)
+        mixture, probability = _with_damage(mixture, problem, prior, detection, damage_prior)
     theta, covariance = mixture.mean, mixture.covariance
     messages = []
     if not fit.converged:
@@ -303,4 +319,17 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
         sensor_names=problem.sensors.names, noise_std=alpha * problem.noise.std, noise_scale=alpha,
         tau=fit.tau, log_evidence=fit.log_evidence, converged=bool(fit.converged), n_iter=fit.n_iter,
         excluded_crossings=tuple(excluded), fits=fits, hyper_method=hyper, messages=tuple(messages),
-        mixture=mixture, tau_mass_at_bound=fit.mass_at_bound, warnings=trust)
+        mixture=mixture, tau_mass_at_bound=fit.mass_at_bound, warnings=trust, damage=detection,
+        damage_probability=probability, hyper_nodes=fit.mixture)
+
+
+def _with_damage(mixture, problem, prior, detection, damage_prior):
+    """The posterior mixture extended by the local-loss hypotheses of the detector's zones."""
+    lin = problem.evaluate(mixture.mean)
+    if lin is None:  # the mixture mean is outside the model's domain: keep the undamaged posterior
+        return mixture, None
+    w, thetas, covs, comp, _, probability = damage_hypotheses(
+        mixture.weights, mixture.thetas, mixture.covariances, mixture.taus, mixture.noise_scales, problem.theta0,
+        lin.jtj, prior=prior, n_elements=problem.n_elements, edges=problem.mesh.edges, zones=detection.zones,
+        prior_damage=damage_prior)
+    return GaussianMixture(w, thetas, covs, mixture.taus[comp], mixture.noise_scales[comp]), probability

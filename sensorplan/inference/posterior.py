@@ -103,6 +103,15 @@ class PosteriorResult:
         cut by its hard bounds (0 when the grid ended on negligible weight).
     warnings : tuple of str
         Reasons not to trust the fit (see :mod:`sensorplan.inference.checks`).
+    damage : DamageDetection or None
+        The damage detector's verdict on the same data (:func:`sensorplan.detect_damage`).
+    damage_probability : float or None
+        Posterior probability of a local loss with sharp edges somewhere on
+        the bridge; the bands average over those hypotheses
+        (:mod:`sensorplan.inference.damage`).
+    hyper_nodes : GaussianMixture or None
+        The mixture over the nodes of log tau alone (before the damage
+        hypotheses were added).
     """
 
     edges: np.ndarray
@@ -126,11 +135,16 @@ class PosteriorResult:
     mixture: GaussianMixture | None = None
     tau_mass_at_bound: float = 0.0
     warnings: tuple = field(default_factory=tuple)
+    damage: object = None
+    damage_probability: float | None = None
+    hyper_nodes: GaussianMixture | None = None
 
     def __post_init__(self):
         if self.mixture is None:
             object.__setattr__(self, "mixture", GaussianMixture.single(self.theta, self.covariance, self.tau,
                                                                        self.noise_scale))
+        if self.hyper_nodes is None:
+            object.__setattr__(self, "hyper_nodes", self.mixture)
 
     @property
     def n_elements(self):
@@ -191,7 +205,7 @@ class PosteriorResult:
             raise ConfigError(f"The 'level' parameter must be in (0, 1). Got {level!r} instead.")
         n = self.n_elements
         z = stats.norm.ppf(0.5 + level / 2)
-        t, s = self.theta[:n], self.std[:n]
+        s = self.std[:n]
         to_ei = np.exp if self.parameterisation == "log_ei" else (lambda v: 1.0 / v)
         if method == "lognormal":
             low, high = self._quantiles(level, slice(0, n))
@@ -230,7 +244,7 @@ class PosteriorResult:
                  f"{self.log_evidence:.3f}",
                  "  noise std: " + ", ".join(f"{n}={s:.3g}" for n, s in zip(self.sensor_names, self.noise_std))
                  + f" (scale {self.noise_scale:.3f} of configured); tau = {self.tau:.4g}"]
-        mix = self.mixture
+        mix = self.hyper_nodes
         if mix.n_components > 1:
             cdf = np.cumsum(mix.weights)
             lo, hi = mix.taus[np.searchsorted(cdf, 0.025)], mix.taus[min(np.searchsorted(cdf, 0.975), cdf.size - 1)]
@@ -239,6 +253,11 @@ class PosteriorResult:
                          f"{self.tau_mass_at_bound:.1e}")
         for text in self.warnings:
             lines.append(f"  WARNING: {text}")
+        if self.damage is not None:
+            lines += ["  " + line for line in self.damage.summary().splitlines()]
+        if self.damage_probability is not None:
+            lines.append(f"  the bands average over local-loss hypotheses (posterior probability of a loss "
+                         f"{self.damage_probability:.2f})")
         if self.excluded_crossings:
             lines.append("  excluded crossings: " + ", ".join(self.excluded_crossings))
         ci = self.credible_interval(0.95)
@@ -269,11 +288,14 @@ class PosteriorResult:
             "n_iter": int(self.n_iter),
             "excluded_crossings": list(self.excluded_crossings),
             "hyperparameters": self.hyper_method,
-            "hyper_posterior": {"log_tau": self.mixture.log_tau.tolist(), "weights": self.mixture.weights.tolist(),
-                                "noise_scale": self.mixture.noise_scales.tolist(),
+            "hyper_posterior": {"log_tau": self.hyper_nodes.log_tau.tolist(),
+                                "weights": self.hyper_nodes.weights.tolist(),
+                                "noise_scale": self.hyper_nodes.noise_scales.tolist(),
                                 "mass_at_bound": float(self.tau_mass_at_bound),
                                 "at_bound": bool(self.tau_at_bound)},
             "warnings": list(self.warnings),
+            "damage": None if self.damage is None else self.damage.to_dict(),
+            "damage_probability": self.damage_probability,
             "units": {"edges_m": "m", "ei": "N m^2", "springs": "N m/rad (rotational), N/m (vertical)",
                       "noise_std": "rad (rotation) or m (deflection)"},
         }

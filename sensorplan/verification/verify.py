@@ -28,7 +28,6 @@ from ..inference.inversion import invert
 from ..model.noise import NoiseModel
 from ..model.sensors import SensorLayout
 from ..model.simulate import simulate_crossings
-from ..detection.scan import detect_damage
 from ..detection.signatures import whitened_signatures
 from .results import VerificationResult, _aggregate
 from .scenarios import Scenario, element_average_ei, make_scenarios, truth_mesh
@@ -67,10 +66,11 @@ def _run_task(task, *, posterior=False):
     data = simulate_crossings(fine, task.n_crossings, noise=True, rng=rng, ei=truth_fine)
     with warnings.catch_warnings(record=True):  # counted through post.converged, not printed per scenario
         warnings.simplefilter("always", SensorplanWarning)
-        post = invert(case, data, screen=False, noise_scale=task.start[0], tau=task.start[1])
+        post = invert(case, data, screen=False, noise_scale=task.start[0], tau=task.start[1], detect=not posterior,
+                      false_alarm=task.false_alarm, nuisance=task.nuisance, rng=rng)
     if posterior:
         return post
-    detection = detect_damage(case, data, false_alarm=task.false_alarm, nuisance=task.nuisance, rng=rng)
+    detection = post.damage
     return _score(case, post, detection, task.scenario, element_average_ei(fine_mesh, truth_fine, case.mesh))
 
 
