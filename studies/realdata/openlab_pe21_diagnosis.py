@@ -121,8 +121,8 @@ def effect_prior(case, crossings, name, prior=PRIOR):
 def fitted_model(case, diagnosis, name=VERTICAL):
     """(bridge, EI per element) of the refit with ``name`` (vertical springs at their MAP)."""
     e = effect(diagnosis, name)
-    ei = diagnosis.ei_base * (1.0 + np.asarray(e["ei_shift"]))
-    log_k = [e["parameters"][f"log_k_vert_{i}"]["map"] for i in range(len(SUPPORT_X))]
+    ei = diagnosis.ei_base * (1.0 + np.asarray(e.ei_shift))
+    log_k = [e.parameters[f"log_k_vert_{i}"]["map"] for i in range(len(SUPPORT_X))]
     b = case.bridge
     return sp.Bridge(b.spans, b.rotational_springs, tuple(np.exp(log_k))), ei
 
@@ -167,7 +167,7 @@ def supports(case, crossings, diagnosis, prior=PRIOR):
     reaction, settle = settlements(bridge, case.mesh, ei)
     out = []
     for i, x in enumerate(SUPPORT_X):
-        p = e["parameters"][f"log_k_vert_{i}"]
+        p = e.parameters[f"log_k_vert_{i}"]
         band = []
         for z in (1.96, -1.96):
             k = np.array(bridge.vertical_springs, dtype=float)
@@ -291,17 +291,17 @@ def print_outcome(o):
     print(d.summary())
     v = o.vertical
     top = d.effects[0].name
-    print(f"\n  top-ranked effect: {top} (log BF {d.effects[0]['log_bayes_factor']:.2f}); "
-          f"{VERTICAL} ranks {o.rank} of {len(d.effects)} with log BF {v['log_bayes_factor']:.2f}; "
+    print(f"\n  top-ranked effect: {top} (log BF {d.effects[0].log_bayes_factor:.2f}); "
+          f"{VERTICAL} ranks {o.rank} of {len(d.effects)} with log BF {v.log_bayes_factor:.2f}; "
           f"selected causes: {', '.join(d.causes) if d.causes else 'none'}")
-    print(f"  gap: residual rms {1e3 * d.gap['rms_residual']:.3f} mm, systematic (mean over steps) "
-          f"{1e3 * d.gap['systematic_rms']:.3f} mm, step-to-step scatter {1e3 * d.gap['noise_rms']:.3f} mm, "
-          f"{'significant' if d.gap['significant'] else 'NOT significant'}")
-    print(f"  {VERTICAL}: rms {1e3 * d.gap['rms_residual']:.3f} -> {1e3 * v['rms_after']:.3f} mm; "
-          f"held-out rms {1e3 * o.base_heldout_rms:.3f} -> {1e3 * v['heldout_rms_after']:.3f} mm "
-          f"(held-out log score gain {v['heldout_score_gain']:.3g})")
-    print(f"  after the selected causes: rms {1e3 * d.gap['rms_residual']:.3f} -> "
-          f"{1e3 * d.gap_after['rms_residual']:.3f} mm")
+    print(f"  gap: residual rms {1e3 * d.gap.rms_residual:.3f} mm, systematic (mean over steps) "
+          f"{1e3 * d.gap.systematic_rms:.3f} mm, step-to-step scatter {1e3 * d.gap.noise_rms:.3f} mm, "
+          f"{'significant' if d.gap.significant else 'NOT significant'}")
+    print(f"  {VERTICAL}: rms {1e3 * d.gap.rms_residual:.3f} -> {1e3 * v.rms_after:.3f} mm; "
+          f"held-out rms {1e3 * o.base_heldout_rms:.3f} -> {1e3 * v.heldout_rms_after:.3f} mm "
+          f"(held-out log score gain {v.heldout_score_gain:.3g})")
+    print(f"  after the selected causes: rms {1e3 * d.gap.rms_residual:.3f} -> "
+          f"{1e3 * d.gap_after.rms_residual:.3f} mm")
     print("  vertical support parameters of the refit (log k [N/m]; prior as diagnose configures it):")
     print(f"    {'support':>13s} {'MAP':>7s} {'std':>6s} {'prior':>13s} {'moved [sd]':>10s} {'info':>5s} "
           f"{'k MAP [N/m]':>11s} {'R [kN]':>7s} {'settlement per 100 kN [mm], 95 %':>34s}")
@@ -344,8 +344,8 @@ def main(folder=None, quick=False):
     for noise in (1e-4, 4e-4):
         o = run(plateaus, ELASTIC_STEPS, effects=[VERTICAL], noise_std=noise)
         s2 = o.supports[2]
-        print(f"  {1e3 * noise:.1f} mm: log BF {o.vertical['log_bayes_factor']:.3f}, log_k_vert_2 {s2.map:.3f} "
-              f"+- {s2.std:.3f}, gap {'significant' if o.diagnosis.gap['significant'] else 'not significant'}")
+        print(f"  {1e3 * noise:.1f} mm: log BF {o.vertical.log_bayes_factor:.3f}, log_k_vert_2 {s2.map:.3f} "
+              f"+- {s2.std:.3f}, gap {'significant' if o.diagnosis.gap.significant else 'not significant'}")
 
     print(f"\n=== Contrast: steps {ELASTIC_STEPS} with {WITHHELD} included, all effects ===")
     with5 = run(plateaus, ELASTIC_STEPS, sensors=pe21.LASERS)
