@@ -92,3 +92,22 @@ def test_truth_mesh_is_finer_and_differently_aligned():
     edges = case.mesh.edges
     for s in local:  # damage edges fall inside inversion elements
         assert np.min(np.abs(edges - s.start)) > 1e-6 and np.min(np.abs(edges - s.stop)) > 1e-6
+
+
+def mixed_case():
+    """A tiltmeter (2 urad) and a deflection sensor (0.05 mm) on a simple span."""
+    bridge = sp.Bridge((20.0,))
+    sensors = sp.SensorLayout([5.0, 10.0], kinds=["rotation", "deflection"], noise_std=[2e-6, 5e-5])
+    return Case(bridge, sp.Mesh.uniform(bridge, 10), 1e10, sp.Vehicle.point_load(1e5), sensors,
+                sweep=sp.LoadSweep.from_range(0.0, 20.0, 0.5))
+
+
+def test_layout_sensors_take_the_noise_of_the_case_sensors_of_their_kind():
+    # Reference: the documented default (Case.noise_std_for), the median noise of the case's sensors
+    # of the same kind, here 5e-5 m for deflection sensors; not the median over both kinds,
+    # which would use a noise level in rad as one in m.
+    case = mixed_case()
+    kwargs = dict(kind="deflection", n_locations=1, n_controls=1, n_crossings=2, seed=0)
+    default = verify_layouts(case, [[6.0, 14.0]], **kwargs).to_dict()
+    explicit = verify_layouts(case, [[6.0, 14.0]], noise_std=5e-5, **kwargs).to_dict()
+    assert json.dumps(default) == json.dumps(explicit)  # (NaN standard errors compare equal as text)
