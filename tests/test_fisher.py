@@ -228,3 +228,19 @@ def test_identifiability_eigen_analysis_and_prior_split():
     # elements at the sensors are data dominated, those at the far zero-moment end less so
     j_sensor = case.mesh.element_of(11.0)
     assert share[j_sensor] > share[-1]
+
+
+def test_new_sensors_take_the_noise_of_the_case_sensors_of_their_kind():
+    # Reference: the documented default for new sensors (Case.noise_std_for), the median noise of the
+    # case's sensors of the same kind: 2 urad for tiltmeters and 0.05 mm for deflection sensors here,
+    # not the median over both kinds (which would use a level in m for a tiltmeter or vice versa).
+    bridge = sp.Bridge((20.0,))
+    case = Case(bridge, sp.Mesh.uniform(bridge, 10), 1e10, sp.Vehicle.point_load(1e5),
+                sp.SensorLayout([5.0, 10.0, 15.0], kinds=["rotation", "deflection", "rotation"],
+                                noise_std=[2e-6, 5e-5, 2e-6]),
+                sweep=sp.LoadSweep.from_range(0.0, 20.0, 0.5))
+    new = sp.SensorLayout([4.0, 12.0], kinds=["deflection", "rotation"])
+    default = fisher_blocks(case, sensors=new).blocks
+    explicit = fisher_blocks(case, sensors=sp.SensorLayout([4.0, 12.0], kinds=["deflection", "rotation"],
+                                                           noise_std=[5e-5, 2e-6])).blocks
+    np.testing.assert_allclose(default, explicit, rtol=1e-12)
