@@ -1,13 +1,21 @@
 """Command line: every command on every embedded example, through main([...])."""
 
 import csv
+import json
+import re
 
 import numpy as np
 import pytest
 
-from sensorplan.io.config import EXAMPLES, example_case
-from sensorplan.io.csvio import read_crossings
+import sensorplan as sp
+from sensorplan import EXAMPLES, example_case, read_crossings
 from sensorplan.cli import main
+
+_NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
+
+
+def numbers(text):
+    return [float(x) for x in _NUMBER.findall(text)]
 
 
 @pytest.mark.parametrize("example", EXAMPLES)
@@ -21,7 +29,9 @@ def test_simulate_writes_readable_crossings(example, tmp_path, capsys):
     clean = case.influence_lines().predictions
     noise = data.crossings[0].values - clean
     assert 0.5 < np.std(noise) / np.median(case.noise.std) < 1.5
-    assert "wrote 3 noisy synthetic crossing(s)" in capsys.readouterr().out
+    assert capsys.readouterr().out == (f"wrote 3 noisy synthetic crossing(s) of '{example}' ({case.sweep.n_loads} load "
+                                       f"positions, sensors {', '.join(case.sensors.names)}; rotation in rad, "
+                                       f"deflection in m) to {out}\n")
     # without noise the file holds the exact predictions
     assert main(["simulate", "--example", example, "--out", str(out), "--quiet"]) == 0
     np.testing.assert_allclose(read_crossings(out, case.sensors).crossings[0].values, clean, rtol=1e-15)
@@ -88,8 +98,6 @@ def test_module_entry_point_help():
 
 @pytest.mark.parametrize("example", EXAMPLES)
 def test_invert_writes_json_and_figures(example, tmp_path, capsys):
-    import json
-
     data = tmp_path / "data.csv"
     assert main(["simulate", "--example", example, "--crossings", "4", "--noise", "--seed", "2",
                  "--out", str(data), "--quiet"]) == 0
@@ -97,17 +105,21 @@ def test_invert_writes_json_and_figures(example, tmp_path, capsys):
     assert main(["invert", "--example", example, "--data", str(data), "--elements", "12",
                  "--json", str(js), "--out", str(tmp_path / "fig")]) == 0
     result = json.loads(js.read_text())
-    for key in ("edges_m", "ei_mean", "ei_ci75", "ei_ci95", "springs", "noise_std", "tau",
-                "log_evidence", "converged", "n_iter", "excluded_crossings"):
-        assert key in result
+    # reference: the same inversion through the Python API (the CLI parses and delegates)
     case = example_case(example)
+    coarse = case.with_mesh(sp.Mesh.uniform(case.bridge, 12))
+    expected = json.loads(json.dumps(sp.invert(coarse, read_crossings(data, case.sensors)).to_dict()))
+    assert result == expected
     assert len(result["edges_m"]) == 13 and len(result["ei_ci95"]) == 12
     assert result["converged"] is True
     assert set(result["noise_std"]) == set(case.sensors.names)
     assert (tmp_path / "fig" / "ei_posterior.png").exists()
     for name in case.sensors.names:
         assert (tmp_path / "fig" / f"fit_{name}.png").exists()
-    assert "posterior written to" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert f"log evidence {result['log_evidence']:.3f}" in printed
+    assert f"tau = {result['tau']:.4g}" in printed
+    assert "posterior written to" in printed
 
 
 def test_invert_rejects_unit_slip(tmp_path, capsys):
@@ -128,29 +140,33 @@ def test_invert_rejects_unit_slip(tmp_path, capsys):
 
 @pytest.mark.parametrize("example", EXAMPLES)
 def test_recommend_prints_table_and_writes_json_and_figures(example, tmp_path, capsys):
-    import json
-
     js = tmp_path / "design.json"
     assert main(["recommend", "--example", example, "--count", "2", "--criterion", "D",
                  "--spacing", "1.0", "--json", str(js), "--out", str(tmp_path)]) == 0
     d = json.loads(js.read_text())
-    for key in ("criterion", "count", "n_params", "layout_m", "value", "bound", "efficiency", "method",
-                "baselines"):
-        assert key in d
+    # reference: the same recommendation through the Python API (solver timings aside)
+    case = example_case(example)
+    expected = json.loads(json.dumps(sp.recommend(case, 2, "D", grid=sp.CandidateGrid(spacing=1.0)).to_dict()))
+    for payload in (d, expected):
+        payload["solver"] = {k: v for k, v in payload["solver"].items() if "time" not in k}
+    assert d == expected
     assert d["count"] == 2 and len(d["layout_m"]) == 2 and d["layout_m"] == sorted(d["layout_m"])
-    assert 0 < d["efficiency"] <= 1
     for b in d["baselines"].values():
         assert b is None or b["value"] <= d["value"] + 1e-9
     for name in ("layout.png", "layout_informativeness.png", "posterior_std.png", "criterion_vs_R.png"):
         assert (tmp_path / name).read_bytes()[:4] == b"\x89PNG"
     printed = capsys.readouterr().out
-    assert "positions [m]:" in printed and "certified efficiency" in printed and "baseline" in printed
+    # the printed summary shows the computed layout, values and certificate
+    assert "  positions [m]: " + ", ".join(f"{x:.2f}" for x in d["layout_m"]) in printed
+    assert (f"criterion {d['value']:.6g}; relaxation bound {d['bound']:.6g}" in printed
+            and f"certified efficiency >= {100 * d['efficiency']:.2f} %" in printed)
+    for name, b in d["baselines"].items():
+        row = next(line for line in printed.splitlines() if line.strip().startswith(name))
+        assert b is None or f"{b['value']:.6g}" in row
     assert "design written to" in printed
 
 
 def test_recommend_exclusion_and_fixed_options(tmp_path, capsys):
-    import json
-
     js = tmp_path / "d.json"
     assert main(["recommend", "--example", "openlab-like", "--count", "2", "--criterion", "A",
                  "--exclude", "14:16,0:1", "--fixed", "11", "--min-spacing", "1.5", "--json", str(js),
@@ -166,10 +182,18 @@ def test_recommend_bad_zone_is_a_usage_error(tmp_path, capsys):
     assert "start:stop" in capsys.readouterr().err
 
 
+def _summary_rows(printed, labels):
+    """The metric columns (mean, se pairs) of the verification table, one row per label."""
+    rows = {}
+    for line in printed.splitlines():
+        for label in labels:
+            if line.startswith(f"  {label} ") and "±" in line:
+                rows[label] = numbers(line[2 + len(label):])
+    return rows
+
+
 @pytest.mark.parametrize("example", EXAMPLES)
 def test_verify_writes_comparison(example, tmp_path, capsys):
-    import json
-
     js = tmp_path / "v.json"
     case = example_case(example)
     first = ",".join(f"{x:g}" for x in case.sensors.positions)
@@ -177,22 +201,50 @@ def test_verify_writes_comparison(example, tmp_path, capsys):
                  "--scenarios", "2", "--seed", "3", "--json", str(js), "--out", str(tmp_path)]) == 0
     d = json.loads(js.read_text())
     assert len(d["layouts"]) == 2 and d["layouts"][1]["layout_m"] == [1.0, 2.0]
-    for key in ("rmse", "rmse_se", "detection_rate", "false_alarm_rate", "coverage95", "band_width"):
-        assert key in d["layouts"][0]
+    assert d["layouts"][0]["layout_m"] == list(case.sensors.positions)
+    assert (d["seed"], d["n_crossings"], d["severity"], d["damage_length_m"]) == (3, 10, 0.25, 2.0)
+    metrics = ("rmse", "localisation_error_m", "detection_rate", "false_alarm_rate", "coverage95", "band_width")
+    for entry in d["layouts"]:
+        assert entry["n_scenarios"] == 2 + case.bridge.n_spans + 5  # local, span softenings, controls
+        for key in ("detection_rate", "false_alarm_rate", "coverage95", "control_coverage95"):
+            assert 0.0 <= entry[key] <= 1.0
+    # the printed table shows the numbers written to the JSON
+    printed = capsys.readouterr().out
+    labels = [first.replace(",", ", "), "1, 2"]
+    rows = _summary_rows(printed, labels)
+    for label, entry in zip(labels, d["layouts"]):
+        shown = np.array(rows[label]).reshape(-1, 2)
+        np.testing.assert_allclose(shown[:, 0], [entry[m] for m in metrics], atol=5e-4)
+        np.testing.assert_allclose(shown[:, 1], [entry[m + "_se"] for m in metrics], atol=5e-4)
     assert (tmp_path / "verification.png").exists()
-    assert "Verification:" in capsys.readouterr().out
+    assert "Verification:" in printed
 
 
+def test_verify_json_equals_the_python_result(tmp_path):
+    # reference: verify_layouts with the same options (same seed, same scenarios)
+    js = tmp_path / "v.json"
+    assert main(["verify", "--example", "simply-supported", "--layout", "4,16", "--layout", "0,10,20",
+                 "--scenarios", "1", "--verify-crossings", "3", "--seed", "3", "--json", str(js),
+                 "--out", str(tmp_path), "--quiet"]) == 0
+    result = sp.verify_layouts(example_case("simply-supported"), [[4.0, 16.0], [0.0, 10.0, 20.0]], n_locations=1,
+                               n_crossings=3, seed=3)
+    assert json.loads(js.read_text()) == json.loads(json.dumps(result.to_dict()))
+
+
+@pytest.mark.slow
 def test_recommend_verify_adds_verification(tmp_path, capsys):
-    import json
-
     js = tmp_path / "d.json"
     assert main(["recommend", "--example", "simply-supported", "--count", "2", "--spacing", "2",
                  "--verify", "--scenarios", "2", "--json", str(js), "--out", str(tmp_path), "--quiet"]) == 0
     d = json.loads(js.read_text())
-    names = [entry["name"] for entry in d["verification"]["layouts"]]
-    assert names[0] == "recommended" and "equally_spaced" in names
-    assert (tmp_path / "verification.json").exists()
+    verification = d["verification"]
+    feasible = [(name, b) for name, b in d["baselines"].items() if b is not None]
+    # the verified layouts are the recommended one and every feasible baseline, in that order
+    assert [entry["name"] for entry in verification["layouts"]] == ["recommended"] + [n for n, _ in feasible]
+    assert [entry["layout_m"] for entry in verification["layouts"]] == [d["layout_m"]] + [b["layout_m"]
+                                                                                        for _, b in feasible]
+    assert "equally_spaced" in dict(feasible)
+    assert json.loads((tmp_path / "verification.json").read_text()) == verification
 
 
 def test_verify_rejects_layout_off_the_bridge(tmp_path, capsys):
@@ -201,25 +253,34 @@ def test_verify_rejects_layout_off_the_bridge(tmp_path, capsys):
     assert len(err) == 1 and "layout" in err[0]
 
 
+@pytest.mark.slow
 def test_diagnose_writes_json_and_figures(tmp_path, capsys):
-    import json
-
     data = tmp_path / "d.csv"
     assert main(["simulate", "--example", "simply-supported", "--crossings", "3", "--noise", "--seed", "5",
                  "--out", str(data), "--quiet"]) == 0
     js = tmp_path / "diag.json"
     assert main(["diagnose", "--example", "simply-supported", "--data", str(data), "--json", str(js),
-                 "--out", str(tmp_path), "--quiet"]) == 0
+                 "--out", str(tmp_path)]) == 0
     d = json.loads(js.read_text())
-    assert set(d["gap"]) >= {"rms_residual", "systematic_rms", "noise_rms", "by_sensor", "worst_positions_m"}
+    gap = d["gap"]
+    assert set(gap) >= {"rms_residual", "systematic_rms", "noise_rms", "by_sensor", "worst_positions_m"}
     assert d["causes"] == [] and d["unexplained"] is False
+    assert d["verdict"].startswith("none: the model is adequate")
+    # the noise of effect-free data is the configured 2 urad (three crossings: within 25 %)
+    assert 0.75 * 2e-6 < gap["noise_rms"] < 1.25 * 2e-6 and gap["systematic_rms"] < gap["noise_rms"]
+    # the printed summary shows the numbers written to the JSON
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[0].startswith(f"Sim-to-real gap: residual rms {gap['rms_residual']:.3g}, systematic "
+                                 f"{gap['systematic_rms']:.3g}, noise {gap['noise_rms']:.3g} (p = {gap['p_value']:.2g}")
+    for effect in d["effects"]:
+        row = next(line for line in printed if line.startswith(f"  {effect['name']} "))
+        assert numbers(row)[:1] == [pytest.approx(effect["log_bayes_factor"], abs=0.005)]
+    assert f"  verdict: {d['verdict']}" in printed
     for name in ("residual_map.png", "shrinkage.png", "ei_before_after.png"):
         assert (tmp_path / name).exists()
 
 
 def test_recommend_kind_follows_the_case_and_refuses_unit_mixups(tmp_path, capsys):
-    import json
-
     cfg = tmp_path / "defl.toml"
     cfg.write_text("""
 [bridge]

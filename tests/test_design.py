@@ -1,7 +1,7 @@
 """Placement: brute force on small problems, certificates, constraints, symmetry, baselines."""
 
 import itertools
-import math
+import json
 
 import numpy as np
 import pytest
@@ -9,10 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import sensorplan as sp
-from sensorplan import SolverError
-from sensorplan.model.case import Case
-from sensorplan.io.config import example_case
-from sensorplan import CandidateGrid, Constraints, recommend
+from sensorplan import CandidateGrid, Case, Constraints, SolverError, example_case, recommend
 from sensorplan.design.recommend import build_problem
 from sensorplan.design.relaxation import solve_relaxation
 from sensorplan.design.selection import exchange, greedy
@@ -38,12 +35,57 @@ def brute_force(problem):
     return best, best_u, count
 
 
-def true_efficiency(criterion, value, optimum, n):
-    if criterion in ("D", "Ds"):
-        return math.exp((value - optimum) / n)
+# -- references straight from the definitions (numpy on dense matrices, no package code) --
+
+MAXIMISE = {"D": True, "Ds": True, "E": True, "A": False}
+
+
+def criterion_value(criterion, q, n_springs=0):
+    """D = log det Q; Ds = log det of the Schur complement of the spring block; A = tr Q^-1; E = lambda_min."""
+    if criterion == "D":
+        return np.linalg.slogdet(q)[1]
+    if criterion == "Ds":
+        n = q.shape[0] - n_springs
+        schur = q[:n, :n] - q[:n, n:] @ np.linalg.solve(q[n:, n:], q[n:, :n])
+        return np.linalg.slogdet(schur)[1]
     if criterion == "A":
-        return optimum / value
-    return value / optimum
+        return np.trace(np.linalg.inv(q))
+    return np.linalg.eigvalsh(q)[0]
+
+
+def true_efficiency(criterion, q, q_opt, n_springs=0):
+    """Efficiency of precision q against the optimal layout's q_opt, from its definition:
+    (det ratio)^(1/n) for D and Ds (n = dimension of the determinant), the ratio of summed
+    variances for A, the ratio of smallest eigenvalues for E."""
+    if criterion in ("D", "Ds"):
+        n = q.shape[0] - (n_springs if criterion == "Ds" else 0)
+        return np.exp((criterion_value(criterion, q, n_springs) - criterion_value(criterion, q_opt, n_springs)) / n)
+    if criterion == "A":
+        return np.trace(np.linalg.inv(q_opt)) / np.trace(np.linalg.inv(q))
+    return np.linalg.eigvalsh(q)[0] / np.linalg.eigvalsh(q_opt)[0]
+
+
+def reference_prior(n_elements, n_springs, tau=100.0, marginal_std=0.5, spring_std=1.0):
+    """The default GMRF prior precision, tau D^T D + I / marginal_std^2 (first differences), springs 1/spring_std^2."""
+    d = np.diff(np.eye(n_elements), axis=0)
+    q = np.zeros((n_elements + n_springs,) * 2)
+    q[:n_elements, :n_elements] = tau * d.T @ d + np.eye(n_elements) / marginal_std**2
+    q[n_elements:, n_elements:] = np.eye(n_springs) / spring_std**2
+    return q
+
+
+def reference_feasible(positions, supports, subset, *, min_spacing=0.0, costs=None, budget=None, span_min=None,
+                       span_max=None):
+    """The constraints checked directly (a support belongs to the span on its right)."""
+    x = positions[list(subset)]
+    if min_spacing and np.any(np.diff(np.sort(x)) < min_spacing - 1e-9):
+        return False
+    if budget is not None and np.sum(np.asarray(costs)[list(subset)]) > budget + 1e-9:
+        return False
+    counts = np.bincount(np.searchsorted(supports[1:-1], x, side="right"), minlength=len(supports) - 1)
+    if span_min is not None and np.any(counts < span_min):
+        return False
+    return span_max is None or not np.any(counts > span_max)
 
 
 @pytest.mark.parametrize("criterion", ["D", "A", "E", "Ds"])
@@ -55,32 +97,53 @@ def true_efficiency(criterion, value, optimum, n):
 ])
 def test_brute_force_bounds_and_certificates(criterion, constraints):
     # Two-span bridge with springs (so Ds has nuisance parameters), 13
-    # candidates, R = 3: every feasible layout is enumerated.
+    # candidates, R = 3: every feasible layout is enumerated and scored with
+    # the criterion's definition (criterion_value), not with the package's
+    # criterion code; feasibility is checked directly from the constraints.
     case = small_case((12.0, 12.0), 8, rot=(2e9, 0.0, 2e9))
     kwargs = dict(constraints)
     if kwargs.get("costs") == "ramp":
         kwargs["costs"] = 1.0 + np.arange(13) / 6.0
-    result = recommend(case, 3, criterion, springs=criterion == 'Ds', curve_max=0, n_random=20, grid=CandidateGrid(spacing=2.0), constraints=Constraints(**kwargs))
-    problem = build_problem(case, 3, criterion, springs=criterion == 'Ds', grid=CandidateGrid(spacing=2.0), constraints=Constraints(**kwargs))
-    best, best_u, n_feasible = brute_force(problem)
-    assert n_feasible > 0
-    sign = 1.0 if problem.criterion.maximise else -1.0
-    optimum = sign * best_u
+    springs = criterion == "Ds"
+    n_springs = len(case.bridge.spring_parameters) if springs else 0
+    result = recommend(case, 3, criterion, springs=springs, curve_max=0, n_random=20,
+                       grid=CandidateGrid(spacing=2.0), constraints=Constraints(**kwargs))
+    problem = build_problem(case, 3, criterion, springs=springs, grid=CandidateGrid(spacing=2.0),
+                            constraints=Constraints(**kwargs))
+    np.testing.assert_allclose(problem.positions, np.arange(13) * 2.0)
+    np.testing.assert_allclose(problem.q0, reference_prior(case.n_elements, n_springs), rtol=1e-12)
+    supports = case.bridge.support_positions
+    values = {}
+    for subset in itertools.combinations(range(problem.n_candidates), 3):
+        ok = reference_feasible(problem.positions, supports, subset, **kwargs)
+        assert problem.feasible(subset) == ok, subset
+        if ok:
+            q = problem.q0 + problem.blocks[list(subset)].sum(axis=0)
+            values[subset] = criterion_value(criterion, q, n_springs)
+    assert values
+    sign = 1.0 if MAXIMISE[criterion] else -1.0
+    best = max(values, key=lambda k: sign * values[k])
+    optimum = values[best]
     tol = 1e-9 * max(1.0, abs(optimum))
+    # the reported value is the criterion of the reported layout
+    layout = sorted(result.layout_index)
+    q_layout = problem.q0 + problem.blocks[layout].sum(axis=0)
+    assert result.value == pytest.approx(criterion_value(criterion, q_layout, n_springs), rel=1e-9, abs=1e-12)
+    # every constraint respected, positions reported sorted
+    assert tuple(layout) in values
+    np.testing.assert_allclose(problem.positions[layout], result.layout_m)
     # the relaxation bound is never beaten by the brute-force optimum
     assert sign * (result.bound - optimum) >= -tol
     # the brute-force optimum is never beaten by the reported layout
     assert sign * (optimum - result.value) >= -tol
-    # the certified efficiency never exceeds the true efficiency
-    n = problem.criterion.n_effective
-    assert result.efficiency <= true_efficiency(criterion, result.value, optimum, n) + 1e-9
-    # every constraint respected
-    layout = list(result.layout_index)
-    assert problem.feasible(layout)
-    np.testing.assert_allclose(sorted(problem.positions[layout]), result.layout_m)
-    # never worse than a baseline it reports
+    # the certified efficiency never exceeds the true efficiency against the optimum
+    q_opt = problem.q0 + problem.blocks[list(best)].sum(axis=0)
+    assert result.efficiency <= true_efficiency(criterion, q_layout, q_opt, n_springs) + 1e-9
+    # never worse than a baseline it reports, and a baseline's value is that of its layout
     for b in result.baselines:
         if b.feasible:
+            index = tuple(sorted(int(np.argmin(np.abs(problem.positions - x))) for x in b.layout_m))
+            assert b.value == pytest.approx(values[index], rel=1e-9, abs=1e-12), b.name
             assert sign * (result.value - b.value) >= -tol, b.name
 
 
@@ -276,19 +339,30 @@ def test_infeasible_constraints_are_reported():
         recommend(case, 3, 'D', curve_max=0, n_random=5, grid=CandidateGrid(spacing=2.0), constraints=Constraints(min_spacing=15.0))
 
 
-def test_design_result_json_keys_and_curve():
+def test_design_result_json_values_and_curve():
     case = example_case("simply-supported")
     result = recommend(case, 2, 'D', n_random=10, curve_max=4, grid=CandidateGrid(spacing=1.0))
-    d = result.to_dict()
-    for key in ("criterion", "count", "n_params", "layout_m", "value", "bound", "efficiency", "method",
-                "baselines"):
-        assert key in d
-    assert d["layout_m"] == sorted(d["layout_m"])
+    d = json.loads(json.dumps(result.to_dict()))  # what `sensorplan recommend` writes
+    # the JSON carries the result's numbers
+    assert (d["criterion"], d["count"], d["n_params"], d["method"], d["kind"]) == (
+        "D", 2, case.n_elements, result.method, "rotation")
+    assert d["layout_m"] == list(result.layout_m) == sorted(d["layout_m"])
+    assert (d["value"], d["bound"], d["efficiency"]) == (result.value, result.bound, result.efficiency)
+    for b in result.baselines:
+        entry = d["baselines"][b.name]
+        assert entry is None if not b.feasible else (entry["layout_m"], entry["value"]) == (list(b.layout_m), b.value)
+    # reference: log det of the posterior precision of the layout, formed densely from the prior
+    # and the Fisher blocks of two tiltmeters at the recommended positions (the case's noise)
+    sensors = sp.SensorLayout.candidates(result.layout_m, noise_std=case.noise.std[:1].repeat(2))
+    q = reference_prior(case.n_elements, 0) + sp.fisher_blocks(case, sensors=sensors).total()
+    assert d["value"] == pytest.approx(np.linalg.slogdet(q)[1], rel=1e-10)
     assert d["value"] <= d["bound"] and 0.0 < d["efficiency"] <= 1.0
     values = [c.value for c in result.curve]
     bounds = [c.bound for c in result.curve]
     assert [c.count for c in result.curve] == [1, 2, 3, 4]
     assert [c["count"] for c in d["curve"]] == [1, 2, 3, 4]
+    assert [c["value"] for c in d["curve"]] == values and [c["bound"] for c in d["curve"]] == bounds
+    assert values[1] == result.value  # the curve's entry for the requested R is the recommended layout
     assert np.all(np.diff(values) > 0) and np.all(np.array(values) <= np.array(bounds) + 1e-9)
     # diminishing returns of log det (submodularity of the bound curve is not guaranteed, the gains are)
     assert np.all(np.diff(np.diff(bounds)) <= 1e-9)

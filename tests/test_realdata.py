@@ -1,11 +1,16 @@
 """The openLAB PE 2.1 load-test reader and study (studies/realdata/openlab_pe21.py).
 
 The data (Herbers, Richter, Walker, Marx, TU Dresden, DOI 10.25532/OPARA-852,
-CC BY-SA 4.0) are not part of the repository; every test that needs them
-skips when ../shared/realdata/openlab_pe21_static_loadtest is absent.
-Reference values are the approximate plateau medians of the "Quick look"
-table in that folder's SOURCE.md (written by whoever mirrored the data, not
-by us), e.g. step 1: F ~74-75 kN, LWA_1 -0.96, LWA_3 3.15, LWA_4 5.05 mm.
+CC BY-SA 4.0) are not part of the repository.  The checks of the plateaus
+and of the fits run from the derived plateau table the repository ships
+(studies/realdata/derived/openlab_pe21_plateaus.csv, CC BY-SA 4.0 with the
+attribution in derived/README.md), so they run on a fresh clone.  Only the
+checks of the reader itself (that it reproduces the shipped table from the
+raw catman files) skip when ../shared/realdata/openlab_pe21_static_loadtest
+is absent.  Reference values are the approximate plateau medians of the
+"Quick look" table in that folder's SOURCE.md (written by whoever mirrored
+the data, not by us), e.g. step 1: F ~74-75 kN, LWA_1 -0.96, LWA_3 3.15,
+LWA_4 5.05 mm.
 """
 
 import csv
@@ -16,9 +21,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+sys.path.insert(0, str(Path(__file__).parent))
+from realdata_table import plateaus_from_table  # noqa: E402
+
 REPO = Path(__file__).resolve().parents[1]
 SCRIPT = REPO / "studies" / "realdata" / "openlab_pe21.py"
 DATA = REPO.parent / "shared" / "realdata" / "openlab_pe21_static_loadtest"
+DERIVED = REPO / "studies" / "realdata" / "derived"
 
 
 def _load_study():
@@ -34,9 +43,24 @@ study = _load_study()
 
 @pytest.fixture(scope="module")
 def plateaus():
+    """The plateaus of the seven load steps, from the derived table in the repository."""
+    return plateaus_from_table(study)
+
+
+@pytest.fixture(scope="module")
+def raw_plateaus():
+    """The plateaus read from the raw catman files (absent on a fresh clone)."""
     if not DATA.is_dir():
-        pytest.skip(f"openLAB data not available at {DATA}")
+        pytest.skip(f"raw openLAB data not available at {DATA}; the derived table is checked instead")
     return study.read_plateaus(DATA)
+
+
+def test_derived_table_is_shipped_with_its_attribution():
+    assert study.TABLE == DERIVED / "openlab_pe21_plateaus.csv" and study.TABLE.is_file()
+    readme = (DERIVED / "README.md").read_text(encoding="utf-8")
+    for credit in ("Herbers", "Richter", "Walker", "Marx", "TU Dresden", "10.25532/OPARA-852", "CC BY-SA 4.0",
+                   "openlab_pe21_plateaus.csv"):
+        assert credit in readme, credit
 
 
 @pytest.fixture(scope="module")
@@ -104,17 +128,28 @@ def test_force_and_deflection_grow_and_noise_is_small(plateaus):
     assert np.all(np.isfinite(noise)) and np.all(noise > 0) and np.all(noise < 0.5e-3)
 
 
-def test_table_round_trip_and_the_shipped_table_is_current(plateaus, tmp_path):
+def test_table_round_trips_through_the_study_writer(plateaus, tmp_path):
+    # reading the shipped table and writing it with the study's writer reproduces it byte for byte
     path = study.write_table(plateaus, tmp_path / "t.csv")
+    assert path.read_text() == study.TABLE.read_text()
     with open(path) as fh:
         rows = list(csv.DictReader(fh))
     assert [int(r["step"]) for r in rows] == list(range(1, 8))
     assert list(rows[0]) == study.COLUMNS
+
+
+def test_reader_reproduces_the_shipped_table(raw_plateaus, plateaus):
+    # the raw catman files, read again, give the shipped table (to its printed digits)
     with open(study.TABLE) as fh:
         shipped = list(csv.DictReader(fh))
-    for new, old in zip(rows, shipped, strict=True):
-        for key in ["force_N"] + [f"{ch}_m" for ch in study.LASERS]:
-            assert float(new[key]) == pytest.approx(float(old[key]), rel=1e-3, abs=1e-7)
+    for new, old in zip(study.table_rows(raw_plateaus), shipped, strict=True):
+        for key, value in zip(study.COLUMNS, new):
+            if key == "file":
+                assert value == old[key]
+            else:
+                assert float(value) == pytest.approx(float(old[key]), rel=1e-3, abs=1e-7), key
+    for raw, table in zip(raw_plateaus, plateaus, strict=True):
+        np.testing.assert_allclose(raw.end, table.end, atol=2e-7)
 
 
 def test_elastic_fit_reproduces_steps_1_and_2(elastic):
@@ -147,10 +182,17 @@ def test_later_steps_soften(plateaus, elastic):
     assert last.credible_interval(0.95)[1, 1] < first.credible_interval(0.95)[1, 0]
 
 
-def test_study_runs_and_reports(plateaus, tmp_path, capsys):
-    study.main(tmp_path, tmp_path / "table.csv", DATA)
+def test_study_runs_and_reports(plateaus, tmp_path, capsys, monkeypatch):
+    # the whole study, fed the shipped table in place of the raw files when these are absent
+    folder = DATA
+    if not DATA.is_dir():
+        monkeypatch.setattr(study, "read_plateaus", lambda folder=None: plateaus)
+        monkeypatch.setattr(study, "data_dir", lambda folder=None: study.TABLE)
+        folder = None
+    study.main(tmp_path, tmp_path / "table.csv", folder)
     out = capsys.readouterr().out
     for text in ("Elastic reference", "vert_30", "softening: EI 15-30 m at step 7", "load share"):
         assert text in out
+    assert (tmp_path / "table.csv").read_text() == study.TABLE.read_text()
     assert (tmp_path / "openlab_pe21_deflection_lines.png").is_file()
     assert (tmp_path / "openlab_pe21_ei_per_step.png").is_file()

@@ -1,8 +1,10 @@
 """Gap diagnosis on the openLAB PE 2.1 load test with LWA_5 withheld (studies/realdata/openlab_pe21_diagnosis.py).
 
 The data (Herbers, Richter, Walker, Marx, TU Dresden, DOI 10.25532/OPARA-852,
-CC BY-SA 4.0) are not part of the repository; the tests that need them skip
-when ../shared/realdata/openlab_pe21_static_loadtest is absent.
+CC BY-SA 4.0) are not part of the repository; the tests run from the plateau
+table derived from them, which the repository ships
+(studies/realdata/derived/openlab_pe21_plateaus.csv, CC BY-SA 4.0 with the
+attribution in derived/README.md), so they run on a fresh clone.
 
 The finding asserted is the honest one: with the support laser withheld,
 steps 1-2 do not point at the bearing at x = 30 m.  The support spring is not
@@ -11,8 +13,9 @@ because an EI of span 2 about 5 % lower absorbs what the settlement does to LWA_
 except for ~0.03 mm.  With LWA_5 in the data the same refit pins the bearing
 down and reproduces the reading.  The tests use a subset of the effect library
 (the support spring plus the two effects that win on these data) so that they
-run in seconds; with the full library the support spring is not named either
-and dynamic_amplification still ranks first (see the README).
+run in about ten seconds per diagnosis (marked slow); with the full library the
+support spring is not named either and dynamic_amplification still ranks
+first (see the README).
 """
 
 import importlib.util
@@ -22,9 +25,11 @@ from pathlib import Path
 
 import pytest
 
+sys.path.insert(0, str(Path(__file__).parent))
+from realdata_table import plateaus_from_table  # noqa: E402
+
 REPO = Path(__file__).resolve().parents[1]
 SCRIPT = REPO / "studies" / "realdata" / "openlab_pe21_diagnosis.py"
-DATA = REPO.parent / "shared" / "realdata" / "openlab_pe21_static_loadtest"
 
 
 def _load_study():
@@ -40,9 +45,8 @@ study = _load_study()
 
 @pytest.fixture(scope="module")
 def plateaus():
-    if not DATA.is_dir():
-        pytest.skip(f"openLAB data not available at {DATA}")
-    return study.pe21.read_plateaus(DATA)
+    """The plateaus of the seven load steps, from the derived table in the repository."""
+    return plateaus_from_table(study.pe21)
 
 
 @pytest.fixture(scope="module")
@@ -67,6 +71,7 @@ def test_base_model_is_rigid_and_blind_at_30_m():
     assert max(case.sensors.positions) < 30.0
 
 
+@pytest.mark.slow
 def test_withheld_laser_does_not_point_at_the_support(withheld):
     d = withheld.diagnosis
     # the gap of steps 1-2 is not significant: its mean over the steps is ~0 and the
@@ -90,6 +95,7 @@ def test_withheld_laser_does_not_point_at_the_support(withheld):
     assert withheld.vertical.heldout_rms_after > 0.95 * withheld.base_heldout_rms
 
 
+@pytest.mark.slow
 def test_what_wins_is_the_step_to_step_non_linearity(withheld):
     # a per-step response factor (1 + a) absorbs that step 2 is ~15 % more flexible per kN
     amp = study.effect(withheld.diagnosis, "dynamic_amplification").parameters
@@ -98,6 +104,7 @@ def test_what_wins_is_the_step_to_step_non_linearity(withheld):
     assert withheld.diagnosis.effects[0].name == "dynamic_amplification"
 
 
+@pytest.mark.slow
 def test_with_lwa5_the_same_refit_finds_the_bearing(with_lwa5):
     s2 = with_lwa5.supports[2]
     assert s2.information > 0.9
@@ -108,6 +115,7 @@ def test_with_lwa5_the_same_refit_finds_the_bearing(with_lwa5):
     assert 0.5e-3 < with_lwa5.lwa5["slope"] < 0.8e-3
 
 
+@pytest.mark.slow
 def test_ei_absorbs_the_settlement_in_the_kept_lasers(withheld, with_lwa5):
     bridge, ei = study.fitted_model(with_lwa5.case, with_lwa5.diagnosis)
     fp = study.fingerprint(bridge.vertical_springs[2], ei, withheld.crossings)
@@ -117,6 +125,7 @@ def test_ei_absorbs_the_settlement_in_the_kept_lasers(withheld, with_lwa5):
     assert 0.9 < fp["ei_rigid"][1] / ei[1] < 1.0  # span 2 a few per cent softer instead
 
 
+@pytest.mark.slow
 def test_report_prints(withheld, capsys):
     study.print_outcome(withheld)
     out = capsys.readouterr().out

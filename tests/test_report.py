@@ -1,4 +1,9 @@
-"""The HTML report, checked as a user sees it."""
+"""The HTML report, checked as a user sees it.
+
+Building a report runs a recommendation, a verification and (with data) an
+inversion and a diagnosis: every test here takes more than 10 s and is
+marked slow.
+"""
 
 import base64
 import re
@@ -7,10 +12,18 @@ import subprocess
 from html.parser import HTMLParser
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from sensorplan.io.config import EXAMPLES
+import sensorplan as sp
 from sensorplan.cli import main
+from sensorplan.report import build_report
+
+_NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
+
+
+def numbers(text):
+    return [float(x) for x in _NUMBER.findall(text)]
 
 ARTIFACTS = Path(__file__).resolve().parents[1] / "test-artifacts"
 
@@ -19,9 +32,14 @@ class _Collector(HTMLParser):
     def __init__(self):
         super().__init__()
         self.h2, self.images, self.captions, self._in = [], [], [], None
+        self.rows, self._cell = [], None  # table rows as lists of cell texts
 
     def handle_starttag(self, tag, attrs):
         attrs = dict(attrs)
+        if tag == "tr":
+            self.rows.append([])
+        if tag in ("td", "th"):
+            self._cell = ""
         if tag == "img":
             self.images.append(attrs.get("src", ""))
         if tag in ("h2", "figcaption"):
@@ -33,31 +51,50 @@ class _Collector(HTMLParser):
     def handle_endtag(self, tag):
         if tag == self._in:
             self._in = None
+        if tag in ("td", "th") and self._cell is not None:
+            self.rows[-1].append(self._cell.strip())
+            self._cell = None
 
     def handle_data(self, data):
+        if self._cell is not None:
+            self._cell += data
         if self._in == "h2":
             self.h2[-1] += data
         elif self._in == "figcaption":
             self.captions[-1] += data
 
 
-def _parse(path):
+def _parse(path_or_html):
     parser = _Collector()
-    parser.feed(path.read_text(encoding="utf-8"))
+    parser.feed(path_or_html if isinstance(path_or_html, str) else path_or_html.read_text(encoding="utf-8"))
     return parser
 
 
+def _row(parsed, first):
+    """The cells after the first of the (unique) table row whose first cell is ``first``
+    (outside the verification table, whose cells read "mean ± se")."""
+    rows = [r[1:] for r in parsed.rows if r and r[0] == first and "±" not in "".join(r)]
+    assert len(rows) == 1, f"{len(rows)} rows start with {first!r}"
+    return rows[0]
+
+
 @pytest.fixture(scope="module")
-def report_with_data(tmp_path_factory):
-    out = tmp_path_factory.mktemp("report")
-    data = out / "data.csv"
-    assert main(["simulate", "--example", "openlab-like", "--crossings", "3", "--noise", "--seed", "1",
-                 "--out", str(data), "--quiet"]) == 0
-    assert main(["report", "--example", "openlab-like", "--data", str(data), "--scenarios", "2",
-                 "--out", str(out), "--quiet"]) == 0
-    return out / "report.html"
+def built_report(tmp_path_factory):
+    """A report with data, built in Python so that the results it shows are at hand."""
+    case = sp.example_case("openlab-like")
+    data = sp.simulate_crossings(case, 3, noise=True, rng=1)
+    report = build_report(case, data=data, n_scenarios=2)
+    path = tmp_path_factory.mktemp("report") / "report.html"
+    path.write_text(report.html, encoding="utf-8")
+    return report, path
 
 
+@pytest.fixture(scope="module")
+def report_with_data(built_report):
+    return built_report[1]
+
+
+@pytest.mark.slow
 def test_report_sections_and_embedded_figures(report_with_data):
     parsed = _parse(report_with_data)
     assert parsed.h2 == ["Bridge and load model", "Informativeness of candidate positions",
@@ -71,12 +108,54 @@ def test_report_sections_and_embedded_figures(report_with_data):
     assert all("Reading guide:" in c for c in parsed.captions)
 
 
-@pytest.mark.parametrize("example", EXAMPLES)
-def test_report_on_every_example(example, tmp_path):
-    assert main(["report", "--example", example, "--count", "2", "--scenarios", "2", "--out", str(tmp_path),
-                 "--quiet"]) == 0
+@pytest.mark.slow
+def test_report_shows_the_computed_results(built_report):
+    # the numbers in the HTML are those of the results the report was built from
+    report, _ = built_report
+    parsed = _parse(report.html)
+    design, verification, posterior, diagnosis = report.design, report.verification, report.posterior, report.diagnosis
+    np.testing.assert_allclose(numbers(_row(parsed, "positions [m]")[0]), design.layout_m, atol=0.005)
+    assert numbers(_row(parsed, "D criterion of the layout")[0])[0] == pytest.approx(design.value, rel=1e-5)
+    assert numbers(_row(parsed, "relaxation bound (no layout can do better)")[0])[0] == pytest.approx(
+        design.bound, rel=1e-5)
+    assert numbers(_row(parsed, "certified efficiency (a lower bound)")[0])[0] == pytest.approx(
+        100 * design.efficiency, abs=0.005)
+    for b in design.baselines:
+        cells = _row(parsed, b.name)
+        if b.feasible:
+            assert numbers(cells[0])[0] == pytest.approx(b.value, rel=1e-5)
+            np.testing.assert_allclose(numbers(cells[1]), b.layout_m, atol=0.005)
+    # verification: one row per verified layout (recommended first), mean ± se per metric
+    names = ["recommended"] + [b.name for b in design.baselines if b.feasible]
+    assert len(verification.layouts) == len(names)
+    metrics = ("rmse", "localisation_error_m", "detection_rate", "false_alarm_rate", "coverage95", "band_width")
+    verification_rows = [r for r in parsed.rows if r and r[0] in names and "±" in "".join(r)]
+    assert [r[0] for r in verification_rows] == names
+    for row, score in zip(verification_rows, verification.layouts):
+        shown = np.array([numbers(cell) for cell in row[1:]])
+        np.testing.assert_allclose(shown[:, 0], [score.metrics[m].mean for m in metrics], atol=5e-4)
+        np.testing.assert_allclose(shown[:, 1], [score.metrics[m].se for m in metrics], atol=5e-4)
+    # identified EI: one row per element, mean and 95 % interval
+    ci = posterior.credible_interval(0.95)
+    for j, (a, b) in enumerate(zip(posterior.edges[:-1], posterior.edges[1:])):
+        shown = numbers(" ".join(_row(parsed, f"{a:.2f}-{b:.2f}")))  # mean, 95 % low, high, nominal
+        np.testing.assert_allclose(shown, [posterior.ei_mean[j], *ci[j], posterior.ei_nominal[j]], rtol=5e-4)
+    # diagnosis: the verdict and every effect's log Bayes factor
+    assert f"Verdict: {diagnosis.verdict}" in report.html.replace("&#x27;", "'")
+    for effect in diagnosis.effects:
+        assert numbers(_row(parsed, effect.name)[0])[0] == pytest.approx(effect.log_bayes_factor, abs=0.005)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("example", sp.EXAMPLES)
+def test_report_on_every_example(example, tmp_path, capsys):
+    assert main(["report", "--example", example, "--count", "2", "--scenarios", "2", "--out", str(tmp_path)]) == 0
     parsed = _parse(tmp_path / "report.html")
     assert len(parsed.h2) == 4 and "Recommended layout and certificate" in parsed.h2
+    # the layout printed on the console is the one in the report
+    printed = capsys.readouterr().out
+    line = next(x for x in printed.splitlines() if x.startswith("  positions [m]: "))
+    assert numbers(_row(parsed, "positions [m]")[0]) == numbers(line)
 
 
 def _browser():
@@ -87,6 +166,7 @@ def _browser():
     return None
 
 
+@pytest.mark.slow
 def test_report_renders_in_headless_chromium(report_with_data, tmp_path):
     browser = _browser()
     if browser is None:

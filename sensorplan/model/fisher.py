@@ -130,7 +130,8 @@ def fisher_blocks(case: "Case", *, sensors: "SensorLayout | None" = None, noise:
         Sensors or candidate positions (default: the case's sensors).
     noise : NoiseModel, optional
         Must match ``sensors`` (default: the case's noise, or a noise model
-        built from ``sensors.noise_std``).
+        built from ``sensors.noise_std``, or else for each sensor the median
+        noise of the case's sensors of its kind, :meth:`Case.noise_std_for`).
     ei : array_like, optional
         EI at which to evaluate (default: the nominal).
     parameterisation : {"compliance", "ei", "log_ei"}
@@ -176,8 +177,8 @@ def _resolve_noise(case, sensors, noise):
     corr = 0.0 if case.noise is None else case.noise.correlation_length
     if sensors.noise_std is not None:
         return NoiseModel(sensors.noise_std, corr)
-    if case.noise is not None:
-        return NoiseModel(np.full(sensors.n_sensors, float(np.median(case.noise.std))), corr)
+    if case.noise is not None:  # new sensors: the median noise of the case's sensors of the same kind
+        return NoiseModel(np.array([case.noise_std_for(kind) for kind in sensors.kinds]), corr)
     raise ConfigError("No noise level is known for the sensors; set noise_std in [sensors].")
 
 

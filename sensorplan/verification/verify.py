@@ -55,7 +55,7 @@ class _Task:
 @single_threaded
 def _run_task(task, *, posterior=False):
     case = task.case
-    std = float(np.median(case.noise.std)) if task.noise_std is None else float(task.noise_std)
+    std = case.noise_std_for(task.kind, task.noise_std)  # the median of the case's sensors of that kind
     sensors = SensorLayout.candidates(list(task.layout), task.kind, noise_std=[std] * len(task.layout))
     noise = NoiseModel(sensors.noise_std, case.noise.correlation_length)
     case = replace(case, sensors=sensors, noise=noise)
@@ -128,7 +128,7 @@ def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float]]", *, names:
     Parameters
     ----------
     case : Case
-        Model, inversion mesh and noise (median std of the case's sensors).
+        Model, inversion mesh and noise (correlation length, and the noise std of the layouts' sensors).
     layouts : sequence of sequence of float
     n_locations : int
         Local-damage locations scanned across the bridge.
@@ -139,7 +139,8 @@ def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float]]", *, names:
     n_crossings : int
     kind : {"rotation", "deflection"}
     noise_std : float, optional
-        Noise std of the sensors [rad or m] (default: median of the case's).
+        Noise std of the sensors [rad or m] (default: :meth:`Case.noise_std_for`, the median
+        of the case's sensors of the same kind).
     seed : int
         Seed of the numpy SeedSequence; results do not depend on the workers.
     executor : concurrent.futures.Executor, optional

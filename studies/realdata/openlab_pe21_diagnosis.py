@@ -345,7 +345,7 @@ def main(folder=None, quick=False):
         o = run(plateaus, ELASTIC_STEPS, effects=[VERTICAL], noise_std=noise)
         s2 = o.supports[2]
         print(f"  {1e3 * noise:.1f} mm: log BF {o.vertical.log_bayes_factor:.3f}, log_k_vert_2 {s2.map:.3f} "
-              f"+- {s2.std:.3f}, gap {'significant' if o.diagnosis.gap['significant'] else 'not significant'}")
+              f"+- {s2.std:.3f}, gap {'significant' if o.diagnosis.gap.significant else 'not significant'}")
 
     print(f"\n=== Contrast: steps {ELASTIC_STEPS} with {WITHHELD} included, all effects ===")
     with5 = run(plateaus, ELASTIC_STEPS, sensors=pe21.LASERS)
