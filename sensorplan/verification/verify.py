@@ -164,8 +164,7 @@ def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float]]", *, names:
         case.bridge.check_on_bridge(layout, "layout", "verify")
     scenarios = make_scenarios(case, n_locations, severity=severity, length=length, n_controls=n_controls)
     seeds = np.random.SeedSequence(seed).spawn(len(scenarios))
-    noise_std = case.noise_std_for(kind, noise_std) if kind in case.sensors.kinds or noise_std is not None \
-        else float(np.median(case.noise.std))
+    noise_std = case.noise_std_for(kind, noise_std)
     tasks = []
     for layout in layout_list:
         # warm start: hyperparameters of a pilot inversion (the first scenario,
