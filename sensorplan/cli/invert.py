@@ -23,6 +23,12 @@ def add_arguments(p):
     add_case_arguments(p)
     p.add_argument("--data", type=Path, required=True, help="crossings CSV (crossing,position_m,<sensors>)")
     p.add_argument("--elements", type=int, help="number of elements of the inversion mesh")
+    p.add_argument("--false-alarm", type=float, default=0.05,
+                   help="false-alarm rate of the damage detector on undamaged bridges (default 0.05)")
+    p.add_argument("--nuisance", choices=["smooth", "levels"], default="smooth",
+                   help="what an undamaged bridge may do: a smooth EI trend per span (default) or one EI "
+                        "factor per span (plus the elastic springs either way)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the detector's threshold simulation (default 0)")
     add_out_arguments(p, json_default="posterior.json")
 
 
@@ -41,7 +47,8 @@ def run(args, out, files):
         case = case.with_mesh(Mesh.uniform(case.bridge, args.elements))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SensorplanWarning)
-        result = invert(case, data, check_scale=str(args.data))
+        result = invert(case, data, check_scale=str(args.data), false_alarm=args.false_alarm,
+                        nuisance=args.nuisance, rng=args.seed)
     for w in caught:
         print(f"sensorplan invert: warning: {w.message}", file=sys.stderr)
     figures = [stage_figure(files, plotting.plot_ei_posterior(result, supports=case.bridge.support_positions),
