@@ -173,8 +173,11 @@ def render_report(analysis):
                      posterior.ei_nominal)]
         sections.append(("Identified EI with credible bands",
                          f"<p>Converged: {posterior.converged}; noise scale {posterior.noise_scale:.3f} of the "
-                         f"configured noise; excluded crossings: {', '.join(posterior.excluded_crossings) or 'none'}."
-                         "</p>" + _figure(plotting.plot_ei_posterior(posterior, supports=supports),
+                         f"configured noise; prior smoothness tau {posterior.tau:.3g} ("
+                         f"{'integrated over its hyper-posterior' if posterior.mixture.n_components > 1 else 'point estimate'}"
+                         f"); excluded crossings: {', '.join(posterior.excluded_crossings) or 'none'}."
+                         "</p>" + "".join(f'<p class="note">Warning: {html.escape(w)}</p>' for w in posterior.warnings)
+                         + _figure(plotting.plot_ei_posterior(posterior, supports=supports),
                                          "Identified flexural rigidity",
                                          "the line is the posterior mean; dark and light bands hold the true EI "
                                          "with 75 % and 95 % probability; wide bands mark what the data cannot "

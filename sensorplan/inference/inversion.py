@@ -295,7 +295,7 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
                          noise_configured=case.noise is not None, tau_at_bound=fit.mass_at_bound > 1e-3,
                          tau_side="flat" if fit.flat_side else "rough")
     for text in trust:
-        warnings.warn(f"sensorplan invert: {text}", SensorplanWarning, stacklevel=2)
+        warnings.warn(text, SensorplanWarning, stacklevel=2)
     return PosteriorResult(
         edges=problem.mesh.edges.copy(), theta=theta, covariance=covariance,
         parameterisation=parameterisation, ei_nominal=problem.ei_nominal,
