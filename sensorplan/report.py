@@ -168,13 +168,17 @@ def render_report(analysis):
                                    "grey dots are the measurements; the orange band is where the model "
                                    "expects 95 % of them.") for name in posterior.sensor_names)
         ci = posterior.credible_interval(0.95)
+        how_tau = ("mode of its hyper-posterior, integrated out" if posterior.mixture.n_components > 1
+                   else f"point estimate by {posterior.hyper_method}")
         erows = [(f"{a:.2f}-{b:.2f}", f"{m:.4g}", f"{lo:.4g}", f"{hi:.4g}", f"{n:.4g}") for a, b, m, lo, hi, n in
                  zip(posterior.edges[:-1], posterior.edges[1:], posterior.ei_mean, ci[:, 0], ci[:, 1],
                      posterior.ei_nominal)]
         sections.append(("Identified EI with credible bands",
                          f"<p>Converged: {posterior.converged}; noise scale {posterior.noise_scale:.3f} of the "
-                         f"configured noise; excluded crossings: {', '.join(posterior.excluded_crossings) or 'none'}."
-                         "</p>" + _figure(plotting.plot_ei_posterior(posterior, supports=supports),
+                         f"configured noise; prior smoothness tau {posterior.tau:.3g} ({how_tau}); "
+                         f"excluded crossings: {', '.join(posterior.excluded_crossings) or 'none'}."
+                         "</p>" + "".join(f'<p class="note">Warning: {html.escape(w)}</p>' for w in posterior.warnings)
+                         + _figure(plotting.plot_ei_posterior(posterior, supports=supports),
                                          "Identified flexural rigidity",
                                          "the line is the posterior mean; dark and light bands hold the true EI "
                                          "with 75 % and 95 % probability; wide bands mark what the data cannot "

@@ -106,6 +106,12 @@ def test_invert_writes_json_and_figures(example, tmp_path, capsys):
                  "--json", str(js), "--out", str(tmp_path / "fig")]) == 0
     result = json.loads(js.read_text())
     # reference: the same inversion through the Python API (the CLI parses and delegates)
+    for key in ("edges_m", "ei_mean", "ei_ci75", "ei_ci95", "springs", "noise_std", "tau",
+                "log_evidence", "converged", "n_iter", "excluded_crossings", "hyper_posterior", "warnings",
+                "damage", "damage_probability"):
+        assert key in result
+    assert result["hyperparameters"] == "integrated" and result["hyper_posterior"]["at_bound"] is False
+    assert abs(sum(result["hyper_posterior"]["weights"]) - 1.0) < 1e-9
     case = example_case(example)
     coarse = case.with_mesh(sp.Mesh.uniform(case.bridge, 12))
     expected = json.loads(json.dumps(sp.invert(coarse, read_crossings(data, case.sensors)).to_dict()))
@@ -120,6 +126,30 @@ def test_invert_writes_json_and_figures(example, tmp_path, capsys):
     assert f"log evidence {result['log_evidence']:.3f}" in printed
     assert f"tau = {result['tau']:.4g}" in printed
     assert "posterior written to" in printed
+
+
+def test_invert_warns_when_the_fit_is_not_to_be_trusted(tmp_path, capsys):
+    import json
+
+    import numpy as np
+
+    import sensorplan as sp
+
+    case = example_case("openlab-like")
+    clean = sp.simulate_crossings(case, 3)
+    rng = np.random.default_rng(5)
+    noisy = sp.Crossings(clean.sensor_names, tuple(  # noise 4 times the configured 5 urad
+        sp.Crossing(c.label, c.positions, c.values + 20e-6 * rng.standard_normal(c.values.shape), c.load_factor)
+        for c in clean))
+    data = tmp_path / "noisy.csv"
+    sp.write_crossings(data, noisy)
+    js = tmp_path / "post.json"
+    assert main(["invert", "--example", "openlab-like", "--data", str(data), "--json", str(js),
+                 "--out", str(tmp_path)]) == 0
+    captured = capsys.readouterr()
+    assert "sensorplan invert: warning: the estimated noise is" in captured.err
+    assert "sensorplan diagnose" in captured.err and "WARNING: the estimated noise" in captured.out
+    assert json.loads(js.read_text())["warnings"][0].startswith("the estimated noise is")
 
 
 def test_invert_rejects_unit_slip(tmp_path, capsys):

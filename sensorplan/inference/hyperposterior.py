@@ -23,9 +23,12 @@ the noise scale alpha) and are integrated out instead of being estimated:
   for any (alpha, tau) (a generalized eigendecomposition of (J^T J, Q(tau))),
   so the mode of the hyper-posterior is found without forward solves, and
   each node starts from the Gauss-Newton step of its neighbour's
-  linearisation: usually one forward + Jacobian evaluation per node confirms
-  the MAP.  A node whose Gauss-Newton steps do not converge falls back to
-  the Levenberg-Marquardt MAP of :func:`solve_map`.
+  linearisation: often one forward + Jacobian evaluation per node confirms
+  the MAP.  Further steps are Gauss-Newton with a backtracking line search;
+  a node where no step decreases the objective falls back to the
+  Levenberg-Marquardt MAP of :func:`solve_map`.  Nodes far in the tails
+  (below e^-5 of the largest weight) are taken from the neighbour's
+  linearisation without a new evaluation.
 
 Owns: the quadrature over log tau.  May import: model, errors.
 """
@@ -42,7 +45,7 @@ from .._errors import DataError
 from .laplace import solve_map
 from .mixture import GaussianMixture
 
-__all__ = ["IntegratedFit", "integrate_problem", "LOG_TAU_BOUNDS"]
+__all__ = ["IntegratedFit", "integrate_problem", "LOG_TAU_BOUNDS", "BOUND_MASS"]
 
 LOG_TAU_BOUNDS = (math.log(1e-8), math.log(1e14))  # hard ends of the grid (those of evidence maximisation)
 NEGLIGIBLE = 10.0  # a node this far (in log weight) below the largest ends the grid in its direction

@@ -36,7 +36,7 @@ from ..model.forward import influence_lines
 from ..model.prior import GMRFPrior, HyperPrior
 from .checks import fit_warnings
 from .damage import damage_hypotheses
-from .hyperposterior import LOG_TAU_BOUNDS, integrate_problem
+from .hyperposterior import BOUND_MASS, LOG_TAU_BOUNDS, integrate_problem
 from .laplace import Linearisation, WhitenedData, fit_problem
 from .mixture import GaussianMixture
 from .posterior import CrossingFit, PosteriorResult
@@ -308,10 +308,10 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
                       "results are reported with converged = false.", SensorplanWarning, stacklevel=2)
     fits = problem.fits(theta, covariance, alpha)
     trust = fit_warnings(problem.noise, fits, problem.sensors.names, noise_scale=alpha,
-                         noise_configured=case.noise is not None, tau_at_bound=fit.mass_at_bound > 1e-3,
-                         tau_side="flat" if fit.flat_side else "rough")
+                         noise_configured=case.noise is not None,
+                         tau_at_bound=fit.mass_at_bound > BOUND_MASS, tau_side="flat" if fit.flat_side else "rough")
     for text in trust:
-        warnings.warn(f"sensorplan invert: {text}", SensorplanWarning, stacklevel=2)
+        warnings.warn(text, SensorplanWarning, stacklevel=2)
     return PosteriorResult(
         edges=problem.mesh.edges.copy(), theta=theta, covariance=covariance,
         parameterisation=parameterisation, ei_nominal=problem.ei_nominal,

@@ -14,6 +14,7 @@ import numpy as np
 from scipy import stats
 
 from .._errors import ConfigError
+from .hyperposterior import BOUND_MASS
 from .mixture import GaussianMixture
 
 __all__ = ["PosteriorResult", "CrossingFit", "linear_gaussian_posterior"]
@@ -168,7 +169,7 @@ class PosteriorResult:
     @property
     def tau_at_bound(self):
         """True when hyper-posterior mass of tau reaches a hard end of its grid (it should not)."""
-        return self.tau_mass_at_bound > 1e-3
+        return self.tau_mass_at_bound > BOUND_MASS
 
     @cached_property
     def ei_mean(self):

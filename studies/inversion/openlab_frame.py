@@ -74,7 +74,7 @@ def main(out):
           f"reference axle {positions[0]:g}-{positions[-1]:g} m ({positions.size} positions)")
     print(f"  prior: nominal EI {NOMINAL_EI:.3g} on both spans, springs nominal "
           f"{bridge.rotational_springs[0]:.3g}, {bridge.rotational_springs[2]:.3g} N m/rad; "
-          "GMRF order 1, noise scale and tau by evidence")
+          "GMRF order 1, noise scale and tau integrated out (hyper-posterior mode of tau shown)")
     results = {}
     for n in MESHES:
         case = replace(example, mesh=sp.Mesh.uniform(bridge, n), ei=NOMINAL_EI)

@@ -6,8 +6,8 @@ x = 12.5-14.5 m, two tiltmeters at x = 4 m and 16 m, one crossing of a
 mesh whose damage edges do not coincide with the 10-element inversion mesh
 (no inverse crime).  For tilt noise sigma = 0.02, 0.01, 0.005, 0.001 mm/m
 the same standard-normal draw is scaled (common random numbers) and EI is
-identified on 10 elements (log-EI GMRF prior, noise scale and tau by
-evidence).  Prints, per sigma, the mean 95 % band width relative to the
+identified on 10 elements (log-EI GMRF prior, noise scale and tau
+integrated out; the tau printed is the mode of its hyper-posterior).  Prints, per sigma, the mean 95 % band width relative to the
 nominal EI, the relative RMSE of the posterior mean against the element
 truth and the EI of the damaged element against its truth, both for the
 figure's noise draw and averaged over further draws, then whether the bands
@@ -90,7 +90,7 @@ def main(out):
           f"x = {DAMAGE[0]:g}-{DAMAGE[1]:g} m; tiltmeters at x = {SENSORS[0]:g}, {SENSORS[1]:g} m")
     print(f"  point load 100 kN, {coarse.sweep.n_loads} positions ({STEP:g} m steps), one crossing; "
           f"truth on {N_FINE} elements, inversion on {N_ELEMENTS} elements "
-          "(log-EI GMRF order 1, noise scale and tau by evidence)")
+          "(log-EI GMRF order 1, noise scale and tau integrated out)")
     print(f"  damaged element {damaged}: x = {coarse.mesh.edges[damaged]:g}-"
           f"{coarse.mesh.edges[damaged + 1]:g} m, element truth (compliance average) "
           f"EI = {truth[damaged]:.4g}")
