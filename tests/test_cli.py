@@ -11,7 +11,7 @@ import sensorplan as sp
 from sensorplan import EXAMPLES, example_case, read_crossings
 from sensorplan.cli import main
 
-_NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
+_NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?|\bnan\b")
 
 
 def numbers(text):
@@ -243,9 +243,16 @@ def test_verify_writes_comparison(example, tmp_path, capsys):
     labels = [first.replace(",", ", "), "1, 2"]
     rows = _summary_rows(printed, labels)
     for label, entry in zip(labels, d["layouts"]):
-        shown = np.array(rows[label]).reshape(-1, 2)
-        np.testing.assert_allclose(shown[:, 0], [entry[m] for m in metrics], atol=5e-4)
-        np.testing.assert_allclose(shown[:, 1], [entry[m + "_se"] for m in metrics], atol=5e-4)
+        values = list(rows[label])
+        # columns: three (mean, se) pairs, the detection limit, three pairs, the non-converged share
+        limit, not_converged = values.pop(6), values.pop()
+        shown = np.array(values).reshape(-1, 2)
+        np.testing.assert_allclose(shown[:, 0], [np.nan if entry[m] is None else entry[m] for m in metrics],
+                                   atol=5e-4)
+        np.testing.assert_allclose(shown[:, 1], [np.nan if entry[m + "_se"] is None else entry[m + "_se"]
+                                                 for m in metrics], atol=5e-4)
+        assert limit == pytest.approx(entry["detection_limit"], abs=5e-4)
+        assert not_converged == pytest.approx(entry["non_converged"], abs=5e-4)
     assert (tmp_path / "verification.png").exists()
     assert "Verification:" in printed
 
