@@ -19,7 +19,7 @@ import sensorplan as sp
 from sensorplan.cli import main
 from sensorplan.report import build_report
 
-_NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
+_NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?|\bnan\b")
 
 
 def numbers(text):

@@ -92,7 +92,7 @@ def sweep(method, cfg, true_mid):
         fine = make_case(N_FINE, r)
         ei_fine = ei_true(fine.mesh.midpoints)
         calib = simulate_crossings(fine, 1, noise=True, rng=CALIBRATION_SEED + r, ei=ei_fine)
-        ref = invert(make_case(N_REF, r), calib, prior=PRIOR, hyper=method)
+        ref = invert(make_case(N_REF, r), calib, prior=PRIOR, hyper=method, detect=False)
         datasets = [simulate_crossings(fine, 1, noise=True, rng=seed, ei=ei_fine)
                     for seed in range(cfg["seeds"])]
         rmse, bias, sd = [], [], []
@@ -101,7 +101,7 @@ def sweep(method, cfg, true_mid):
             mid = int(case.mesh.element_of(L / 2))
             est = []
             for data in datasets:
-                res = invert(case, data, prior=PRIOR, hyper="fixed", tau=ref.tau,
+                res = invert(case, data, prior=PRIOR, hyper="fixed", tau=ref.tau, detect=False,
                              noise_scale=ref.noise_scale)
                 if not res.converged:
                     print(f"  NOTE: R={r}, N={n}: an inversion did not converge")

@@ -395,7 +395,7 @@ def fit(plateaus, *, edges=SPAN_MESH, hyper="fixed", prior=PRIOR, noise_std=NOIS
     if start is not None:
         inside = np.clip(np.searchsorted(start.edges, case.mesh.midpoints) - 1, 0, start.n_elements - 1)
         theta = np.concatenate([start.theta[inside], start.theta[start.n_elements:]])
-    return case, invert(case, make_crossings(plateaus), prior=prior, hyper=hyper, start=theta)
+    return case, invert(case, make_crossings(plateaus), prior=prior, hyper=hyper, start=theta, detect=False)
 
 
 def fitted_bridge(case, result):
