@@ -191,7 +191,8 @@ def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float]]", *, names:
     n = len(scenarios)
     scores = tuple(_aggregate(layout, results[k * n:(k + 1) * n],
                               detection_limit(case, layout, scenarios, kind=kind, noise_std=noise_std,
-                                              n_crossings=int(n_crossings), false_alarm=false_alarm))
+                                              n_crossings=int(n_crossings), false_alarm=false_alarm,
+                                              nuisance=nuisance))
                    for k, layout in enumerate(layout_list))
     return VerificationResult(scores, tuple(scenarios), int(n_crossings), int(seed), float(severity),
                               float(length), tuple(names) if names else (), float(false_alarm), nuisance)
