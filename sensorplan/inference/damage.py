@@ -7,19 +7,22 @@ narrow.  Hypothesis h says "there is a loss with sharp edges on the zone
 the zone's two edges (the zone's level floats, held only by the proper
 marginal part), a rank-r downdate Q_h = Q - U U^T of the prior precision.
 For each component k of the posterior (a Laplace posterior N(theta_k, C_k)
-at a node tau_k), the posterior under h of the model linearised at theta_k
-is Gaussian with, by one exact Newton step,
+at a node tau_k, noise scale alpha_k), with H_k = J^T J / alpha_k^2 + Q_k
+rebuilt from the data information J^T J at the posterior mean (inverting
+C_k instead loses accuracy when tau is large), the posterior under h of the
+model linearised at theta_k is Gaussian with, by one exact Newton step,
 
-    H_h = C_k^{-1} - U U^T,   C_h = H_h^{-1},
-    theta_h = theta_k + C_h U U^T (theta_k - theta_0),
+    H_h = H_k - U U^T,   C_h = C_k + H_k^-1 U (I - U^T H_k^-1 U)^-1 U^T H_k^-1,
+    theta_h = theta_k + H_h^-1 g,   g = U U^T d,   d = theta_k - theta_0,
 
 and its log evidence relative to component k is
 
-    1/2 d^T g + 1/2 g^T C_h g + 1/2 log det Q_h / det Q_k
-    - 1/2 log det H_h / det C_k^{-1},     d = theta_k - theta_0, g = U U^T d
+    1/2 d^T g + 1/2 g^T H_h^-1 g + 1/2 log det(I - U^T Q_k^-1 U)
+    - 1/2 log det(I - U^T H_k^-1 U).
 
-(the precisions are downdated rather than the covariances by Woodbury,
-which loses accuracy when tau is large).
+Zones with the same number of released rows are evaluated together (all
+the small r x r matrices at once); covariances are built only for the
+components that are kept.
 
 The posterior averages the components: the undamaged ones with prior mass
 1 - p and the zones with p / H each (p = ``prior_damage``, H zones), weighted
@@ -154,23 +157,3 @@ def damage_hypotheses(weights, thetas, covariances, taus, noise_scales, theta0, 
     zone = np.array([candidates[i][2] for i in chosen])
     return w, np.asarray(new_thetas), np.asarray(new_covs), comp, zone, damage_probability
 
-
-def _inverse(matrix):
-    """Inverse of a symmetric positive definite matrix, symmetrised."""
-    out = scipy.linalg.cho_solve(scipy.linalg.cho_factor(0.5 * (matrix + matrix.T)), np.eye(matrix.shape[0]))
-    return 0.5 * (out + out.T)
-
-
-def _logdet(matrix):
-    return 2.0 * float(np.sum(np.log(np.diag(np.linalg.cholesky(0.5 * (matrix + matrix.T))))))
-
-
-def _released(q, n_elements, order, d_op, tau, i0, i1):
-    """Q_h: the prior precision ``q`` without the difference terms crossing element edges i0 and i1."""
-    rows = np.unique(np.concatenate([_edge_rows(n_elements, order, e) for e in (i0, i1) if 0 < e < n_elements]
-                                    or [np.zeros(0, int)]))
-    if rows.size == 0:
-        return None
-    out = q.copy()
-    out[:n_elements, :n_elements] -= tau * (d_op[rows].T @ d_op[rows])
-    return out
