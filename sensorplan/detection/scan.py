@@ -19,11 +19,18 @@ rate q is the (1 - q) quantile of the maximum of that Gaussian vector,
 computed by simulation with an explicit rng.
 
 When the statistic exceeds the threshold, the zone, its length and the loss
-are estimated by Bayesian model averaging over the zones: each zone's
-marginal likelihood under a Gaussian prior on r (std ``loss_prior_std``)
-weights the zone's Gaussian posterior of r; the 95 % interval of the loss
-s = r / (1 + r) is the mixture's 2.5 and 97.5 % quantiles.  The weights are
-also what the damage-aware EI bands average over.
+are estimated by Bayesian model averaging over the zones, with proper priors
+on everything that is averaged: every scanned length has the same prior
+mass, spread evenly over its centres (so that short zones, which are more
+numerous, are not favoured), and the lost fraction s = r / (1 + r) is
+uniform on (0, ``max_loss``).  In the model linearised at the null fit the
+likelihood of r in zone h is exp(b_h r - a_h r^2 / 2) with
+b_h = u_h^T e / alpha^2 and a_h = ||u_h||^2 / alpha^2; it is integrated
+over s on a fine grid, which gives each zone's marginal likelihood and its
+posterior of s.  A shorter, deeper loss often explains the data as well as
+the true one (only about r times the length is well determined), so the
+95 % interval of s is taken from the mixture over all zones and lengths
+(its 2.5 and 97.5 % quantiles), which carries that ambiguity.
 
 Owns: the null fit under the nuisance, the scan, the threshold, the estimates.
 May import: model and the foundations.
@@ -33,7 +40,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.optimize
 import scipy.special
 
 from .._errors import ConfigError
@@ -59,7 +65,7 @@ class DamageDetection:
     p_value : float
         Null probability of a larger statistic (simulated).
     centre_m, length_m : float or None
-        Most probable zone (when detected).
+        Posterior median of the zone's centre and the most probable length (when detected).
     centre_ci95 : (float, float) or None
         95 % interval of the centre over the zones' posterior weights.
     loss, loss_ci95 : float, (float, float) or None
@@ -71,7 +77,7 @@ class DamageDetection:
     weights : ndarray (H,)
         Posterior probability of each zone given a loss (sums to 1).
     posterior_loss : ndarray (H, 2)
-        Mean and std of r = s / (1 - s) per zone.
+        Posterior mean and std of the lost fraction s per zone.
     nuisance : str
     noise_scale : float
         alpha of the null fit.
@@ -115,12 +121,12 @@ class DamageDetection:
 
 
 def scan_lengths(bridge, mesh):
-    """Zone lengths scanned: doubling from max(0.5 m, shortest element) up to a third of the shortest span."""
+    """Zone lengths scanned: from max(0.5 m, shortest element), growing by sqrt(2), up to a third of the shortest span."""
     spans = np.diff(bridge.support_positions)
     first = max(_MIN_LENGTH, float(np.min(mesh.lengths)))
     out = [first]
-    while out[-1] * 2 <= spans.min() / 3 + 1e-9:
-        out.append(out[-1] * 2)
+    while out[-1] * math.sqrt(2.0) <= spans.min() / 3 + 1e-9:
+        out.append(out[-1] * math.sqrt(2.0))
     return tuple(out)
 
 
@@ -229,7 +235,7 @@ class _NullModel:
 
 
 def detect_damage(case, crossings, *, false_alarm=0.05, nuisance="smooth", lengths=None, n_null=20000,
-                  rng=0, loss_prior_std=0.5):
+                  rng=0, max_loss=1.0):
     """Scan test for a local loss of unknown location and length (see the module docstring).
 
     Parameters
@@ -248,13 +254,15 @@ def detect_damage(case, crossings, *, false_alarm=0.05, nuisance="smooth", lengt
     n_null : int
         Null draws of the threshold simulation.
     rng : seed or Generator
-    loss_prior_std : float
-        Prior std of the relative compliance increase r in the estimates.
+    max_loss : float
+        Upper end of the uniform prior of the lost fraction in the estimates.
 
     Returns
     -------
     DamageDetection
     """
+    if not 0.0 < max_loss <= 1.0:
+        raise ConfigError(f"The 'max_loss' parameter must be in (0, 1]. Got {max_loss!r} instead.")
     if not 0.0 < false_alarm < 0.5:
         raise ConfigError(f"The 'false_alarm' rate must be in (0, 0.5). Got {false_alarm!r} instead.")
     rng = np.random.default_rng(rng)
@@ -280,30 +288,24 @@ def detect_damage(case, crossings, *, false_alarm=0.05, nuisance="smooth", lengt
     null_max = _null_maxima(u / norms, n_null, rng)
     threshold = float(np.quantile(null_max, 1.0 - false_alarm))
     p_value = float((1 + np.sum(null_max >= statistic)) / (1 + null_max.size))
-    # Bayesian model average over zones: r | h ~ N(mean, var), weights from the marginal likelihoods
-    prec = norms**2 / alpha**2 + 1.0 / loss_prior_std**2
-    mean = (proj / alpha**2) / prec
-    log_bf = 0.5 * mean**2 * prec - 0.5 * np.log(prec * loss_prior_std**2)
-    # one-sided (a loss, r > 0): the prior is a half-normal, so each zone's evidence carries P(r > 0 | h)
-    log_bf += scipy.special.log_ndtr(mean * np.sqrt(prec)) + math.log(2.0)
-    weights = np.exp(log_bf - log_bf.max())
-    weights /= weights.sum()
+    weights, grid, density = _zone_posteriors(proj, norms, alpha, zones, max_loss)
     detected = statistic > threshold
     centre = length = centre_ci = loss = loss_ci = None
     if detected:
-        best = int(np.argmax(weights))
-        centre = float(zones[best].mean())
-        length = float(zones[best, 1] - zones[best, 0])
+        spans = np.round(zones[:, 1] - zones[:, 0], 9)
+        by_length = {x: float(weights[spans == x].sum()) for x in np.unique(spans)}
+        length = float(max(by_length, key=by_length.get))  # the most probable length
         centres = zones.mean(axis=1)
         order = np.argsort(centres)
         cdf = np.cumsum(weights[order])
-        centre_ci = (float(centres[order][np.searchsorted(cdf, 0.025)]),
-                     float(centres[order][min(np.searchsorted(cdf, 0.975), cdf.size - 1)]))
-        sd = 1.0 / np.sqrt(prec)
-        r_lo, r_mid, r_hi = (_truncated_mixture_quantile(weights, mean, sd, p) for p in (0.025, 0.5, 0.975))
-        loss, loss_ci = r_mid / (1 + r_mid), (r_lo / (1 + r_lo), r_hi / (1 + r_hi))
+        centre, *centre_ci = (float(centres[order][min(np.searchsorted(cdf, p), cdf.size - 1)])
+                              for p in (0.5, 0.025, 0.975))  # posterior median and 95 % interval
+        loss_cdf = np.cumsum(weights @ density)
+        lo, loss, hi = (_grid_quantile(grid, loss_cdf, p) for p in (0.025, 0.5, 0.975))
+        loss_ci = (lo, hi)
+    moments = np.column_stack([density @ grid, np.sqrt(np.clip(density @ grid**2 - (density @ grid) ** 2, 0, None))])
     return DamageDetection(bool(detected), float(false_alarm), statistic, threshold, p_value, centre, length,
-                           centre_ci, loss, loss_ci, zones, scores, weights, np.column_stack([mean, 1 / np.sqrt(prec)]),
+                           tuple(centre_ci) if centre_ci else None, loss, loss_ci, zones, scores, weights, moments,
                            nuisance, float(alpha))
 
 
@@ -320,12 +322,27 @@ def _null_maxima(unit, n, rng, chunk=2000):
     return out
 
 
-def _truncated_mixture_quantile(weights, mean, sd, p):
-    """Quantile p of the mixture of N(mean_h, sd_h) truncated to r > 0 (weights w_h)."""
-    tail = scipy.special.ndtr(mean / sd)  # P(r > 0 | h)
+_N_GRID = 4000  # midpoints of the grid over the lost fraction
 
-    def cdf(x):
-        return float(np.sum(weights * (scipy.special.ndtr((x - mean) / sd) - (1 - tail)) / np.maximum(tail, 1e-300)))
 
-    hi = float(np.max(mean + 8 * sd))
-    return float(scipy.optimize.brentq(lambda x: cdf(x) - p, 0.0, max(hi, 1e-6)))
+def _zone_posteriors(proj, norms, alpha, zones, max_loss):
+    """Posterior zone weights and, per zone, the posterior of the lost fraction on a grid (see the docstring).
+
+    Returns (weights (H,), grid (G,), density (H, G)); each row of density sums to 1.
+    """
+    grid = max_loss * (np.arange(_N_GRID) + 0.5) / _N_GRID
+    r = grid / (1.0 - grid)
+    log_like = (proj / alpha**2)[:, None] * r[None] - 0.5 * (norms**2 / alpha**2)[:, None] * r[None] ** 2
+    log_evidence = scipy.special.logsumexp(log_like, axis=1)  # uniform prior: the grid's mean, up to a constant
+    density = np.exp(log_like - log_evidence[:, None])
+    lengths = np.round(zones[:, 1] - zones[:, 0], 9)
+    _, group, counts = np.unique(lengths, return_inverse=True, return_counts=True)
+    log_post = log_evidence - np.log(counts[group])  # equal mass per length, even over its centres
+    weights = np.exp(log_post - log_post.max())
+    return weights / weights.sum(), grid, density
+
+
+def _grid_quantile(grid, cdf, p):
+    """Quantile p of the distribution with mass cdf[i] - cdf[i - 1] in the grid cell around grid[i] (even cells)."""
+    half = 0.5 * (grid[1] - grid[0])
+    return float(np.interp(p * cdf[-1], np.concatenate([[0.0], cdf]), np.concatenate([[grid[0] - half], grid + half])))

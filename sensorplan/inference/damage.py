@@ -2,51 +2,103 @@
 
 The GMRF prior penalises every jump of log EI between neighbouring
 elements, so a sharp local loss is smeared and the bands around it are too
-narrow.  Hypothesis h says "there is a loss with sharp edges on the zone
-[a_h, b_h]": its prior is the GMRF without the difference terms that cross
-the zone's two edges (the zone's level floats, held only by the proper
-marginal part), a rank-r downdate Q_h = Q - U U^T of the prior precision.
+narrow.  Hypothesis h says "on top of the smooth field there is a loss over
+the zone [a_h, b_h]": log EI = eta + s v_h, with eta the GMRF field, v_h the
+fraction of each element inside the zone (not snapped to the mesh) and a
+step s <= 0 of log EI whose size has a proper prior, half-normal with std
+``loss_log_std`` (a loss of 1 - exp(-0.5) = 39 % at one std).  Because the
+step's size has a proper prior, a hypothesis pays an Occam factor: a zone
+whose step the data determine to within sigma_post while finding none keeps
+about sigma_post / loss_log_std of its prior mass, and a zone where the data
+point to an increase of EI keeps even less (the one-sided prior).
+
 For each component k of the posterior (a Laplace posterior N(theta_k, C_k)
-at a node tau_k, noise scale alpha_k), with H_k = J^T J / alpha_k^2 + Q_k
-rebuilt from the data information J^T J at the posterior mean (inverting
-C_k instead loses accuracy when tau is large), the posterior under h of the
-model linearised at theta_k is Gaussian with, by one exact Newton step,
+at a node tau_k, noise scale alpha_k), with A = J^T J / alpha_k^2 the data
+information at the posterior mean, H_k = A + Q_k and w = Q_k v, the model
+linearised at theta_k gives exactly (s and the field integrated jointly):
 
-    H_h = H_k - U U^T,   C_h = C_k + H_k^-1 U (I - U^T H_k^-1 U)^-1 U^T H_k^-1,
-    theta_h = theta_k + H_h^-1 g,   g = U U^T d,   d = theta_k - theta_0,
+    theta | s ~ N(theta_k + s x, H_k^-1),   x = H_k^-1 w,
+    s ~ N(m_s, 1 / p_s) before truncation,  p_s = 1 / sigma^2 + x^T A v,  m_s = w^T d / p_s,
 
-and its log evidence relative to component k is
+with d = theta_k - theta_0 (x^T A v = v^T (Q - Q H^-1 Q) v, written without
+the cancellation), and the Bayes factor of h against component k
 
-    1/2 d^T g + 1/2 g^T H_h^-1 g + 1/2 log det(I - U^T Q_k^-1 U)
-    - 1/2 log det(I - U^T H_k^-1 U).
+    B = sqrt(sigma^-2 / p_s) exp(m_s^2 p_s / 2) * 2 Phi(-m_s sqrt(p_s)).
 
-Zones with the same number of released rows are evaluated together (all
-the small r x r matrices at once); covariances are built only for the
-components that are kept.
+The component of h is the moment-matched Gaussian of theta: mean
+theta_k + E[s] x, covariance C_k + Var[s] x x^T, with the moments of the
+truncated normal of s.  All zones of a component are evaluated at once (one
+solve with H_k for all zones); no forward evaluation is needed.
 
 The posterior averages the components: the undamaged ones with prior mass
 1 - p and the zones with p / H each (p = ``prior_damage``, H zones), weighted
-by their evidence.  No forward evaluation is needed.
+by their evidence.
 
 Owns: damage hypotheses in the EI posterior.  May import: model, detection and the foundations.
 """
 
 import numpy as np
 import scipy.linalg
+from scipy import special
 
-from ..model.prior import difference_operator
+__all__ = ["damage_hypotheses", "zone_fractions"]
 
-__all__ = ["damage_hypotheses"]
+_LOG2 = float(np.log(2.0))
 
 
-def _edge_rows(n_elements, order, edge):
-    """Rows of the difference operator that couple elements on both sides of element edge ``edge``."""
-    rows = np.arange(n_elements - order)
-    return rows[(rows < edge) & (rows + order >= edge)]
+def zone_fractions(edges, zones):
+    """Fraction of each element inside each zone, shape (H, n_elements)."""
+    edges = np.asarray(edges, dtype=float)
+    zones = np.atleast_2d(np.asarray(zones, dtype=float))
+    lo = np.maximum(zones[:, :1], edges[None, :-1])
+    hi = np.minimum(zones[:, 1:], edges[None, 1:])
+    return np.clip(hi - lo, 0.0, None) / np.diff(edges)[None, :]
+
+
+def _truncated_moments(mean, precision):
+    """Mean and variance of N(mean, 1 / precision) truncated to s <= 0, and log P(s <= 0)."""
+    sd = 1.0 / np.sqrt(precision)
+    beta = -mean / sd  # standardised upper bound
+    log_mass = special.log_ndtr(beta)
+    ratio = np.exp(-0.5 * beta**2 - 0.5 * np.log(2.0 * np.pi) - log_mass)  # phi(beta) / Phi(beta)
+    e_s = mean - sd * ratio
+    var = sd**2 * np.clip(1.0 - beta * ratio - ratio**2, 0.0, None)
+    return e_s, var, log_mass
+
+
+def step_evidence(information, q_k, theta_k, theta0, fractions, loss_log_std, min_information=2.0):
+    """Log Bayes factor of a step in each zone against component k, and the step's posterior.
+
+    Parameters
+    ----------
+    information : ndarray (P, P)
+        A = J^T J / alpha_k^2.
+    q_k : ndarray (P, P)
+        Prior precision at the component's tau.
+    theta_k, theta0 : ndarray (P,)
+    fractions : ndarray (H, P)
+        v_h (zeros on the spring parameters).
+    loss_log_std : float
+        sigma of the half-normal prior of -s.
+
+    Returns
+    -------
+    (log_bf, x, e_s, var_s) with shapes (H,), (P, H), (H,), (H,).
+    """
+    v = fractions.T
+    w = q_k @ v
+    x = scipy.linalg.cho_solve(scipy.linalg.cho_factor(information + q_k), w)
+    prec_prior = 1.0 / loss_log_std**2
+    p_s = prec_prior + np.clip(np.einsum("ph,ph->h", x, information @ v), 0.0, None)
+    m_s = (w.T @ (theta_k - theta0)) / p_s
+    e_s, var_s, log_mass = _truncated_moments(m_s, p_s)
+    log_bf = 0.5 * np.log(prec_prior / p_s) + 0.5 * m_s**2 * p_s + _LOG2 + log_mass
+    return log_bf, x, e_s, var_s, p_s >= min_information * prec_prior
 
 
 def damage_hypotheses(weights, thetas, covariances, taus, noise_scales, theta0, information, *, prior, n_elements,
-                      edges, zones, prior_damage=0.5, keep=0.999, max_components=300):
+                      edges, zones, prior_damage=0.5, loss_log_std=0.5, min_information=2.0, keep=0.999,
+                      max_components=300):
     """Extend a posterior mixture with damage hypotheses (see the module docstring).
 
     Parameters
@@ -62,11 +114,13 @@ def damage_hypotheses(weights, thetas, covariances, taus, noise_scales, theta0, 
     prior : GMRFPrior
     n_elements : int
     edges : ndarray (n_elements + 1,)
-        Element edges [m]; zones are snapped to them.
+        Element edges [m].
     zones : ndarray (H, 2)
         Candidate damaged zones [start, stop] [m].
     prior_damage : float
         Prior probability that some zone is damaged.
+    loss_log_std : float
+        Std of the half-normal prior of the loss's step in log EI.
     keep, max_components :
         Components are kept, largest weight first, up to this share of the
         total weight and at most this many.
@@ -78,82 +132,46 @@ def damage_hypotheses(weights, thetas, covariances, taus, noise_scales, theta0, 
         component comes from; zone_index: -1 for the undamaged ones) and the
         posterior probability of a damaged zone.
     """
-    d_op = difference_operator(n_elements, prior.order).toarray()
     n_params = thetas.shape[1]
-    snapped = {}
-    for a, b in np.asarray(zones, dtype=float):
-        i0, i1 = int(np.argmin(np.abs(edges - a))), int(np.argmin(np.abs(edges - b)))
-        if i0 < i1 and not (i0 == 0 and i1 == n_elements):
-            snapped.setdefault((i0, i1), len(snapped))
-    zone_edges = list(snapped)
-    n_zones = max(len(zone_edges), 1)
-    zone_rows = []
-    for i0, i1 in zone_edges:
-        rows = [_edge_rows(n_elements, prior.order, e) for e in (i0, i1) if 0 < e < n_elements]
-        zone_rows.append(np.unique(np.concatenate(rows)) if rows else np.zeros(0, int))
-    by_size = {}
-    for h, rows in enumerate(zone_rows):
-        if rows.size:
-            by_size.setdefault(rows.size, []).append(h)
-    groups = [(np.array([zone_rows[h] for h in ids]), np.array(ids)) for ids in by_size.values()]
-    d_pad = np.zeros((d_op.shape[0], n_params))
-    d_pad[:, :n_elements] = d_op
-    candidates = []  # (log weight, k, h)
-    nodes = {}  # k -> (tau, H^-1 D^T, D H^-1 D^T, D d)
+    fractions = np.zeros((len(zones), n_params))
+    fractions[:, :n_elements] = zone_fractions(edges, zones)
+    fractions = fractions[fractions[:, :n_elements].sum(axis=1) > 0]
+    n_zones = max(fractions.shape[0], 1)
+    log_w, comp, zone, steps = [], [], [], {}
     for k in range(weights.size):
-        candidates.append((np.log(weights[k]) + np.log1p(-prior_damage), k, -1))
-        if weights[k] < 1e-8:
+        log_w.append(np.log(weights[k]) + np.log1p(-prior_damage))
+        comp.append(k)
+        zone.append(-1)
+        if weights[k] < 1e-8 or not fractions.shape[0]:
             continue
-        tau_k = taus[k]
-        q_k = prior.precision(n_elements, n_params - n_elements, tau=tau_k)
-        h_factor = scipy.linalg.cho_factor(information / noise_scales[k] ** 2 + q_k)
-        x_h = scipy.linalg.cho_solve(h_factor, d_pad.T)
-        g_h = d_pad @ x_h
-        g_q = d_pad @ scipy.linalg.cho_solve(scipy.linalg.cho_factor(q_k), d_pad.T)
-        dd = d_pad @ (thetas[k] - theta0)
-        nodes[k] = (tau_k, x_h, g_h, dd)
-        for rows_group, zone_ids in groups:
-            # all zones with the same number r of released rows at once: (Z, r) row indices
-            ghr = g_h[rows_group[:, :, None], rows_group[:, None, :]]
-            ddr = dd[rows_group]
-            eye = np.eye(rows_group.shape[1])
-            sign_h, logdet_mh = np.linalg.slogdet(eye - tau_k * ghr)
-            sign_q, logdet_mq = np.linalg.slogdet(eye - tau_k * g_q[rows_group[:, :, None], rows_group[:, None, :]])
-            b = np.einsum("zij,zj->zi", ghr, ddr)
-            ok = (sign_h > 0) & (sign_q > 0)
-            m_b = np.linalg.solve(np.where(ok[:, None, None], eye - tau_k * ghr, eye), b[..., None])[..., 0]
-            # g = tau D_R^T D_R d:  d^T g, g^T H_h^-1 g (Woodbury on the well-conditioned H_k)
-            d_g = tau_k * np.einsum("zi,zi->z", ddr, ddr)
-            g_ch_g = tau_k**2 * np.einsum("zi,zi->z", ddr, b) + tau_k**3 * np.einsum("zi,zi->z", b, m_b)
-            log_ratio = 0.5 * d_g + 0.5 * g_ch_g + 0.5 * logdet_mq - 0.5 * logdet_mh
-            base = np.log(weights[k]) + np.log(prior_damage / n_zones)
-            for h, lr in zip(zone_ids[ok], log_ratio[ok]):
-                candidates.append((base + float(lr), k, int(h)))
-    log_w = np.array([c[0] for c in candidates])
+        q_k = prior.precision(n_elements, n_params - n_elements, tau=taus[k])
+        log_bf, x, e_s, var_s, visible = step_evidence(information / noise_scales[k] ** 2, q_k, thetas[k], theta0,
+                                              fractions, loss_log_std, min_information)
+        steps[k] = (x, e_s, var_s)
+        seen = np.flatnonzero(visible)
+        # zones the data do not see keep their prior mass in the undamaged component (see the docstring)
+        log_w[-1] = np.logaddexp(log_w[-1], np.log(weights[k]) + np.log(prior_damage / n_zones)
+                                 + np.log(max(n_zones - seen.size, 0)) if seen.size < n_zones else -np.inf)
+        log_w.extend(np.log(weights[k]) + np.log(prior_damage / n_zones) + log_bf[seen])
+        comp.extend([k] * seen.size)
+        zone.extend(seen)
+    log_w = np.asarray(log_w)
     w = np.exp(log_w - log_w.max())
     w /= w.sum()
-    damage_probability = float(sum(wi for wi, c in zip(w, candidates) if c[2] >= 0))
+    comp, zone = np.asarray(comp), np.asarray(zone)
+    damage_probability = float(w[zone >= 0].sum())
     order = np.argsort(-w)
     n_keep = min(int(np.searchsorted(np.cumsum(w[order]), keep) + 1), max_components)
     chosen = np.sort(order[:n_keep])
     new_thetas, new_covs = [], []
     for i in chosen:
-        _, k, h = candidates[i]
+        k, h = comp[i], zone[i]
         if h < 0:
             new_thetas.append(thetas[k])
             new_covs.append(covariances[k])
             continue
-        tau_k, x_h, g_h, dd = nodes[k]
-        rows = zone_rows[h]
-        x_r = x_h[:, rows]
-        m_inv = np.linalg.inv(np.eye(rows.size) - tau_k * g_h[np.ix_(rows, rows)])
-        h_inv_g = tau_k * x_r @ dd[rows]  # H_k^-1 g
-        shift = h_inv_g + tau_k * x_r @ (m_inv @ (x_r.T @ (tau_k * d_pad[rows].T @ dd[rows])))
-        cov_h = covariances[k] + tau_k * x_r @ m_inv @ x_r.T
-        new_thetas.append(thetas[k] + shift)
-        new_covs.append(0.5 * (cov_h + cov_h.T))
+        x, e_s, var_s = steps[k]
+        new_thetas.append(thetas[k] + e_s[h] * x[:, h])
+        new_covs.append(covariances[k] + var_s[h] * np.outer(x[:, h], x[:, h]))
     w = w[chosen] / w[chosen].sum()
-    comp = np.array([candidates[i][1] for i in chosen])
-    zone = np.array([candidates[i][2] for i in chosen])
-    return w, np.asarray(new_thetas), np.asarray(new_covs), comp, zone, damage_probability
-
+    return w, np.asarray(new_thetas), np.asarray(new_covs), comp[chosen], zone[chosen], damage_probability

@@ -225,7 +225,7 @@ def _fit(problem, rough, fixed, prior, hyper, hyperprior, noise_scale, tau, star
 def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisation="log_ei",
            hyper="integrated", hyperprior=None, noise_scale=1.0, tau=None, screen=True, mesh=None, start=None,
            max_iter=100, max_outer=200, tol=1e-10, check_scale=True, detect=True, false_alarm=0.05,
-           nuisance="smooth", damage_prior=0.5, rng=0):
+           nuisance="smooth", damage_prior=0.5, damage_log_std=0.5, rng=0):
     """Identify EI(x) (and spring stiffnesses) from measured crossings.
 
     Parameters
@@ -267,6 +267,10 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
     false_alarm, nuisance : the detector's false-alarm rate and nuisance.
     damage_prior : float
         Prior probability of a local loss somewhere, in the band averaging.
+    damage_log_std : float
+        Std of the half-normal prior of a loss's step in log EI (0.5: a
+        39 % loss at one std); the proper prior makes every loss hypothesis
+        pay its Occam factor.
     rng : seed or Generator of the detector's threshold simulation.
 
     Returns
@@ -299,7 +303,7 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
     if detect and parameterisation == "log_ei":
         inv_case = case if mesh is None else case.with_mesh(mesh)
         detection = detect_damage(inv_case, crossings, false_alarm=false_alarm, nuisance=nuisance, rng=rng)
-        mixture, probability = _with_damage(mixture, problem, prior, detection, damage_prior)
+        mixture, probability = _with_damage(mixture, problem, prior, detection, damage_prior, damage_log_std)
     theta, covariance = mixture.mean, mixture.covariance
     messages = []
     if not fit.converged:
@@ -323,7 +327,7 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
         damage_probability=probability, hyper_nodes=fit.mixture)
 
 
-def _with_damage(mixture, problem, prior, detection, damage_prior):
+def _with_damage(mixture, problem, prior, detection, damage_prior, damage_log_std):
     """The posterior mixture extended by the local-loss hypotheses of the detector's zones."""
     lin = problem.evaluate(mixture.mean)
     if lin is None:  # the mixture mean is outside the model's domain: keep the undamaged posterior
@@ -331,5 +335,5 @@ def _with_damage(mixture, problem, prior, detection, damage_prior):
     w, thetas, covs, comp, _, probability = damage_hypotheses(
         mixture.weights, mixture.thetas, mixture.covariances, mixture.taus, mixture.noise_scales, problem.theta0,
         lin.jtj, prior=prior, n_elements=problem.n_elements, edges=problem.mesh.edges, zones=detection.zones,
-        prior_damage=damage_prior)
+        prior_damage=damage_prior, loss_log_std=damage_log_std)
     return GaussianMixture(w, thetas, covs, mixture.taus[comp], mixture.noise_scales[comp]), probability

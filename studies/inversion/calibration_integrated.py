@@ -83,7 +83,7 @@ nominal one within about a standard error:
     low-signal  evidence       0.826   0.015   0.676   0.020        11    80      11    1.0   0.26
 
 Run: python studies/inversion/calibration_integrated.py [--quick] [--replicates N] [--seed S]
-[--cases ...] [--draw-smoothness] [--out DIR]
+[--cases ...] [--draw-smoothness] [--methods ...] [--out DIR]
 (``--quick``: 40 replicates per case; ``--draw-smoothness`` draws the truth's smoothness std from
 the hyperprior as well, the fully Bayesian check; ``--out`` writes the per-replicate numbers as JSON.)
 """
@@ -204,13 +204,13 @@ def score(result, truth, seconds):
             "n_components": int(mix.n_components), "seconds": seconds}
 
 
-def run_case(name, n_replicates, seed, draw_smoothness=False):
+def run_case(name, n_replicates, seed, draw_smoothness=False, methods=METHODS):
     std, corr, n_crossings = CASES[name]
     case = make_case(std, corr)
     fine_mesh = truth_mesh(case)
     chol_cov = np.linalg.cholesky(np.linalg.inv(matched_fine_precision(case, fine_mesh, PRIOR)))
     fine = case.with_mesh(fine_mesh)
-    records = {m: [] for m in METHODS}
+    records = {m: [] for m in methods}
     children = np.random.SeedSequence([seed, list(CASES).index(name)]).spawn(n_replicates)
     rate = sp.HyperPrior().for_prior(PRIOR).rate
     for child in children:
@@ -221,7 +221,7 @@ def run_case(name, n_replicates, seed, draw_smoothness=False):
         ei_fine, truth, springs = draw_truth(case, fine_mesh, chol_cov, rng)
         data = simulate_crossings(fine, n_crossings, noise=True, rng=rng, ei=ei_fine,
                                   bridge=case.bridge.with_spring_stiffness(springs))
-        for method in METHODS:
+        for method in methods:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", SensorplanWarning)
                 t0 = time.perf_counter()
@@ -255,6 +255,8 @@ def main(argv=None):
     parser.add_argument("--cases", nargs="+", choices=list(CASES), default=list(CASES))
     parser.add_argument("--draw-smoothness", action="store_true",
                         help="draw the truth's smoothness std from the hyperprior too (fully Bayesian check)")
+    parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS),
+                        help="hyperparameter methods compared (default both)")
     parser.add_argument("--out", type=Path, help="folder for calibration_integrated.json")
     args = parser.parse_args(argv)
     n_rep = args.replicates or (QUICK_REPLICATES if args.quick else FULL_REPLICATES)
@@ -266,7 +268,7 @@ def main(argv=None):
           f"{'flat':>6}{'warned':>8}{'nodes':>7}{'s/inv':>7}")
     everything = {}
     for name in args.cases:
-        records = run_case(name, n_rep, args.seed, args.draw_smoothness)
+        records = run_case(name, n_rep, args.seed, args.draw_smoothness, tuple(args.methods))
         summary = summarise(records)
         everything[name] = {"summary": summary, "replicates": records}
         for method, s in summary.items():
