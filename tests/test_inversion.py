@@ -197,7 +197,9 @@ def test_load_factor_scales_the_model():
     c = data.crossings[0]
     factor = np.full(c.n_loads, 2.0)
     doubled = Crossings(data.sensor_names, (Crossing("1", c.positions, 2.0 * c.values, factor),))
-    res = invert(case, doubled, hyper="fixed", noise_scale=1.0)
+    # without the local-loss hypotheses: their one-sided step prior moves the posterior mean slightly
+    # below the nominal even on noise-free data, which is not what this test is about
+    res = invert(case, doubled, hyper="fixed", noise_scale=1.0, detect=False)
     np.testing.assert_allclose(res.ei_map, case.ei, rtol=1e-6)
 
 
