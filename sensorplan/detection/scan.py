@@ -130,16 +130,23 @@ def scan_lengths(bridge, mesh):
     return tuple(out)
 
 
-def _zones(bridge, mesh, lengths):
-    """Zones [a, b] inside the bridge: centres every quarter length (at least half an element apart)."""
+def _zones(bridge, mesh, lengths, per_length=4):
+    """Zones [a, b] inside the bridge: centres every 1/per_length of a length (scan: at least half an element apart)."""
     total = bridge.length
     zones = []
     for length in lengths:
-        step = max(length / 4, float(np.min(mesh.lengths)) / 2)
+        step = length / per_length if per_length > 4 else max(length / 4, float(np.min(mesh.lengths)) / 2)
         n = max(1, int(math.floor((total - length) / step + 1e-9)) + 1)
         centres = length / 2 + (total - length) * (np.arange(n) / max(n - 1, 1) if n > 1 else np.array([0.5]))
         zones += [(c - length / 2, c + length / 2) for c in centres]
     return np.array(zones)
+
+
+def _estimate_zones(bridge, mesh, lengths):
+    """The finer family of zones of the estimates: lengths growing by 2^(1/4) over the scanned range, centres l/8 apart."""
+    lo, hi = min(lengths), max(lengths)
+    n = int(math.floor(4 * math.log2(hi / lo) + 1e-9)) + 1
+    return _zones(bridge, mesh, lo * 2.0 ** (np.arange(n) / 4), per_length=8)
 
 
 def _overlap(mesh, zones):
@@ -291,21 +298,18 @@ def detect_damage(case, crossings, *, false_alarm=0.05, nuisance="smooth", lengt
     weights, grid, density = _zone_posteriors(proj, norms, alpha, zones, max_loss)
     detected = statistic > threshold
     centre = length = centre_ci = loss = loss_ci = None
-    if detected:
-        spans = np.round(zones[:, 1] - zones[:, 0], 9)
-        by_length = {x: float(weights[spans == x].sum()) for x in np.unique(spans)}
-        length = float(max(by_length, key=by_length.get))  # the most probable length
-        centres = zones.mean(axis=1)
-        order = np.argsort(centres)
-        cdf = np.cumsum(weights[order])
-        centre, *centre_ci = (float(centres[order][min(np.searchsorted(cdf, p), cdf.size - 1)])
-                              for p in (0.5, 0.025, 0.975))  # posterior median and 95 % interval
-        loss_cdf = np.cumsum(weights @ density)
-        lo, loss, hi = (_grid_quantile(grid, loss_cdf, p) for p in (0.025, 0.5, 0.975))
-        loss_ci = (lo, hi)
+    if detected:  # the estimates, on a finer family of zones (zone edges are not snapped to a grid)
+        fine = _estimate_zones(case.bridge, case.mesh, lengths)
+        u_fine = comp @ _overlap(case.mesh, fine).T
+        u_fine = u_fine - q @ (q.T @ u_fine)
+        n_fine = np.linalg.norm(u_fine, axis=0)
+        ok = n_fine > 1e-12 * max(float(n_fine.max()), 1e-300)
+        fine, u_fine, n_fine = fine[ok], u_fine[:, ok], n_fine[ok]
+        centre, length, centre_ci, loss, loss_ci = _estimates(
+            fine, *_zone_posteriors(u_fine.T @ res, n_fine, alpha, fine, max_loss))
     moments = np.column_stack([density @ grid, np.sqrt(np.clip(density @ grid**2 - (density @ grid) ** 2, 0, None))])
     return DamageDetection(bool(detected), float(false_alarm), statistic, threshold, p_value, centre, length,
-                           tuple(centre_ci) if centre_ci else None, loss, loss_ci, zones, scores, weights, moments,
+                           centre_ci, loss, loss_ci, zones, scores, weights, moments,
                            nuisance, float(alpha))
 
 
@@ -340,6 +344,20 @@ def _zone_posteriors(proj, norms, alpha, zones, max_loss):
     log_post = log_evidence - np.log(counts[group])  # equal mass per length, even over its centres
     weights = np.exp(log_post - log_post.max())
     return weights / weights.sum(), grid, density
+
+
+def _estimates(zones, weights, grid, density):
+    """Centre (posterior median) and its 95 % interval, most probable length, loss (median) and its 95 % interval."""
+    spans = np.round(zones[:, 1] - zones[:, 0], 9)
+    by_length = {x: float(weights[spans == x].sum()) for x in np.unique(spans)}
+    length = float(max(by_length, key=by_length.get))
+    centres = zones.mean(axis=1)
+    order = np.argsort(centres)
+    cdf = np.cumsum(weights[order])
+    centre, lo, hi = (float(centres[order][min(np.searchsorted(cdf, p), cdf.size - 1)]) for p in (0.5, 0.025, 0.975))
+    loss_cdf = np.cumsum(weights @ density)
+    loss_lo, loss, loss_hi = (_grid_quantile(grid, loss_cdf, p) for p in (0.025, 0.5, 0.975))
+    return centre, length, (lo, hi), loss, (loss_lo, loss_hi)
 
 
 def _grid_quantile(grid, cdf, p):

@@ -56,14 +56,20 @@ under the smooth nuisance (limit <= 0.04), as its detectability map says.
 """
 
 import argparse
+import math
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 import sensorplan as sp  # noqa: E402
+from sensorplan.verification.scenarios import make_scenarios, truth_mesh  # noqa: E402
+from sensorplan.verification.verify import detection_limit  # noqa: E402
 
 SEVERITIES = (0.1, 0.2, 0.3, 0.4)
 LAYOUTS = {
@@ -98,6 +104,38 @@ def run(quick=False, seed=1, examples=None, echo=None):
     return rows
 
 
+def detector_row(example, layout, severity, n_locations, n_controls, seed=11, length=2.0, n_crossings=10):
+    """One row with the detector alone (no inversion): verify's scenarios, truth mesh and noise, more of them.
+
+    For re-running a row of the table with many more locations than ``verify_layouts`` affords.
+    """
+    case = sp.example_case(example)
+    positions = LAYOUTS[example][layout]
+    std = case.noise_std_for("rotation")
+    sensors = sp.SensorLayout.candidates(list(positions), "rotation", noise_std=[std] * len(positions))
+    lcase = replace(case, sensors=sensors, noise=sp.NoiseModel(sensors.noise_std, case.noise.correlation_length))
+    scenarios = [s for s in make_scenarios(case, n_locations, severity=severity, length=length,
+                                           n_controls=n_controls) if s.kind != "span"]
+    fine_mesh = truth_mesh(case)
+    fine = lcase.with_mesh(fine_mesh)
+    hits, alarms, errors = [], [], []
+    for scenario, child in zip(scenarios, np.random.SeedSequence(seed).spawn(len(scenarios))):
+        rng = np.random.default_rng(child)
+        data = sp.simulate_crossings(fine, n_crossings, noise=True, rng=rng, ei=scenario.truth(fine_mesh, fine.ei))
+        d = sp.detect_damage(lcase, data, rng=rng, n_null=4000)
+        (alarms if scenario.kind == "control" else hits).append(d.detected)
+        if d.detected and scenario.kind == "local":
+            errors.append(abs(d.centre_m - scenario.centre))
+    limit = detection_limit(case, positions, scenarios, kind="rotation", noise_std=std, n_crossings=n_crossings,
+                            false_alarm=0.05)
+    rate = float(np.mean(hits))
+    return {"example": example, "layout": layout, "severity": severity, "detection": rate,
+            "detection_se": math.sqrt(rate * (1 - rate) / len(hits)), "limit": limit,
+            "ratio": rate / limit if limit else None, "false_alarm": float(np.mean(alarms)),
+            "damaged_coverage95": float("nan"), "loss_coverage95": float("nan"),
+            "localisation_error_m": float(np.mean(errors)) if errors else float("nan")}
+
+
 def format_rows(rows):
     head = (f"{'example':17s} {'layout':22s} {'loss':>5s} {'detection':>14s} {'limit':>6s} {'ratio':>6s} "
             f"{'false al.':>9s} {'cover95':>8s} {'loss cov':>8s} {'loc. err':>8s}")
@@ -116,8 +154,20 @@ def main(argv=None):
     parser.add_argument("--quick", action="store_true", help="few scenarios (a smoke run)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", type=Path, help="also write the table to this file")
+    parser.add_argument("--row", nargs=3, action="append", metavar=("EXAMPLE", "LAYOUT", "SEVERITY"),
+                        help="re-run one row with the detector alone (repeatable)")
+    parser.add_argument("--locations", type=int, default=64, help="locations per --row (controls: half)")
     args = parser.parse_args(argv)
     start = time.perf_counter()
+    if args.row:
+        rows = []
+        for example, layout, severity in args.row:
+            rows.append(detector_row(example, layout, float(severity), args.locations, args.locations // 2,
+                                     seed=args.seed))
+            print(format_rows(rows[-1:]).splitlines()[-1], flush=True)
+        print(f"({time.perf_counter() - start:.0f} s; detector alone, {args.locations} locations and "
+              f"{args.locations // 2} controls per row)")
+        return 0
     print(format_rows([]), flush=True)
     text = format_rows(run(args.quick, args.seed, echo=lambda line: print(line, flush=True)))
     text += f"\n({time.perf_counter() - start:.0f} s; detection over local losses; limit = known-location power " \
