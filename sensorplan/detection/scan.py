@@ -40,7 +40,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.special
 
 from .._errors import ConfigError
 from .nuisance import nuisance_matrix
@@ -282,43 +281,45 @@ def detect_damage(case, crossings, *, false_alarm=0.05, nuisance="smooth", lengt
     # noise scale of the null fit; floored at half the configured noise so that noise-free
     # (simulated) data give finite scores (a conservative choice: a larger alpha lowers them)
     alpha = max(math.sqrt(float(res @ res) / max(m - model.n_params, 1)), 0.5)
-    zones = _zones(case.bridge, case.mesh, lengths)
-    u = comp @ _overlap(case.mesh, zones).T  # (M, H) whitened signatures of r = 1 in each zone
+    # Everything the scan needs lives in the element space: with K = C^T (I - P) C the projected Gram
+    # matrix of the whitened compliance columns C and c = C^T (I - P) e, a zone with element fractions o
+    # has ||u||^2 = o^T K o and u^T e = o^T c (P the projector onto the nuisance columns).
     q, _ = np.linalg.qr(jac)
-    u = u - q @ (q.T @ u)  # project off the nuisance
-    norms = np.linalg.norm(u, axis=0)
-    keep = norms > 1e-12 * max(float(norms.max()), 1e-300)
-    zones, u, norms = zones[keep], u[:, keep], norms[keep]
-    proj = u.T @ res
+    cq = comp.T @ q
+    gram = comp.T @ comp - cq @ cq.T
+    c_res = comp.T @ res - cq @ (q.T @ res)
+    zones, norms, proj = _signatures(case.mesh, _zones(case.bridge, case.mesh, lengths), gram, c_res)
     scores = proj / (alpha * norms)
     statistic = float(scores.max())
-    null_max = _null_maxima(u / norms, n_null, rng)
+    null_max = _null_maxima(_overlap(case.mesh, zones) / norms[:, None], gram, n_null, rng)
     threshold = float(np.quantile(null_max, 1.0 - false_alarm))
     p_value = float((1 + np.sum(null_max >= statistic)) / (1 + null_max.size))
     weights, grid, density = _zone_posteriors(proj, norms, alpha, zones, max_loss)
     detected = statistic > threshold
     centre = length = centre_ci = loss = loss_ci = None
     if detected:  # the estimates, on a finer family of zones (zone edges are not snapped to a grid)
-        fine = _estimate_zones(case.bridge, case.mesh, lengths)
-        u_fine = comp @ _overlap(case.mesh, fine).T
-        u_fine = u_fine - q @ (q.T @ u_fine)
-        n_fine = np.linalg.norm(u_fine, axis=0)
-        ok = n_fine > 1e-12 * max(float(n_fine.max()), 1e-300)
-        fine, u_fine, n_fine = fine[ok], u_fine[:, ok], n_fine[ok]
+        fine, n_fine, p_fine = _signatures(case.mesh, _estimate_zones(case.bridge, case.mesh, lengths), gram, c_res)
         centre, length, centre_ci, loss, loss_ci = _estimates(
-            fine, *_zone_posteriors(u_fine.T @ res, n_fine, alpha, fine, max_loss))
+            fine, *_zone_posteriors(p_fine, n_fine, alpha, fine, max_loss))
     moments = np.column_stack([density @ grid, np.sqrt(np.clip(density @ grid**2 - (density @ grid) ** 2, 0, None))])
     return DamageDetection(bool(detected), float(false_alarm), statistic, threshold, p_value, centre, length,
                            centre_ci, loss, loss_ci, zones, scores, weights, moments,
                            nuisance, float(alpha))
 
 
-def _null_maxima(unit, n, rng, chunk=2000):
-    """Maxima over zones of z = U^T e, e ~ N(0, I): z ~ N(0, U^T U) drawn through a factor of U^T U."""
-    corr = unit.T @ unit
-    vals, vecs = np.linalg.eigh(0.5 * (corr + corr.T))
-    keep = vals > 1e-10 * vals.max()
-    factor = vecs[:, keep] * np.sqrt(vals[keep])
+def _signatures(mesh, zones, gram, c_res):
+    """Zones with a visible projected signature, its norms ||u_h|| and the projections u_h^T e."""
+    overlap = _overlap(mesh, zones)
+    norms = np.sqrt(np.clip(np.einsum("he,ef,hf->h", overlap, gram, overlap), 0.0, None))
+    keep = norms > 1e-12 * max(float(norms.max()), 1e-300)
+    return zones[keep], norms[keep], overlap[keep] @ c_res
+
+
+def _null_maxima(weights, gram, n, rng, chunk=2000):
+    """Maxima over zones of z = W C^T (I - P) e, e ~ N(0, I): z ~ N(0, W K W^T), drawn through a factor of K."""
+    vals, vecs = np.linalg.eigh(0.5 * (gram + gram.T))
+    keep = vals > 1e-12 * max(float(vals.max()), 1e-300)
+    factor = weights @ (vecs[:, keep] * np.sqrt(vals[keep]))
     out = np.empty(int(n))
     for start in range(0, out.size, chunk):
         k = min(chunk, out.size - start)
@@ -326,7 +327,7 @@ def _null_maxima(unit, n, rng, chunk=2000):
     return out
 
 
-_N_GRID = 4000  # midpoints of the grid over the lost fraction
+_N_GRID = 2000  # midpoints of the grid over the lost fraction
 
 
 def _zone_posteriors(proj, norms, alpha, zones, max_loss):
@@ -337,8 +338,11 @@ def _zone_posteriors(proj, norms, alpha, zones, max_loss):
     grid = max_loss * (np.arange(_N_GRID) + 0.5) / _N_GRID
     r = grid / (1.0 - grid)
     log_like = (proj / alpha**2)[:, None] * r[None] - 0.5 * (norms**2 / alpha**2)[:, None] * r[None] ** 2
-    log_evidence = scipy.special.logsumexp(log_like, axis=1)  # uniform prior: the grid's mean, up to a constant
-    density = np.exp(log_like - log_evidence[:, None])
+    peak = log_like.max(axis=1)
+    density = np.exp(log_like - peak[:, None])
+    total = density.sum(axis=1)
+    density /= total[:, None]
+    log_evidence = peak + np.log(total)  # uniform prior: the grid's mean, up to a constant
     lengths = np.round(zones[:, 1] - zones[:, 0], 9)
     _, group, counts = np.unique(lengths, return_inverse=True, return_counts=True)
     log_post = log_evidence - np.log(counts[group])  # equal mass per length, even over its centres
