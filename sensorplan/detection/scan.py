@@ -64,7 +64,8 @@ class DamageDetection:
     p_value : float
         Null probability of a larger statistic (simulated).
     centre_m, length_m : float or None
-        Posterior median of the zone's centre and the most probable length (when detected).
+        The zone's centre (the posterior mean within the most probable window of +- the
+        shortest scanned length) and the most probable length (when detected).
     centre_ci95 : (float, float) or None
         95 % interval of the centre over the zones' posterior weights.
     loss, loss_ci95 : float, (float, float) or None
@@ -351,14 +352,20 @@ def _zone_posteriors(proj, norms, alpha, zones, max_loss):
 
 
 def _estimates(zones, weights, grid, density):
-    """Centre (posterior median) and its 95 % interval, most probable length, loss (median) and its 95 % interval."""
+    """Centre (most probable window) and its 95 % interval, most probable length, loss (median) and its 95 % interval."""
     spans = np.round(zones[:, 1] - zones[:, 0], 9)
     by_length = {x: float(weights[spans == x].sum()) for x in np.unique(spans)}
     length = float(max(by_length, key=by_length.get))
     centres = zones.mean(axis=1)
     order = np.argsort(centres)
     cdf = np.cumsum(weights[order])
-    centre, lo, hi = (float(centres[order][min(np.searchsorted(cdf, p), cdf.size - 1)]) for p in (0.5, 0.025, 0.975))
+    lo, hi = (float(centres[order][min(np.searchsorted(cdf, p), cdf.size - 1)]) for p in (0.025, 0.975))
+    # the centre: the most probable window of +- the shortest length (a median can fall between two modes)
+    sorted_centres, half = centres[order], float(spans.min())
+    mass = (np.interp(sorted_centres + half, sorted_centres, cdf, right=1.0)
+            - np.interp(sorted_centres - half, sorted_centres, cdf, left=0.0))
+    window = np.abs(sorted_centres - sorted_centres[int(np.argmax(mass))]) <= half
+    centre = float(np.average(sorted_centres[window], weights=weights[order][window] + 1e-300))
     loss_cdf = np.cumsum(weights @ density)
     loss_lo, loss, loss_hi = (_grid_quantile(grid, loss_cdf, p) for p in (0.025, 0.5, 0.975))
     return centre, length, (lo, hi), loss, (loss_lo, loss_hi)
