@@ -138,13 +138,16 @@ def damage_hypotheses(weights, thetas, covariances, taus, noise_scales, theta0, 
     fractions = fractions[fractions[:, :n_elements].sum(axis=1) > 0]
     n_zones = max(fractions.shape[0], 1)
     log_w, comp, zone, steps = [], [], [], {}
+    roughness = np.zeros((n_params, n_params))
+    roughness[:n_elements, :n_elements] = prior.structure(n_elements)
+    fixed = prior.precision(n_elements, n_params - n_elements, tau=0.0)
     for k in range(weights.size):
         log_w.append(np.log(weights[k]) + np.log1p(-prior_damage))
         comp.append(k)
         zone.append(-1)
         if weights[k] < 1e-8 or not fractions.shape[0]:
             continue
-        q_k = prior.precision(n_elements, n_params - n_elements, tau=taus[k])
+        q_k = taus[k] * roughness + fixed  # prior.precision at tau_k
         log_bf, x, e_s, var_s, visible = step_evidence(information / noise_scales[k] ** 2, q_k, thetas[k], theta0,
                                               fractions, loss_log_std, min_information)
         steps[k] = (x, e_s, var_s)
