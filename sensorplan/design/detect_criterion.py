@@ -1,0 +1,226 @@
+"""The ``detect`` criterion: the worst case over damage centres of the detectability d^2.
+
+The "precision" of this criterion is a stack A (n_centres, 1 + n, 1 + n) of
+summed per-sensor Gram matrices G_i(c) = [s_i(c) N_i]^T [s_i(c) N_i] of the
+whitened exact damage signature s_i(c) of a local loss centred at c and the
+whitened nuisance Jacobian N_i (:mod:`sensorplan.detection.signatures`),
+times the number of crossings.  For each centre
+
+    d^2_c(A) = A_ss - A_sN A_NN^+ A_Ns = min_x [1; -x]^T A_c [1; -x],
+
+the squared noncentrality of the known-location test exactly as
+``sensorplan detectability`` computes it (the same pseudo-inverse cut-off,
+:func:`~sensorplan.detection.signatures.schur_d_squared`), and the criterion
+is min_c d^2_c: a minimum of functions that are concave in the weights (a
+minimum of linear functions of A), hence concave.
+
+Relaxation (:mod:`.relax_detect`, and cvxpy + Clarabel with one LMI
+[[A_ss - t, A_sN], [A_Ns, A_NN]] >= 0 per centre): d^2_c with a ridge
+``RIDGE`` times the mean single-candidate diagonal added to A_NN, a weak
+prior on the nuisance that keeps A_NN(w) nonsingular on the whole relaxed
+set (layouts that see a nuisance direction only weakly would otherwise make
+the pseudo-inverse discontinuous).  The ridged d^2 is >= the exact one, so
+the relaxation's optimum still bounds every layout; on the embedded
+examples the ridge changes d^2 of the recommended layouts by < 1e-8
+relative.  Certificate: for any distribution mu over the centres,
+
+    min_c d^2_c(w) <= sum_c mu_c [d^2_c(w0) + grad d^2_c(w0)^T (w - w0)]
+
+(concavity), so the maximum of the right-hand side over the relaxed
+feasible set bounds the relaxation; :func:`certificate` minimises that bound
+over mu by one LP (the linear-programming dual of the inner maximum).
+
+Owns: the detect criterion, its exact value, bounds and certificate.
+May import: errors, detection, design.criteria.
+"""
+
+import math
+
+import numpy as np
+import scipy.optimize
+from scipy.special import ndtr, ndtri
+
+from .._errors import ConfigError, SolverError
+from ..detection.signatures import schur_d_squared
+from .criteria import Criterion, register_criterion
+
+__all__ = ["DetectCriterion", "RIDGE", "centre_d_squared", "smooth_parts", "certificate"]
+
+RIDGE = 1e-10  # ridge on A_NN in the relaxation, relative to the mean single-candidate diagonal
+_WELL_CONDITIONED = 1e8  # trace of the inverse of the unit-diagonal A_NN below which no eigenvalue is cut off
+
+
+def centre_d_squared(stack):
+    """Exact d^2 and the nuisance coefficients x per centre of ``stack`` (..., n_centres, m, m).
+
+    Equal to :func:`schur_d_squared` (same scaling, same cut-off): where
+    the unit-diagonal A_NN is well conditioned (trace of its inverse below
+    1e8, so every eigenvalue is far above the cut-off) by a plain inverse,
+    elsewhere by the eigen-decomposition with the cut-off.
+    """
+    a_ss, a_sn, a_nn = stack[..., 0, 0], stack[..., 1:, 0], stack[..., 1:, 1:]
+    diag = np.einsum("...nn->...n", a_nn)
+    seen = diag > 0.0
+    scale = np.where(seen, 1.0 / np.sqrt(np.where(seen, diag, 1.0)), 0.0)
+    scaled = a_nn * scale[..., :, None] * scale[..., None, :] + np.where(seen, 0.0, 1.0)[..., :, None] \
+        * np.eye(diag.shape[-1])
+    p = a_sn * scale
+    try:
+        inv = np.linalg.inv(scaled)
+        bad = ~(np.einsum("...nn->...", inv) < _WELL_CONDITIONED)
+    except np.linalg.LinAlgError:
+        inv, bad = np.zeros_like(scaled), np.ones(a_ss.shape, bool)
+    y = np.einsum("...nm,...m->...n", inv, p)
+    d2 = a_ss - np.einsum("...n,...n->...", p, y)
+    if bad.any():
+        vals, vecs = np.linalg.eigh(scaled[bad])
+        keep = vals > 1e-12 * vals.max(axis=1, keepdims=True)
+        coef = np.where(keep, np.einsum("knm,kn->km", vecs, p[bad]) / np.where(keep, vals, 1.0), 0.0)
+        y[bad] = np.einsum("knm,km->kn", vecs, coef)
+        d2[bad] = schur_d_squared(stack[bad][None])
+    return np.maximum(d2, 0.0), y * scale
+
+
+def smooth_parts(stack, ridge):
+    """Ridged d^2 (n_centres,), u = [1; -x] (n_centres, m) and the Cholesky factor of A_NN + ridge."""
+    a_nn = stack[:, 1:, 1:] + np.diag(ridge)
+    try:
+        chol = np.linalg.cholesky(a_nn)
+    except np.linalg.LinAlgError:
+        return None, None, None
+    x = np.linalg.solve(a_nn, stack[:, 1:, 0:1])[..., 0]
+    f = stack[:, 0, 0] - np.einsum("cn,cn->c", stack[:, 1:, 0], x)
+    u = np.concatenate([np.ones((x.shape[0], 1)), -x], axis=1)
+    return f, u, chol
+
+
+def centre_gradients(blocks, u):
+    """d d^2_c / d w_i = u_c^T G_i(c) u_c for every block: (n_blocks, n_centres)."""
+    bu = np.einsum("icab,cb->ica", blocks, u)
+    return np.einsum("ica,ca->ic", bu, u)
+
+
+def certificate(problem, weights, *, with_maximiser=False):
+    """(bound, mu, utility[, s]): the best bound of the linearisation at ``weights`` over distributions mu.
+
+    minimise over mu in the simplex: sum_c mu_c (f_c - g_c^T w) + max_{s feasible} (sum_c mu_c g_c)^T s,
+    with the inner maximum replaced by its LP dual (y for s <= 1, nu for sum s = R, pi for the side
+    constraints): one LP, solved by HiGHS; ``s`` (the inner maximiser) is read from its duals.
+    """
+    crit = problem.criterion
+    w = np.asarray(weights, dtype=float)
+    f, u, _ = smooth_parts(problem.precision(w), crit.ridge)
+    if f is None:
+        raise SolverError("The ridged nuisance block is not positive definite; the relaxation is ill-posed.")
+    g = centre_gradients(problem.blocks, u)  # (C, n_centres)
+    n_c, c = f.size, problem.n_candidates
+    a_ub, b_ub = problem.inequalities
+    k = a_ub.shape[0]
+    # variables: mu (n_c), y (C), nu (free), pi (k)
+    cost = np.concatenate([f - w @ g, np.ones(c), [problem.count], b_ub])
+    # g mu - y - nu 1 - A^T pi <= 0
+    lhs = np.hstack([g, -np.eye(c), -np.ones((c, 1)), -a_ub.T])
+    eq = np.concatenate([np.ones(n_c), np.zeros(c + 1 + k)])[None, :]
+    bounds = [(0.0, None)] * (n_c + c) + [(None, None)] + [(0.0, None)] * k
+    res = scipy.optimize.linprog(cost, A_ub=lhs, b_ub=np.zeros(c), A_eq=eq, b_eq=[1.0], bounds=bounds,
+                                 method="highs")
+    if res.status != 0:
+        raise SolverError(f"The certificate LP of the detect criterion failed ({res.message}).")
+    out = (float(res.fun), np.clip(res.x[:n_c], 0.0, None), float(f.min()))
+    return (*out, -res.ineqlin.marginals) if with_maximiser else out
+
+
+@register_criterion
+class DetectCriterion(Criterion):
+    """Worst case over damage centres of the detectability d^2 (maximised); see the module docstring.
+
+    Built by :func:`~sensorplan.design.recommend.build_problem` from a case
+    (:mod:`.detect_problem`), not from a number of parameters.
+    """
+
+    name = "detect"
+    description = "worst-case detectability d^2 of a local loss"
+    relaxation = "detect-epigraph"
+    information = "detection"
+    params_label = "damage centres"
+
+    def __init__(self, n_params, *, centres=None, ridge=None, false_alarm=0.05, n_crossings=1, severity=0.25,
+                 length=2.0, nuisance="smooth", region=None, step=0.5, nuisance_names=()):
+        super().__init__(n_params)
+        self.centres = np.zeros(self.n_params) if centres is None else np.asarray(centres, dtype=float)
+        self.ridge = np.asarray(ridge, dtype=float) if ridge is not None else None
+        self.false_alarm, self.n_crossings, self.severity, self.length = false_alarm, n_crossings, severity, length
+        self.nuisance, self.region, self.step, self.nuisance_names = nuisance, region, step, tuple(nuisance_names)
+        self.description = (f"worst-case detectability d^2 of a {100 * severity:g} % EI loss over {length:g} m, "
+                            f"{n_crossings} crossing(s), nuisance {nuisance}")
+
+    @classmethod
+    def from_options(cls, n_params, *, n_elements=None, edges=None, region=None, functionals=None):
+        raise ConfigError("The detect criterion is built from a case by recommend() or build_problem(), "
+                          "not by make_criterion().")
+
+    def value(self, q):
+        return float(centre_d_squared(q)[0].min())
+
+    def gradient_matrix(self, q):
+        """Supergradient: u u^T at the worst centre, u = [1; -x]."""
+        d2, x = centre_d_squared(q)
+        c = int(np.argmin(d2))
+        out = np.zeros_like(q)
+        u = np.concatenate([[1.0], -x[c]])
+        out[c] = np.outer(u, u)
+        return out
+
+    def upper_bounds(self, problem, q):
+        # d^2_c(A + G) <= u_c^T (A + G) u_c for any u_c = [1; -x]; the minimum over the centres
+        d2, x = centre_d_squared(q)
+        u = np.concatenate([np.ones((x.shape[0], 1)), -x], axis=1)
+        base = np.einsum("ca,cab,cb->c", u, q, u)
+        return float(d2.min()), (base[None, :] + centre_gradients(problem.blocks, u)).min(axis=1)
+
+    def bound(self, problem, w):
+        return certificate(problem, w)[0]
+
+    # -- cvxpy: one LMI per centre ------------------------------------------------------------
+    def cvxpy_precision(self, cp, problem, w, idx):
+        m = problem.q0.shape[1]
+        ridge = np.zeros((m, m))
+        ridge[1:, 1:] = np.diag(self.ridge)
+        out = []
+        for c in range(self.n_params):
+            flat = problem.blocks[idx, c].reshape(idx.size, m * m).T
+            a = problem.q0[c] + ridge + cp.reshape(flat @ w, (m, m), order="C")
+            out.append(0.5 * (a + a.T))
+        return out
+
+    def cvxpy_objective(self, cp, q_expr, constraints):
+        t = cp.Variable()
+        e = np.zeros(q_expr[0].shape)
+        e[0, 0] = 1.0
+        lmis = [a - t * e >> 0 for a in q_expr]
+        constraints.extend(lmis)
+        return cp.Maximize(t), lmis
+
+    def cvxpy_bound(self, problem, weights, handle):
+        return self.bound(problem, weights)
+
+    def relaxed_utility(self, problem, w):
+        """min_c of the ridged d^2 at relaxed weights (what the relaxation maximises)."""
+        f, _, _ = smooth_parts(problem.precision(w), self.ridge)
+        return -math.inf if f is None else float(f.min())
+
+    # -- reporting -------------------------------------------------------------------------------
+    def describe(self, q):
+        """JSON details and one summary line: worst centre, d, power."""
+        d2 = centre_d_squared(q)[0]
+        c = int(np.argmin(d2))
+        d = math.sqrt(d2[c])
+        power = float(ndtr(d - ndtri(1.0 - self.false_alarm)))
+        details = {"worst_centre_m": float(self.centres[c]), "d2": float(d2[c]), "d": d, "power": power,
+                   "false_alarm_rate": self.false_alarm, "n_crossings": self.n_crossings,
+                   "severity": self.severity, "length_m": self.length, "nuisance": self.nuisance,
+                   "step_m": self.step, "region_m": None if self.region is None else list(self.region),
+                   "n_centres": int(self.centres.size), "ridge": RIDGE}
+        line = (f"  worst case over {self.centres.size} damage centres: d^2 {d2[c]:.4g} (d {d:.3f}) at "
+                f"{self.centres[c]:.2f} m; power {power:.3f} at a {100 * self.false_alarm:g} % false-alarm rate")
+        return {"detection": details}, line
