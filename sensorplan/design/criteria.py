@@ -69,6 +69,7 @@ class Criterion:
     relaxation: ClassVar[str] = "interior-point"  # fast solver: "interior-point", "eigen-subspace", ...
     information: ClassVar[str] = "fisher"  # what a sensor adds: Fisher blocks, or "detection" Gram stacks
     params_label: ClassVar[str] = "parameters"  # what n_effective counts, for summaries
+    random_starts: ClassVar[int] = 0  # randomised roundings of the relaxation tried as exchange starts
 
     def __init__(self, n_params):
         self.n_params = int(n_params)

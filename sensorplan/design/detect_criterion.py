@@ -44,7 +44,8 @@ from .._errors import ConfigError, SolverError
 from ..detection.signatures import schur_d_squared
 from .criteria import Criterion, register_criterion
 
-__all__ = ["DetectCriterion", "RIDGE", "centre_d_squared", "smooth_parts", "certificate"]
+__all__ = ["DetectCriterion", "RIDGE", "centre_d_squared", "smooth_parts", "centre_gradients", "centre_hessian_roots",
+           "certificate"]
 
 RIDGE = 1e-10  # ridge on A_NN in the relaxation, relative to the mean single-candidate diagonal
 _WELL_CONDITIONED = 1e8  # trace of the inverse of the unit-diagonal A_NN below which no eigenvalue is cut off
@@ -100,6 +101,15 @@ def centre_gradients(blocks, u):
     return np.einsum("ica,ca->ic", bu, u)
 
 
+def centre_hessian_roots(rows, chol):
+    """Y (n_centres, n, n_blocks) with d^2 d^2_c / dw_i dw_j = -2 (Y_c^T Y_c)_ij (ridged d^2).
+
+    ``rows`` (n_blocks, n_centres, n): the nuisance rows of G_i(c) u_c; ``chol`` the Cholesky
+    factor of A_NN + ridge per centre (from :func:`smooth_parts`).
+    """
+    return np.linalg.solve(chol, rows.transpose(1, 2, 0))
+
+
 def certificate(problem, weights, *, with_maximiser=False):
     """(bound, mu, utility[, s]): the best bound of the linearisation at ``weights`` over distributions mu.
 
@@ -143,6 +153,7 @@ class DetectCriterion(Criterion):
     relaxation = "detect-epigraph"
     information = "detection"
     params_label = "damage centres"
+    random_starts = 20  # a minimum over centres has many local optima for single swaps
 
     def __init__(self, n_params, *, centres=None, ridge=None, false_alarm=0.05, n_crossings=1, severity=0.25,
                  length=2.0, nuisance="smooth", region=None, step=0.5, nuisance_names=()):

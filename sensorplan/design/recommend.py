@@ -21,7 +21,7 @@ from .detect_problem import DetectionTarget, detection_information
 from .problem import DesignProblem
 from .relaxation import solve_relaxation
 from .results import Baseline, CurvePoint, DesignResult, SolverStats
-from .selection import exchange, greedy, round_weights
+from .selection import exchange, greedy, round_weights, sample_roundings
 
 if TYPE_CHECKING:
     from ..model.case import Case
@@ -150,8 +150,9 @@ def build_problem(case, count, criterion="D", *, grid=None, constraints=None, ki
                          bridge.n_spans, posterior_of)
 
 
-def _best_layout(problem, relaxation, starts, greedy_layout=None):
-    """Best of exchange from: the rounded relaxation, the greedy layout, the best baseline.
+def _best_layout(problem, relaxation, starts, greedy_layout=None, rng=None):
+    """Best of exchange from: the rounded relaxation, the greedy layout, the best baseline
+    (and randomised roundings of the relaxation for criteria that ask for them).
 
     On large candidate grids each start is improved on a coarse grid and only
     the best result is polished on all candidates.  Exchange never makes a
@@ -175,6 +176,10 @@ def _best_layout(problem, relaxation, starts, greedy_layout=None):
                     key=lambda t: -t[0])
     if scored:
         tried.append((f"exchange from {scored[0][1]}", scored[0][2]))
+    if problem.criterion.random_starts:
+        tried += [("randomised rounding + exchange", s) for s in
+                  sample_roundings(problem, relaxation.weights, problem.criterion.random_starts,
+                                   np.random.default_rng(rng))]
     if not tried:
         raise SolverError("No feasible layout was found; relax the budget, span counts or spacing.")
     best = None
@@ -252,7 +257,7 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
     except SolverError:
         g_start = None
     relaxation = solve_relaxation(problem, solver, start_layout=g_start)
-    method, layout, utility = _best_layout(problem, relaxation, base, g_start)
+    method, layout, utility = _best_layout(problem, relaxation, base, g_start, rng)
     crit = problem.criterion
     sign = 1.0 if crit.maximise else -1.0
     value = sign * utility

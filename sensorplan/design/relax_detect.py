@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from .detect_criterion import centre_gradients, certificate, smooth_parts
+from .detect_criterion import centre_gradients, centre_hessian_roots, certificate, smooth_parts
 from .relax_ipm import _interior_start, _interior_start_box, _working_rows
 from .relaxation import Relaxation, _repair
 
@@ -141,7 +141,7 @@ def _pdip_epigraph(problem, idx, scaled, w_prev, *, tol, max_iter=300):
         for _ in range(max_iter):
             newton += 1
             s = f - t
-            y = np.linalg.solve(chol, r.transpose(1, 2, 0))  # (n_centres, n, m): L_c^-1 R_c^T
+            y = centre_hessian_roots(r, chol)
             z = (y * np.sqrt(2.0 / s)[:, None, None]).reshape(-1, m)
             gs = g / s  # (m, n_centres)
             hxx = z.T @ z + gs @ gs.T

@@ -11,7 +11,7 @@ import numpy as np
 
 from .._errors import SolverError
 
-__all__ = ["iter_greedy", "greedy", "exchange", "round_weights"]
+__all__ = ["iter_greedy", "greedy", "exchange", "round_weights", "sample_roundings"]
 
 
 def _upper_bounds(problem, q):
@@ -214,3 +214,21 @@ def round_weights(problem, weights):
         if len(chosen) == problem.count:
             return chosen
     raise SolverError("Rounding could not complete a feasible layout.")
+
+
+def sample_roundings(problem, weights, n, rng):
+    """Up to ``n`` distinct randomised roundings: candidates in a random order favouring large weights
+    (keys u^(1 / w), Efraimidis & Spirakis 2006), skipping those that break a constraint."""
+    w = np.clip(np.asarray(weights, dtype=float), 0.0, None) + 1e-9
+    out = []
+    for _ in range(n):
+        keys = rng.random(w.size) ** (1.0 / w)
+        chosen = []
+        for i in np.argsort(-keys):
+            if problem.partial_ok(chosen + [int(i)]):
+                chosen.append(int(i))
+            if len(chosen) == problem.count:
+                break
+        if len(chosen) == problem.count and sorted(chosen) not in out:
+            out.append(sorted(chosen))
+    return out
