@@ -302,3 +302,21 @@ def test_cli_detect_errors_are_one_line(tmp_path, capsys, argv, needle):
     err = capsys.readouterr().err.strip()
     assert code == 1 and len(err.splitlines()) == 1 and needle in err, err
     assert not (tmp_path / "design.json").exists()
+
+
+@pytest.mark.parametrize("example", ["openlab-like", "three-span"])
+def test_zone_response_change_equals_two_full_forward_solves(example):
+    # the damage signatures (and so every Gram matrix above) use the zone-only formula of
+    # response_change; the reference is the difference of two complete forward solves
+    from sensorplan.model.forward import influence_lines, response_change
+
+    case = example_case(example)
+    mesh = sp.Mesh(np.union1d(case.mesh.edges, [5.2, 7.2]))
+    ei = case.ei_at(mesh.midpoints)
+    damaged = ei * np.where((mesh.midpoints > 5.2) & (mesh.midpoints < 7.2), 0.7, 1.0)
+    sensors = sp.SensorLayout([0.0, 6.0, 14.0, 21.5], ("rotation", "deflection", "rotation", "deflection"), None,
+                              (1e-6,) * 4)
+    full = (influence_lines(case.bridge, mesh, damaged, sensors, case.vehicle, case.sweep.positions).predictions
+            - influence_lines(case.bridge, mesh, ei, sensors, case.vehicle, case.sweep.positions).predictions)
+    change = response_change(case.bridge, mesh, ei, damaged, sensors, case.vehicle, case.sweep.positions)
+    np.testing.assert_allclose(change, full, rtol=0, atol=1e-11 * np.abs(full).max())

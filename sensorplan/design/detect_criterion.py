@@ -44,42 +44,61 @@ from .._errors import ConfigError, SolverError
 from ..detection.signatures import schur_d_squared
 from .criteria import Criterion, register_criterion
 
-__all__ = ["DetectCriterion", "RIDGE", "centre_d_squared", "smooth_parts", "centre_gradients", "centre_hessian_roots",
+__all__ = ["DetectCriterion", "RIDGE", "centre_d_squared", "centre_solution", "smooth_parts", "centre_gradients", "centre_hessian_roots",
            "certificate"]
 
 RIDGE = 1e-10  # ridge on A_NN in the relaxation, relative to the mean single-candidate diagonal
-_WELL_CONDITIONED = 1e8  # trace of the inverse of the unit-diagonal A_NN below which no eigenvalue is cut off
+
+
+def _unit_diagonal(stack):
+    """The stack scaled to unit diagonal (unseen directions: identity rows) and the scales."""
+    diag = np.diagonal(stack, axis1=-2, axis2=-1)
+    seen = diag > 0.0
+    scale = np.where(seen, 1.0 / np.sqrt(np.where(seen, diag, 1.0)), 0.0)
+    scaled = stack * scale[..., :, None] * scale[..., None, :]
+    idx = np.arange(diag.shape[-1])
+    scaled[..., idx, idx] = 1.0
+    return scaled, scale, diag
 
 
 def centre_d_squared(stack):
-    """Exact d^2 and the nuisance coefficients x per centre of ``stack`` (..., n_centres, m, m).
+    """Exact d^2 per centre of ``stack`` (..., n_centres, m, m), as :func:`schur_d_squared` computes it.
 
-    Equal to :func:`schur_d_squared` (same scaling, same cut-off): where
-    the unit-diagonal A_NN is well conditioned (trace of its inverse below
-    1e8, so every eigenvalue is far above the cut-off) by a plain inverse,
-    elsewhere by the eigen-decomposition with the cut-off.
+    Fast path: the Cholesky factor of the unit-diagonal matrix with the
+    signature ordered last; its last pivot is d^2 / A_ss.  Where a nuisance
+    pivot is below 1e-8 (the nuisance block may then have eigenvalues near
+    the pseudo-inverse cut-off of 1e-12) or the factorisation fails, the
+    value is that of :func:`schur_d_squared` itself (eigen-decomposition,
+    cut-off).
     """
-    a_ss, a_sn, a_nn = stack[..., 0, 0], stack[..., 1:, 0], stack[..., 1:, 1:]
-    diag = np.einsum("...nn->...n", a_nn)
-    seen = diag > 0.0
-    scale = np.where(seen, 1.0 / np.sqrt(np.where(seen, diag, 1.0)), 0.0)
-    scaled = a_nn * scale[..., :, None] * scale[..., None, :] + np.where(seen, 0.0, 1.0)[..., :, None] \
-        * np.eye(diag.shape[-1])
-    p = a_sn * scale
+    diag = np.diagonal(stack, axis1=-2, axis2=-1)
+    m = diag.shape[-1]
+    order = np.roll(np.arange(m), -1)  # the signature last
+    seen = diag[..., order] > 0.0
+    scale = np.where(seen, 1.0 / np.sqrt(np.where(seen, diag[..., order], 1.0)), 0.0)
+    full = stack[..., order[:, None], order[None, :]] * scale[..., :, None] * scale[..., None, :]
+    full[..., np.arange(m), np.arange(m)] = 1.0
+    full[..., m - 1, m - 1] += 1e-13  # keeps d^2 = 0 factorisable; subtracted below
     try:
-        inv = np.linalg.inv(scaled)
-        bad = ~(np.einsum("...nn->...", inv) < _WELL_CONDITIONED)
+        piv = np.diagonal(np.linalg.cholesky(full), axis1=-2, axis2=-1) ** 2
     except np.linalg.LinAlgError:
-        inv, bad = np.zeros_like(scaled), np.ones(a_ss.shape, bool)
-    y = np.einsum("...nm,...m->...n", inv, p)
-    d2 = a_ss - np.einsum("...n,...n->...", p, y)
+        piv = np.zeros(full.shape[:-1])
+    d2 = np.maximum(piv[..., -1] - 1e-13, 0.0) * diag[..., 0]
+    bad = np.any(piv[..., :-1] < 1e-8, axis=-1)
     if bad.any():
-        vals, vecs = np.linalg.eigh(scaled[bad])
-        keep = vals > 1e-12 * vals.max(axis=1, keepdims=True)
-        coef = np.where(keep, np.einsum("knm,kn->km", vecs, p[bad]) / np.where(keep, vals, 1.0), 0.0)
-        y[bad] = np.einsum("knm,km->kn", vecs, coef)
         d2[bad] = schur_d_squared(stack[bad][None])
-    return np.maximum(d2, 0.0), y * scale
+    return d2
+
+
+def centre_solution(stack):
+    """(d^2, x) per centre: d^2 as :func:`centre_d_squared`, x the nuisance coefficients with
+    d^2 = [1; -x]^T A [1; -x] (pseudo-inverse with the cut-off of :func:`schur_d_squared`)."""
+    scaled, scale, _ = _unit_diagonal(stack)
+    vals, vecs = np.linalg.eigh(scaled[..., 1:, 1:])
+    keep = vals > 1e-12 * vals.max(axis=-1, keepdims=True)
+    p = np.einsum("...nm,...n->...m", vecs, stack[..., 1:, 0] * scale[..., 1:])
+    coef = np.where(keep, p / np.where(keep, vals, 1.0), 0.0)
+    return centre_d_squared(stack), np.einsum("...nm,...m->...n", vecs, coef) * scale[..., 1:]
 
 
 def smooth_parts(stack, ridge):
@@ -97,8 +116,8 @@ def smooth_parts(stack, ridge):
 
 def centre_gradients(blocks, u):
     """d d^2_c / d w_i = u_c^T G_i(c) u_c for every block: (n_blocks, n_centres)."""
-    bu = np.einsum("icab,cb->ica", blocks, u)
-    return np.einsum("ica,ca->ic", bu, u)
+    uu = (u[:, :, None] * u[:, None, :]).reshape(u.shape[0], -1)
+    return np.einsum("icq,cq->ic", blocks.reshape(blocks.shape[0], u.shape[0], -1), uu)
 
 
 def centre_hessian_roots(rows, chol):
@@ -153,7 +172,7 @@ class DetectCriterion(Criterion):
     relaxation = "detect-epigraph"
     information = "detection"
     params_label = "damage centres"
-    random_starts = 20  # a minimum over centres has many local optima for single swaps
+    random_starts = 10  # a minimum over centres has many local optima for single swaps
 
     def __init__(self, n_params, *, centres=None, ridge=None, false_alarm=0.05, n_crossings=1, severity=0.25,
                  length=2.0, nuisance="smooth", region=None, step=0.5, nuisance_names=()):
@@ -171,11 +190,11 @@ class DetectCriterion(Criterion):
                           "not by make_criterion().")
 
     def value(self, q):
-        return float(centre_d_squared(q)[0].min())
+        return float(centre_d_squared(q).min())
 
     def gradient_matrix(self, q):
         """Supergradient: u u^T at the worst centre, u = [1; -x]."""
-        d2, x = centre_d_squared(q)
+        d2, x = centre_solution(q)
         c = int(np.argmin(d2))
         out = np.zeros_like(q)
         u = np.concatenate([[1.0], -x[c]])
@@ -184,7 +203,7 @@ class DetectCriterion(Criterion):
 
     def upper_bounds(self, problem, q):
         # d^2_c(A + G) <= u_c^T (A + G) u_c for any u_c = [1; -x]; the minimum over the centres
-        d2, x = centre_d_squared(q)
+        d2, x = centre_solution(q)
         u = np.concatenate([np.ones((x.shape[0], 1)), -x], axis=1)
         base = np.einsum("ca,cab,cb->c", u, q, u)
         return float(d2.min()), (base[None, :] + centre_gradients(problem.blocks, u)).min(axis=1)
@@ -223,7 +242,7 @@ class DetectCriterion(Criterion):
     # -- reporting -------------------------------------------------------------------------------
     def describe(self, q):
         """JSON details and one summary line: worst centre, d, power."""
-        d2 = centre_d_squared(q)[0]
+        d2 = centre_d_squared(q)
         c = int(np.argmin(d2))
         d = math.sqrt(d2[c])
         power = float(ndtr(d - ndtri(1.0 - self.false_alarm)))

@@ -39,7 +39,7 @@ import numpy as np
 
 from .._errors import ConfigError
 from .._threads import single_threaded
-from ..model.forward import influence_lines
+from ..model.forward import influence_lines, response_change
 from ..model.structure import Mesh
 from .nuisance import NUISANCES, nuisance_matrix
 
@@ -228,14 +228,19 @@ def _inside(edges, low, high):
 
 
 def _exact_differences(case, sensors, positions, reference, lows, highs, severities):
-    """Damaged minus undamaged readings, one forward solve per zone: (n_centres, S, K)."""
+    """Damaged minus undamaged readings, exact, per zone: (n_centres, S, K).
+
+    :func:`~sensorplan.model.forward.response_change` forms only the zone's
+    element integrals (agrees with the difference of two full forward
+    solves to ~1e-13 relative on the embedded examples).
+    """
     out = np.empty((lows.size, *reference.shape))
     for c, (low, high, severity) in enumerate(zip(lows, highs, severities)):
         edges = zone_mesh_edges(case.mesh, case.bridge, [low, high])
         mesh = Mesh(edges)
-        ei = case.ei_at(mesh.midpoints) * np.where(_inside(edges, low, high), 1.0 - severity, 1.0)
-        damaged = influence_lines(case.bridge, mesh, ei, sensors, case.vehicle, positions).predictions
-        out[c] = damaged - reference
+        ei = case.ei_at(mesh.midpoints)
+        damaged = ei * np.where(_inside(edges, low, high), 1.0 - severity, 1.0)
+        out[c] = response_change(case.bridge, mesh, ei, damaged, sensors, case.vehicle, positions)
     return out
 
 
