@@ -70,6 +70,7 @@ class Criterion:
     information: ClassVar[str] = "fisher"  # what a sensor adds: Fisher blocks, or "detection" Gram stacks
     params_label: ClassVar[str] = "parameters"  # what n_effective counts, for summaries
     random_starts: ClassVar[int] = 0  # randomised roundings of the relaxation tried as exchange starts
+    batch_size: ClassVar[int] = 1  # candidates exchange evaluates together (``utilities``)
 
     def __init__(self, n_params):
         self.n_params = int(n_params)
@@ -83,8 +84,7 @@ class Criterion:
         return cls(n_params)
 
     @property
-    def n_effective(self):
-        """Dimension used by a per-parameter efficiency."""
+    def n_effective(self):  # dimension used by a per-parameter efficiency
         return self.n_params
 
     # -- value and derivatives ---------------------------------------------------------
@@ -94,6 +94,10 @@ class Criterion:
     def utility(self, q):
         v = self.value(q)
         return v if self.maximise else -v
+
+    def utilities(self, q, blocks):
+        """utility(Q + I_i) for each block of ``blocks`` (overridden where a batch is cheaper)."""
+        return [self.utility(q + b) for b in blocks]
 
     def gradient_matrix(self, q):
         """Symmetric G with d utility / d w_i = <G, I_i> (a supergradient if not smooth)."""
@@ -144,8 +148,7 @@ class Criterion:
         """Certified bound from a cvxpy solution (default: :meth:`bound` at the weights)."""
         return self.bound(problem, weights)
 
-    def relaxed_utility(self, problem, w):
-        """The utility the relaxation maximises, at relaxed weights (that of Q(w) unless overridden)."""
+    def relaxed_utility(self, problem, w):  # what the relaxation maximises, at relaxed weights
         return self.utility(problem.precision(w))
 
     def describe(self, q):

@@ -161,15 +161,26 @@ def _best_replacement(problem, rest, q_rest, taken, best, order, ub=None):
     """
     crit = problem.criterion
     cand_best, cand_util = None, best + 1e-12 * max(1.0, abs(best))
+    pending = []  # evaluated together, crit.batch_size at a time (cheaper per candidate for some criteria)
+
+    def flush():
+        nonlocal cand_best, cand_util
+        for j, u in zip(pending, crit.utilities(q_rest, problem.blocks[pending])):
+            if u > cand_util:
+                cand_best, cand_util = j, u
+        pending.clear()
+
     for i in order:
         if ub is not None and ub[i] + _slack(ub[i]) <= cand_util:
             break
         i = int(i)
         if i in taken or not problem.partial_ok(rest + [i]):
             continue
-        u = crit.utility(q_rest + problem.blocks[i])
-        if u > cand_util:
-            cand_best, cand_util = i, u
+        pending.append(i)
+        if len(pending) >= crit.batch_size:
+            flush()
+    if pending:
+        flush()
     return cand_best
 
 
