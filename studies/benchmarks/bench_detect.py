@@ -40,12 +40,33 @@ is asserted.  Run from the repository root::
 
     python studies/benchmarks/bench_detect.py
 
-Last run (2026-11-24, commit see the printed header, 2-core machine shared
-with other jobs, load average 8-10 at start, i.e. about 4 processes per
-core: all times are inflated accordingly; ratios are within the same run):
-see the table printed at the end of this docstring's history below.
+Wall time and CPU time (``time.process_time`` of the single-threaded
+child) are both printed: on a shared machine the wall time includes waiting
+for a core, the CPU time is close to what one free core takes.
 
-RESULTS (filled from the last run)
+Last run (2026-11-24, commit b678be1, 2-core machine shared with other jobs,
+load average 14.9 at start and 13.8 at end, i.e. about 7 runnable processes
+per core, so wall times are inflated several-fold; ratios are within the
+same run):
+
+size 1 (N 60, C 200, R 6):
+  relaxation fast 4.99 s wall / 0.72 s CPU, certified gap 1.2e-9 (met);
+  cvxpy + Clarabel 22.7 s wall / 3.24 s CPU, status optimal_inaccurate,
+  certified gap 1.1e-6 (its weights are less accurate); ratio fast / cvxpy
+  0.22 (CPU 0.22); relaxed optima agree to 9.1e-8.
+  recommend() 27.1 s wall, 3.76 s CPU (target 5 s: met in CPU time, not in
+  wall time on this loaded machine); certified efficiency 61.7 %
+  (worst-case d^2 0.5523, bound 0.8955), layout from a randomised rounding.
+size 2 (N 120, C 800, R 10):
+  relaxation fast 17.5 s wall / 2.56 s CPU, certified gap 0 (met); cvxpy +
+  Clarabel 61.7 s wall / 20.0 s CPU, optimal_inaccurate, gap 1.7e-6; ratio
+  0.28 (CPU 0.13); relaxed optima agree to 9.2e-7.
+  recommend() 30.9 s wall, 10.4 s CPU (target 30 s: met in CPU time, at the
+  limit in wall time); certified efficiency 75.6 % (1.1509 against 1.5219).
+Building the problem (exact damage signatures of every candidate at 57
+centres, zone-only element integrals) is part of recommend(); before the
+zone-only formula (sensorplan.model.forward.response_change) it alone took
+16.5 s wall at size 1 under a similar load.
 """
 
 import os
