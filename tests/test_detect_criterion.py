@@ -131,7 +131,7 @@ def test_four_sensors_against_fe_brute_force(fe):
     case, grams, _ = fe
     problem = build_problem(case, 4, "detect", grid=sp.CandidateGrid(spacing=1.0), n_crossings=SPEC["crossings"],
                             target=TARGET)
-    best, best_value, _ = fe_brute_force(problem, grams)
+    _, best_value, _ = fe_brute_force(problem, grams)
     for solver in ("fast", "cvxpy"):
         assert solve_relaxation(problem, solver).bound >= best_value * (1 - 1e-9)
     result = sp.recommend(case, 4, "detect", grid=sp.CandidateGrid(spacing=1.0), n_crossings=SPEC["crossings"],
@@ -148,7 +148,7 @@ def test_ridged_gradient_and_hessian_match_finite_differences(fe):
     ridge = problem.criterion.ridge
     rng = np.random.default_rng(3)
     w = rng.uniform(0.05, 0.3, problem.n_candidates)
-    f, u, chol = smooth_parts(problem.precision(w), ridge)
+    _, u, chol = smooth_parts(problem.precision(w), ridge)
     grad = centre_gradients(problem.blocks, u)
     rows = np.einsum("icab,cb->ica", problem.blocks, u)[:, :, 1:]
     roots = centre_hessian_roots(rows, chol)

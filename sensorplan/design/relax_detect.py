@@ -21,7 +21,12 @@ import time
 
 import numpy as np
 
-from .detect_criterion import centre_gradients, centre_hessian_roots, certificate, smooth_parts
+from .detect_criterion import (
+    centre_gradients,
+    centre_hessian_roots,
+    certificate,
+    smooth_parts,
+)
 from .relax_ipm import _interior_start, _interior_start_box, _working_rows
 from .relaxation import Relaxation, _repair
 
@@ -49,7 +54,7 @@ def solve_detect_epigraph(problem, *, tol=1e-7, start_layout=None, max_rounds=50
     working = set(np.argsort(-score, kind="stable")[:size].tolist())
     working |= set(np.argmax(grad, axis=0).tolist())  # the best candidate of every centre
     if start_layout is not None:
-        working |= set(int(i) for i in start_layout)
+        working |= {int(i) for i in start_layout}
     scaled = (problem.blocks / scale, problem.q0 / scale, crit.ridge / scale)
     weights, gap, newton, dropped = None, np.inf, 0, set()
     inner = 1e-3
