@@ -35,7 +35,7 @@ _EXPORTS = {
     "GaussianMixture": "inference.mixture",
     "DesignResult": "design.results", "Baseline": "design.results", "SolverStats": "design.results",
     "CurvePoint": "design.results", "recommend": "design.recommend", "CandidateGrid": "design.recommend",
-    "Constraints": "design.recommend", "Criterion": "design.criteria", "register_criterion": "design.criteria",
+    "Constraints": "design.recommend", "DetectionTarget": "design.recommend", "Criterion": "design.criteria", "register_criterion": "design.criteria",
     "CRITERIA": "design.criteria",
     "VerificationResult": "verification.results", "LayoutScore": "verification.results",
     "Metric": "verification.results", "Scenario": "verification.scenarios", "Analysis": "analysis", "analyse": "analysis", "verify_layouts": "verification.verify",

@@ -1,6 +1,7 @@
 """``sensorplan recommend``: certified layout, baselines, criterion versus R (and --verify)."""
 
 
+from .._errors import ConfigError
 from ._common import (
     add_case_arguments,
     add_out_arguments,
@@ -17,7 +18,9 @@ NAME = "recommend"
 HELP = "recommend where to put R sensors (certified layout + baselines)"
 EPILOG = """example:
   sensorplan recommend --example openlab-like --count 3 --criterion D --exclude 14.5:15.5 --out out/design
+  sensorplan recommend --example openlab-like --count 4 --criterion detect --crossings 10 --out out/detect
 """
+DETECT_OPTIONS = ("severity", "length", "nuisance", "step", "false_alarm")
 
 
 def add_arguments(p):
@@ -38,6 +41,15 @@ def add_arguments(p):
     p.add_argument("--springs", action="store_true", help="treat the spring stiffnesses as nuisance parameters")
     p.add_argument("--solver", choices=["auto", "fast", "cvxpy"], default="auto", help="relaxation solver")
     p.add_argument("--seed", type=int, default=0, help="seed of the random baseline (default 0)")
+    p.add_argument("--region", type=parse_zones, help="detect: damage centres in start:stop m only; "
+                   "A: elements in start:stop m (region of interest)")
+    d = p.add_argument_group("detect criterion (worst-case detectability of a local loss)")
+    d.add_argument("--severity", type=float, help="fraction of EI lost over the damaged zone (default 0.25)")
+    d.add_argument("--length", type=float, help="length of the damaged zone in m (default 2)")
+    d.add_argument("--nuisance", choices=["smooth", "levels"], help="what must not be mistaken for damage "
+                   "(default smooth, as in detectability)")
+    d.add_argument("--step", type=float, help="spacing of the damage centres in m (default 0.5)")
+    d.add_argument("--false-alarm", type=float, help="false-alarm rate of the reported power (default 0.05)")
     add_out_arguments(p, json_default="design.json")
     add_verify_arguments(p, with_flag=True)
 
@@ -54,7 +66,8 @@ def run(args, out, files):
     result = recommend(case, count, args.criterion,
                        grid=CandidateGrid(spacing=args.spacing, exclude=tuple(args.exclude or ())), kind=args.kind, noise_std=args.noise_std, n_crossings=args.crossings,
                        constraints=Constraints(fixed=tuple(args.fixed or ()), min_spacing=args.min_spacing),
-                       springs=args.springs, solver=args.solver, rng=args.seed)
+                       springs=args.springs, solver=args.solver, rng=args.seed, region=_region(args),
+                       target=_detection_target(args))
     outdir = args.out
     figures = [
         stage_figure(files, plotting.plot_layout(result), outdir / "layout.png"),
@@ -79,3 +92,24 @@ def run(args, out, files):
         out(verification.summary())
     out(f"design written to {json_path}; figures: " + ", ".join(str(p) for p in figures))
     return 0
+
+
+def _region(args):
+    if args.region is None:
+        return None
+    if len(args.region) != 1:
+        raise ConfigError(f"--region takes one start:stop in m. Got {len(args.region)} zones instead.")
+    return args.region[0]
+
+
+def _detection_target(args):
+    """The --severity ... options as a DetectionTarget (detect only; None for the other criteria)."""
+    from ..design.recommend import DetectionTarget
+
+    given = {k: getattr(args, k) for k in DETECT_OPTIONS if getattr(args, k) is not None}
+    if args.criterion != "detect":
+        if given:
+            names = ", ".join("--" + k.replace("_", "-") for k in given)
+            raise ConfigError(f"{names} apply to --criterion detect only. Got --criterion {args.criterion}.")
+        return None
+    return DetectionTarget(**given)

@@ -8,5 +8,5 @@ module per solver (:mod:`.relax_cvxpy`, :mod:`.relax_ipm`,
 :mod:`.baselines` (registry), :mod:`.recommend` and :mod:`.results`.
 
 Owns: everything about choosing a layout.
-May import: model and the foundations.
+May import: model, detection and the foundations.
 """

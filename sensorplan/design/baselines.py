@@ -84,7 +84,9 @@ def effective_independence(problem, context):
     remaining = list(range(problem.n_candidates))
     while len(remaining) > problem.count:
         q = problem.layout_precision(remaining)
-        inv = scipy.linalg.cho_solve((np.linalg.cholesky(q), True), np.eye(q.shape[0]))
+        # a stack of blocks (the detect criterion): the precision is their block diagonal
+        inv = np.linalg.inv(q) if q.ndim == 3 else scipy.linalg.cho_solve((np.linalg.cholesky(q), True),
+                                                                          np.eye(q.shape[0]))
         share = problem.flat_blocks[remaining] @ inv.ravel()
         n_drop = max(1, (len(remaining) - problem.count) // 10)
         drop = set(np.argsort(share)[:n_drop].tolist())

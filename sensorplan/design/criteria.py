@@ -43,7 +43,7 @@ from .linalg import (
 )
 
 __all__ = ["Criterion", "DCriterion", "DsCriterion", "ACriterion", "ECriterion", "CRITERIA",
-           "register_criterion", "make_criterion"]
+           "register_criterion", "make_criterion", "criterion_class"]
 
 CRITERIA: dict[str, type] = {}
 
@@ -59,19 +59,18 @@ class Criterion:
 
     Subclasses set ``name`` and ``description`` and implement ``value``,
     ``gradient_matrix`` and ``cvxpy_objective``; everything else has a
-    correct default for any concave utility.
-
-    Parameters
-    ----------
-    n_params : int
-        Dimension of Q.
+    correct default for any concave utility.  ``n_params``: dimension of Q.
     """
 
     name: ClassVar[str] = ""
     description: ClassVar[str] = ""
     maximise: ClassVar[bool] = True
     submodular: ClassVar[bool] = False  # gains only shrink as sensors are added: lazy greedy is exact
-    relaxation: ClassVar[str] = "interior-point"  # fast solver: "interior-point" or "eigen-subspace"
+    relaxation: ClassVar[str] = "interior-point"  # fast solver: "interior-point", "eigen-subspace", ...
+    information: ClassVar[str] = "fisher"  # what a sensor adds: Fisher blocks, or "detection" Gram stacks
+    params_label: ClassVar[str] = "parameters"  # what n_effective counts, for summaries
+    random_starts: ClassVar[int] = 0  # randomised roundings of the relaxation tried as exchange starts
+    batch_size: ClassVar[int] = 1  # candidates exchange evaluates together (``utilities``)
 
     def __init__(self, n_params):
         self.n_params = int(n_params)
@@ -85,8 +84,7 @@ class Criterion:
         return cls(n_params)
 
     @property
-    def n_effective(self):
-        """Dimension used by a per-parameter efficiency."""
+    def n_effective(self):  # dimension used by a per-parameter efficiency
         return self.n_params
 
     # -- value and derivatives ---------------------------------------------------------
@@ -97,16 +95,17 @@ class Criterion:
         v = self.value(q)
         return v if self.maximise else -v
 
+    def utilities(self, q, blocks):
+        """utility(Q + I_i) for each block of ``blocks`` (overridden where a batch is cheaper)."""
+        return [self.utility(q + b) for b in blocks]
+
     def gradient_matrix(self, q):
         """Symmetric G with d utility / d w_i = <G, I_i> (a supergradient if not smooth)."""
         raise NotImplementedError
 
     def hessian(self, q, chol, blocks):
-        """Hessian of the utility in the weights of ``blocks`` (m, P, P).
-
-        Default: central differences of the gradient along each block
-        (m gradient evaluations; exact forms override it).
-        """
+        """Hessian of the utility in the weights of ``blocks`` (m, P, P); default: central
+        differences of the gradient along each block (exact forms override it)."""
         m = blocks.shape[0]
         flat = blocks.reshape(m, -1).astype(float)
         h = np.empty((m, m))
@@ -135,6 +134,12 @@ class Criterion:
         return self.utility(q) + max(0.0, best - float(g @ w))
 
     # -- cvxpy -----------------------------------------------------------------------------
+    def cvxpy_precision(self, cp, problem, w, idx):
+        """Q(w) as a cvxpy expression (weights ``w`` on the candidates ``idx``)."""
+        p = problem.n_params
+        q = problem.q0 + cp.reshape(problem.flat_blocks[idx].T @ w, (p, p), order="C")
+        return 0.5 * (q + q.T)
+
     def cvxpy_objective(self, cp, q_expr, constraints):
         """(objective, handle) of the relaxation; ``constraints`` may be extended."""
         raise NotImplementedError
@@ -142,6 +147,13 @@ class Criterion:
     def cvxpy_bound(self, problem, weights, handle):
         """Certified bound from a cvxpy solution (default: :meth:`bound` at the weights)."""
         return self.bound(problem, weights)
+
+    def relaxed_utility(self, problem, w):  # what the relaxation maximises, at relaxed weights
+        return self.utility(problem.precision(w))
+
+    def describe(self, q):
+        """(JSON details, summary line) of a layout's Q beyond the value (none by default)."""
+        return {}, ""
 
     # -- comparing values --------------------------------------------------------------------
     def efficiency(self, value, bound):
@@ -375,6 +387,13 @@ class ECriterion(Criterion):
         return self.bound_from_dual(problem, dual) if dual is not None else self.bound(problem, weights)
 
 
+def criterion_class(name):
+    """The registered criterion class called ``name`` (ConfigError if there is none)."""
+    if name not in CRITERIA:
+        raise ConfigError(f"The 'criterion' parameter must be one of {', '.join(CRITERIA)}. Got {name!r} instead.")
+    return CRITERIA[name]
+
+
 def make_criterion(name, n_params, *, n_elements=None, edges=None, region=None, functionals=None):
     """Build a registered criterion.
 
@@ -394,7 +413,8 @@ def make_criterion(name, n_params, *, n_elements=None, edges=None, region=None, 
     functionals : ndarray (m, n_elements), optional
         A-criterion on linear functionals of log EI (e.g. zone means).
     """
-    if name not in CRITERIA:
-        raise ConfigError(f"The 'criterion' parameter must be one of {', '.join(CRITERIA)}. Got {name!r} instead.")
-    return CRITERIA[name].from_options(n_params, n_elements=n_elements, edges=edges, region=region,
+    return criterion_class(name).from_options(n_params, n_elements=n_elements, edges=edges, region=region,
                                        functionals=functionals)
+
+
+from . import detect_criterion  # noqa: E402,F401  (registers "detect"; it builds on the protocol above)

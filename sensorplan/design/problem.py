@@ -35,6 +35,7 @@ class DesignProblem:
     span_max: np.ndarray | None = None
     min_spacing: float = 0.0
     n_spans: int = 1
+    posterior_of: object = None  # index -> posterior precision of log EI, when blocks are not Fisher blocks
 
     def __post_init__(self):
         c = self.positions.size
@@ -60,6 +61,10 @@ class DesignProblem:
 
     def layout_precision(self, index):
         return self.q0 + self.blocks[list(index)].sum(axis=0)
+
+    def posterior_precision(self, index):
+        """Posterior precision of the parameters for a layout (for reports)."""
+        return self.layout_precision(index) if self.posterior_of is None else self.posterior_of(index)
 
     def utility_of(self, index):
         return self.criterion.utility(self.layout_precision(index))

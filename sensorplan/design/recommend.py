@@ -16,16 +16,17 @@ from ..model.fisher import fisher_blocks
 from ..model.prior import GMRFPrior
 from ..model.sensors import SensorLayout
 from .baselines import baselines as make_baselines
-from .criteria import make_criterion
+from .criteria import criterion_class, make_criterion
+from .detect_problem import DetectionTarget, detection_information
 from .problem import DesignProblem
 from .relaxation import solve_relaxation
 from .results import Baseline, CurvePoint, DesignResult, SolverStats
-from .selection import exchange, greedy, round_weights
+from .selection import exchange, greedy, round_weights, sample_roundings
 
 if TYPE_CHECKING:
     from ..model.case import Case
 
-__all__ = ["recommend", "build_problem", "candidate_positions", "CandidateGrid", "Constraints"]
+__all__ = ["recommend", "build_problem", "candidate_positions", "CandidateGrid", "Constraints", "DetectionTarget"]
 
 
 @dataclass(frozen=True)
@@ -106,9 +107,13 @@ def candidate_positions(bridge, spacing, exclude=()):
 
 
 def build_problem(case, count, criterion="D", *, grid=None, constraints=None, kind="rotation", noise_std=None,
-                  n_crossings=1, prior=None, springs=False, region=None, functionals=None):
+                  n_crossings=1, prior=None, springs=False, region=None, functionals=None, target=None):
     """Assemble the placement problem (see :func:`recommend` for the parameters)."""
     prior = GMRFPrior() if prior is None else prior
+    detection = criterion_class(criterion).information == "detection"
+    if target is not None and not detection:
+        raise ConfigError(f"A detection target (severity, length, nuisance, step, false alarm) applies to the "
+                          f"detect criterion only, not to {criterion}.")
     grid = CandidateGrid() if grid is None else grid
     constraints = Constraints() if constraints is None else constraints
     bridge = case.bridge
@@ -119,14 +124,20 @@ def build_problem(case, count, criterion="D", *, grid=None, constraints=None, ki
         far = np.all(np.abs(positions[:, None] - fixed[None, :]) >= max(constraints.min_spacing, 1e-9), axis=1)
         positions = positions[far]
     noise_std = case.noise_std_for(kind, noise_std)
-    all_pos = np.concatenate([positions, fixed])
-    layout = SensorLayout.candidates(all_pos, kind, noise_std=[noise_std] * all_pos.size)
-    blocks = fisher_blocks(case, sensors=layout, parameterisation="log_ei", springs=springs,
-                           n_crossings=n_crossings).blocks
-    n_springs = len(case.bridge.spring_parameters) if springs else 0
-    q0 = prior.precision(case.n_elements, n_springs) + blocks[positions.size:].sum(axis=0)
-    crit = make_criterion(criterion, q0.shape[0], n_elements=case.n_elements, edges=case.mesh.edges,
-                          region=region, functionals=functionals)
+    posterior_of = None
+    if detection:
+        blocks, q0, crit, posterior_of = detection_information(
+            case, positions, fixed, kind=kind, noise_std=noise_std, n_crossings=n_crossings, region=region,
+            target=target, prior=prior, springs=springs, functionals=functionals)
+    else:
+        all_pos = np.concatenate([positions, fixed])
+        layout = SensorLayout.candidates(all_pos, kind, noise_std=[noise_std] * all_pos.size)
+        blocks = fisher_blocks(case, sensors=layout, parameterisation="log_ei", springs=springs,
+                               n_crossings=n_crossings).blocks
+        n_springs = len(case.bridge.spring_parameters) if springs else 0
+        q0 = prior.precision(case.n_elements, n_springs) + blocks[positions.size:].sum(axis=0)
+        crit = make_criterion(criterion, q0.shape[0], n_elements=case.n_elements, edges=case.mesh.edges,
+                              region=region, functionals=functionals)
     c_arr = None
     if constraints.budget is not None:
         costs = 1.0 if constraints.costs is None else constraints.costs
@@ -136,11 +147,12 @@ def build_problem(case, count, criterion="D", *, grid=None, constraints=None, ki
                          q0, crit, int(count), c_arr, constraints.budget,
                          None if span_min is None else np.asarray(span_min, int),
                          None if span_max is None else np.asarray(span_max, int), float(constraints.min_spacing),
-                         bridge.n_spans)
+                         bridge.n_spans, posterior_of)
 
 
-def _best_layout(problem, relaxation, starts, greedy_layout=None):
-    """Best of exchange from: the rounded relaxation, the greedy layout, the best baseline.
+def _best_layout(problem, relaxation, starts, greedy_layout=None, rng=None):
+    """Best of exchange from: the rounded relaxation, the greedy layout, the best baseline
+    (and randomised roundings of the relaxation for criteria that ask for them).
 
     On large candidate grids each start is improved on a coarse grid and only
     the best result is polished on all candidates.  Exchange never makes a
@@ -164,6 +176,10 @@ def _best_layout(problem, relaxation, starts, greedy_layout=None):
                     key=lambda t: -t[0])
     if scored:
         tried.append((f"exchange from {scored[0][1]}", scored[0][2]))
+    if problem.criterion.random_starts:
+        tried += [("randomised rounding + exchange", s) for s in
+                  sample_roundings(problem, relaxation.weights, problem.criterion.random_starts,
+                                   np.random.default_rng(rng))]
     if not tried:
         raise SolverError("No feasible layout was found; relax the budget, span counts or spacing.")
     best = None
@@ -190,7 +206,7 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
               n_crossings: int = 1, prior: GMRFPrior | None = None, springs: bool = False,
               region: tuple[float, float] | None = None, functionals: "np.ndarray | None" = None,
               solver: str = "auto", n_random: int = 100, rng: "int | np.random.Generator" = 0,
-              curve_max: int | None = None) -> DesignResult:
+              curve_max: int | None = None, target: DetectionTarget | None = None) -> DesignResult:
     """Recommend where to put ``count`` new sensors.
 
     Parameters
@@ -200,7 +216,8 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
     count : int
         Number of new sensors R.
     criterion : str
-        A registered criterion: "D", "A", "E", "Ds" (see :mod:`sensorplan.design.criteria`).
+        A registered criterion: "D", "A", "E", "Ds", "detect" (see :mod:`sensorplan.design.criteria`;
+        detect: the worst case over damage centres of the detectability d^2, :mod:`.detect_criterion`).
     grid : CandidateGrid, optional
         Candidate positions (default: every 0.5 m).
     constraints : Constraints, optional
@@ -212,13 +229,17 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
     prior : GMRFPrior
     springs : bool
         Spring log-stiffnesses as nuisance parameters.
-    region, functionals : targeted A criterion (see :class:`ACriterion`).
+    region, functionals : targeted A criterion (see :class:`ACriterion`); for detect, ``region``
+        (start, stop) [m] restricts the damage centres.
     solver : {"auto", "fast", "cvxpy"}
     n_random : int
         Random layouts tried by the random baseline.
     rng : seed or Generator for the random baseline.
     curve_max : int, optional
         Largest R of the criterion-versus-R curve (default min(count + 3, 12)); 0 disables it.
+    target : DetectionTarget, optional
+        The loss the detect criterion must see (default 25 % over 2 m, smooth nuisance, centres every
+        0.5 m, power reported at a 5 % false-alarm rate); detect only.
 
     Returns
     -------
@@ -228,7 +249,7 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
     noise_std = case.noise_std_for(kind, noise_std)
     problem = build_problem(case, count, criterion, grid=grid, constraints=constraints, kind=kind,
                             noise_std=noise_std, n_crossings=n_crossings, prior=prior, springs=springs,
-                            region=region, functionals=functionals)
+                            region=region, functionals=functionals, target=target)
     base = make_baselines(problem, length=case.bridge.length,
                           support_positions=case.bridge.support_positions, n_random=n_random, rng=rng)
     try:
@@ -236,7 +257,7 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
     except SolverError:
         g_start = None
     relaxation = solve_relaxation(problem, solver, start_layout=g_start)
-    method, layout, utility = _best_layout(problem, relaxation, base, g_start)
+    method, layout, utility = _best_layout(problem, relaxation, base, g_start, rng)
     crit = problem.criterion
     sign = 1.0 if crit.maximise else -1.0
     value = sign * utility
@@ -258,6 +279,7 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
     for name, idx in base.items():
         if idx is not None:
             post_std[name] = _posterior_std(problem, idx, n_el)
+    details, detail_line = crit.describe(problem.layout_precision(order))
     layout_m = tuple(float(problem.positions[i]) for i in order)
     sensors = SensorLayout.candidates(list(layout_m), kind, noise_std=[noise_std] * len(layout_m))
     stats = dict(relaxation.stats)
@@ -271,14 +293,15 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
                         fixed_m=tuple(float(x) for x in constraints.fixed), curve=curve, kind=kind,
                         layout_index=tuple(order), edges=case.mesh.edges.copy(),
                         supports_m=tuple(float(x) for x in case.bridge.support_positions),
-                        posterior_std=post_std,
+                        posterior_std=post_std, details=details, detail_line=detail_line,
+                        params_label=crit.params_label,
                         informativeness=fisher_blocks(case, sensors=sensors, parameterisation="ei",
                                                       n_crossings=n_crossings))
 
 
 def _posterior_std(problem, index, n_elements):
     """Posterior standard deviation of log EI per element (~ relative std of EI)."""
-    q = problem.layout_precision(index)
+    q = problem.posterior_precision(index)
     return np.sqrt(np.diag(np.linalg.inv(q))[:n_elements])
 
 

@@ -23,11 +23,8 @@ def solve_relaxation_cvxpy(problem, *, start_layout=None, tol=1e-8, candidates=N
     start = time.perf_counter()
     idx = np.arange(problem.n_candidates) if candidates is None else np.asarray(candidates)
     m = idx.size
-    p = problem.n_params
     w = cp.Variable(m)
-    flat = problem.flat_blocks[idx].T  # (P*P, m)
-    q = problem.q0 + cp.reshape(flat @ w, (p, p), order="C")
-    q = 0.5 * (q + q.T)
+    q = problem.criterion.cvxpy_precision(cp, problem, w, idx)
     constraints = [w >= 0, w <= 1, cp.sum(w) == problem.count]
     a_ub, b_ub = problem.inequalities
     if a_ub.shape[0]:
@@ -48,7 +45,7 @@ def solve_relaxation_cvxpy(problem, *, start_layout=None, tol=1e-8, candidates=N
              "iterations": prob.solver_stats.num_iters if prob.solver_stats else None,
              "solver_value": float(prob.value)}
     bound = problem.criterion.cvxpy_bound(problem, weights, handle)
-    utility = problem.criterion.utility(problem.precision(weights))
+    utility = problem.criterion.relaxed_utility(problem, weights)
     if status == cp.OPTIMAL_INACCURATE:
         stats["warning"] = "Clarabel reported an inaccurate solution; the bound is certified independently"
     return Relaxation(weights, utility, max(bound, utility), "cvxpy-clarabel", stats)

@@ -116,19 +116,7 @@ def _pdip_restricted(problem, idx, w_prev, *, tol, max_iter=200):
     threshold a candidate's gradient must exceed to enter).
     """
     m = idx.size
-    a_ub, b_ub = problem.inequalities
-    rows = a_ub[:, idx] if a_ub.shape[0] else np.zeros((0, m))
-    keep = np.any(rows != 0, axis=1)
-    if np.any(~keep & (b_ub < 0)):
-        raise SolverError("The working set cannot satisfy the span minimum counts.")
-    rows, rhs = rows[keep], b_ub[keep]
-    # a row constant on the working set (e.g. a budget with equal costs) is fixed by sum(x) = R:
-    # drop it when it holds (it may hold with equality and leave no interior), else infeasible
-    constant = np.ptp(rows, axis=1) <= 1e-12 * max(1.0, float(np.abs(rows).max(initial=0.0))) if m else \
-        np.ones(rows.shape[0], bool)
-    if np.any(constant & (rows[:, 0] * problem.count > rhs + 1e-9 * np.maximum(1.0, np.abs(rhs)))):
-        raise SolverError("The working set cannot satisfy the budget or span counts.")
-    rows, rhs = rows[~constant], rhs[~constant]
+    rows, rhs = _working_rows(problem, idx)
     k = rows.shape[0]
     h_vec = np.concatenate([rhs, np.ones(m), np.zeros(m)])
     n_ineq = h_vec.size
@@ -213,6 +201,24 @@ def _pdip_restricted(problem, idx, w_prev, *, tol, max_iter=200):
         slack = h_vec - g_dot(x)
         u, g, hess = _derivatives(problem, blocks, flat, x, blocks_h=blocks_h)
     return np.clip(x, 0.0, 1.0), float(nu), it
+
+
+def _working_rows(problem, idx):
+    """(rows, rhs) of the side constraints on the working set ``idx`` that still constrain it."""
+    m = idx.size
+    a_ub, b_ub = problem.inequalities
+    rows = a_ub[:, idx] if a_ub.shape[0] else np.zeros((0, m))
+    keep = np.any(rows != 0, axis=1)
+    if np.any(~keep & (b_ub < 0)):
+        raise SolverError("The working set cannot satisfy the span minimum counts.")
+    rows, rhs = rows[keep], b_ub[keep]
+    # a row constant on the working set (e.g. a budget with equal costs) is fixed by sum(x) = R:
+    # drop it when it holds (it may hold with equality and leave no interior), else infeasible
+    constant = np.ptp(rows, axis=1) <= 1e-12 * max(1.0, float(np.abs(rows).max(initial=0.0))) if m else \
+        np.ones(rows.shape[0], bool)
+    if np.any(constant & (rows[:, 0] * problem.count > rhs + 1e-9 * np.maximum(1.0, np.abs(rhs)))):
+        raise SolverError("The working set cannot satisfy the budget or span counts.")
+    return rows[~constant], rhs[~constant]
 
 
 def _interior_start_box(m, count, w_prev, idx):

@@ -8,9 +8,10 @@ the solver's accuracy claims.  Solvers, one per module:
 * ``"cvxpy"`` (:mod:`.relax_cvxpy`): the generic cvxpy formulation solved by
   Clarabel, the reference;
 * ``"fast"``: column generation with a primal-dual interior-point method for
-  smooth criteria (:mod:`.relax_ipm`), or an eigen-subspace cutting-plane
+  smooth criteria (:mod:`.relax_ipm`), an eigen-subspace cutting-plane
   method for criteria that declare ``relaxation = "eigen-subspace"``
-  (:mod:`.relax_eigen`, E).
+  (:mod:`.relax_eigen`, E), or the epigraph interior point of the
+  worst-case detectability (:mod:`.relax_detect`, detect).
 
 Owns: the Relaxation type, repair of solver round-off, solver dispatch.
 May import: model, errors.
@@ -91,9 +92,11 @@ def solve_relaxation(problem, solver="auto", *, start_layout=None):
 
 @register_relaxation_solver("fast")
 def solve_relaxation_fast(problem, *, start_layout=None, tol=1e-7, max_rounds=50):
-    """The fast path of the criterion: interior point (smooth) or eigen-subspace (E)."""
+    """The fast path of the criterion: interior point (smooth), eigen-subspace (E) or epigraph (detect)."""
+    from .relax_detect import solve_detect_epigraph
     from .relax_eigen import solve_eigen_subspace
     from .relax_ipm import solve_column_generation
 
-    method = solve_eigen_subspace if problem.criterion.relaxation == "eigen-subspace" else solve_column_generation
+    methods = {"eigen-subspace": solve_eigen_subspace, "detect-epigraph": solve_detect_epigraph}
+    method = methods.get(problem.criterion.relaxation, solve_column_generation)
     return method(problem, tol=tol, start_layout=start_layout, max_rounds=max_rounds)

@@ -126,6 +126,9 @@ class DesignResult:
         Criterion versus number of sensors.
     informativeness : FisherBlocks
         Fisher blocks (EI parameters) of the recommended sensors.
+    details, detail_line : dict, str
+        Criterion-specific results of the layout (detect: worst centre, d, power) for the JSON and
+        the summary; ``params_label`` says what ``n_params`` counts.
     """
 
     criterion: str
@@ -150,6 +153,9 @@ class DesignResult:
     supports_m: tuple = ()
     posterior_std: dict = field(default_factory=dict)
     informativeness: object = field(default=None, repr=False)
+    details: dict = field(default_factory=dict)
+    detail_line: str = ""
+    params_label: str = "parameters"
 
     def baseline(self, name):
         """The baseline called ``name``."""
@@ -160,13 +166,15 @@ class DesignResult:
 
     def summary(self):
         lines = [f"Recommended {self.count} {self.kind} sensor(s), {self.criterion}-optimal "
-                 f"({self.description}, {self.n_params} parameters)",
+                 f"({self.description}, {self.n_params} {self.params_label})",
                  "  positions [m]: " + ", ".join(f"{x:.2f}" for x in self.layout_m)]
         if self.fixed_m:
             lines.append("  existing sensors [m]: " + ", ".join(f"{x:.2f}" for x in self.fixed_m))
         gap = self.value - self.bound
         lines.append(f"  criterion {self.value:.6g}; relaxation bound {self.bound:.6g}; gap {gap:.3g}; "
                      f"certified efficiency >= {100 * self.efficiency:.2f} %  (method: {self.method})")
+        if self.detail_line:
+            lines.append(self.detail_line)
         s = self.solver
         lines.append(f"  relaxation: {s.solver}, status {s.status}, relative duality gap "
                      f"{s.relative_gap:.1e}, {s.time_s:.2f} s"
@@ -204,4 +212,5 @@ class DesignResult:
             "kind": self.kind,
             "solver": self.solver.to_dict(),
             "curve": [p.to_dict() for p in self.curve],
+            **self.details,
         }

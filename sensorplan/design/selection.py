@@ -11,7 +11,7 @@ import numpy as np
 
 from .._errors import SolverError
 
-__all__ = ["iter_greedy", "greedy", "exchange", "round_weights"]
+__all__ = ["iter_greedy", "greedy", "exchange", "round_weights", "sample_roundings"]
 
 
 def _upper_bounds(problem, q):
@@ -161,15 +161,26 @@ def _best_replacement(problem, rest, q_rest, taken, best, order, ub=None):
     """
     crit = problem.criterion
     cand_best, cand_util = None, best + 1e-12 * max(1.0, abs(best))
+    pending = []  # evaluated together, crit.batch_size at a time (cheaper per candidate for some criteria)
+
+    def flush():
+        nonlocal cand_best, cand_util
+        for j, u in zip(pending, crit.utilities(q_rest, problem.blocks[pending])):
+            if u > cand_util:
+                cand_best, cand_util = j, u
+        pending.clear()
+
     for i in order:
         if ub is not None and ub[i] + _slack(ub[i]) <= cand_util:
             break
         i = int(i)
         if i in taken or not problem.partial_ok(rest + [i]):
             continue
-        u = crit.utility(q_rest + problem.blocks[i])
-        if u > cand_util:
-            cand_best, cand_util = i, u
+        pending.append(i)
+        if len(pending) >= crit.batch_size:
+            flush()
+    if pending:
+        flush()
     return cand_best
 
 
@@ -214,3 +225,21 @@ def round_weights(problem, weights):
         if len(chosen) == problem.count:
             return chosen
     raise SolverError("Rounding could not complete a feasible layout.")
+
+
+def sample_roundings(problem, weights, n, rng):
+    """Up to ``n`` distinct randomised roundings: candidates in a random order favouring large weights
+    (keys u^(1 / w), Efraimidis & Spirakis 2006), skipping those that break a constraint."""
+    w = np.clip(np.asarray(weights, dtype=float), 0.0, None) + 1e-9
+    out = []
+    for _ in range(n):
+        keys = rng.random(w.size) ** (1.0 / w)
+        chosen = []
+        for i in np.argsort(-keys):
+            if problem.partial_ok(chosen + [int(i)]):
+                chosen.append(int(i))
+            if len(chosen) == problem.count:
+                break
+        if len(chosen) == problem.count and sorted(chosen) not in out:
+            out.append(sorted(chosen))
+    return out

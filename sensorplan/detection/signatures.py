@@ -39,12 +39,12 @@ import numpy as np
 
 from .._errors import ConfigError
 from .._threads import single_threaded
-from ..model.forward import influence_lines
+from ..model.forward import influence_lines, response_change
 from ..model.structure import Mesh
 from .nuisance import NUISANCES, nuisance_matrix
 
 __all__ = ["NUISANCES", "Signatures", "SignatureModel", "whitened_signatures", "nuisance_jacobian", "schur_d_squared",
-           "centre_grid", "zone_mesh_edges", "IDENTIFIABLE_RTOL"]
+           "gram_matrices", "centre_grid", "zone_mesh_edges", "IDENTIFIABLE_RTOL"]
 
 # Nuisance directions whose singular value, after scaling every column to unit
 # norm, is below this fraction of the largest are taken as not identifiable
@@ -110,15 +110,7 @@ class Signatures:
         (e.g. crossings per sensor), d^2 = :func:`schur_d_squared` of
         sum_i w_i G_i.  ``which`` is ``"damage"`` (exact) or ``"unit"``.
         """
-        signal = self._signal(which)  # (C, S, K)
-        n = self.n_nuisance
-        out = np.empty((self.n_sensors, self.n_centres, n + 1, n + 1))
-        out[:, :, 0, 0] = np.einsum("csk,csk->sc", signal, signal)
-        cross = np.einsum("csk,skn->scn", signal, self.nuisance)
-        out[:, :, 0, 1:] = cross
-        out[:, :, 1:, 0] = cross
-        out[:, :, 1:, 1:] = np.einsum("skm,skn->smn", self.nuisance, self.nuisance)[:, None]
-        return out
+        return gram_matrices(self._signal(which), self.nuisance)
 
     def projected_norms(self, which="damage"):
         """|P s| over all sensors for each centre (one crossing), shape (n_centres,).
@@ -133,6 +125,23 @@ class Signatures:
         basis = _nuisance_basis(self.nuisance.reshape(-1, self.n_nuisance))
         residual = signal - (signal @ basis) @ basis.T
         return np.sqrt(np.einsum("ck,ck->c", residual, residual))
+
+
+def gram_matrices(signal, nuisance):
+    """Per-sensor Gram matrices [s_i N_i]^T [s_i N_i], shape (n_sensors, n_centres, 1 + n, 1 + n).
+
+    ``signal`` (n_centres, n_sensors, n_loads) and ``nuisance`` (n_sensors,
+    n_loads, n) are whitened (see :meth:`Signatures.grams`).
+    """
+    n_centres, n_sensors, _ = signal.shape
+    n = nuisance.shape[2]
+    out = np.empty((n_sensors, n_centres, n + 1, n + 1))
+    out[:, :, 0, 0] = np.einsum("csk,csk->sc", signal, signal)
+    cross = np.einsum("csk,skn->scn", signal, nuisance)
+    out[:, :, 0, 1:] = cross
+    out[:, :, 1:, 0] = cross
+    out[:, :, 1:, 1:] = np.einsum("skm,skn->smn", nuisance, nuisance)[:, None]
+    return out
 
 
 def _nuisance_basis(columns):
@@ -219,14 +228,19 @@ def _inside(edges, low, high):
 
 
 def _exact_differences(case, sensors, positions, reference, lows, highs, severities):
-    """Damaged minus undamaged readings, one forward solve per zone: (n_centres, S, K)."""
+    """Damaged minus undamaged readings, exact, per zone: (n_centres, S, K).
+
+    :func:`~sensorplan.model.forward.response_change` forms only the zone's
+    element integrals (agrees with the difference of two full forward
+    solves to ~1e-13 relative on the embedded examples).
+    """
     out = np.empty((lows.size, *reference.shape))
     for c, (low, high, severity) in enumerate(zip(lows, highs, severities)):
         edges = zone_mesh_edges(case.mesh, case.bridge, [low, high])
         mesh = Mesh(edges)
-        ei = case.ei_at(mesh.midpoints) * np.where(_inside(edges, low, high), 1.0 - severity, 1.0)
-        damaged = influence_lines(case.bridge, mesh, ei, sensors, case.vehicle, positions).predictions
-        out[c] = damaged - reference
+        ei = case.ei_at(mesh.midpoints)
+        damaged = ei * np.where(_inside(edges, low, high), 1.0 - severity, 1.0)
+        out[c] = response_change(case.bridge, mesh, ei, damaged, sensors, case.vehicle, positions)
     return out
 
 

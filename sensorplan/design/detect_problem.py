@@ -1,0 +1,106 @@
+"""What a candidate sensor adds to the detect criterion: per-centre Gram matrices of its signatures.
+
+For the candidates and the existing (fixed) sensors at once, the whitened
+exact damage signatures of a loss of ``severity`` over ``length`` centred at
+every damage centre (from length/2 to L - length/2 every ``step``, restricted
+to ``region``) and the whitened nuisance Jacobian come from
+:class:`~sensorplan.detection.signatures.SignatureModel`, exactly as
+``sensorplan detectability`` computes them; their Gram matrices, times the
+number of crossings, are the blocks of the placement problem.
+
+Owns: DetectionTarget, the detection blocks of a placement problem.
+May import: model, detection, errors, design.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._errors import ConfigError
+from ..detection.detectability import _check_options
+from ..detection.signatures import SignatureModel, centre_grid, gram_matrices
+from ..model.fisher import fisher_blocks
+from ..model.noise import NoiseModel
+from ..model.sensors import SensorLayout
+from .detect_criterion import RIDGE, DetectCriterion
+
+__all__ = ["DetectionTarget", "detection_information"]
+
+
+@dataclass(frozen=True)
+class DetectionTarget:
+    """The local loss the detect criterion must see, and how its power is reported.
+
+    Parameters
+    ----------
+    severity : float
+        Fraction of EI lost over the zone, in (0, 1).
+    length : float
+        Length of the damaged zone [m].
+    nuisance : {"smooth", "levels"}
+        What must not be mistaken for damage (as in ``detectability``).
+    step : float
+        Spacing of the damage centres [m].
+    false_alarm : float
+        False-alarm rate of the one-sided test, for the reported power only.
+    """
+
+    severity: float = 0.25
+    length: float = 2.0
+    nuisance: str = "smooth"
+    step: float = 0.5
+    false_alarm: float = 0.05
+
+
+def _centres(case, target, region):
+    centres = centre_grid(case.bridge.length, target.length, target.step)
+    if region is None:
+        return centres, None
+    try:
+        a, b = (float(v) for v in region)
+    except (TypeError, ValueError):
+        raise ConfigError(f"The 'region' parameter must be (start, stop) in m. Got {region!r} instead.") from None
+    if not b > a:
+        raise ConfigError(f"The 'region' parameter must be start:stop with stop > start. Got {a:g}:{b:g} instead.")
+    inside = centres[(centres >= a - 1e-9) & (centres <= b + 1e-9)]
+    if inside.size == 0:
+        raise ConfigError(f"The 'region' {a:g}:{b:g} m contains no damage centre (centres run from "
+                          f"{centres[0]:g} to {centres[-1]:g} m every {target.step:g} m); widen it.")
+    return inside, (a, b)
+
+
+def detection_information(case, positions, fixed, *, kind, noise_std, n_crossings, region, target, prior, springs,
+                          functionals):
+    """(blocks, q0, criterion, posterior_of) of the detect criterion for ``positions`` (+ ``fixed``)."""
+    target = DetectionTarget() if target is None else target
+    if springs or functionals is not None:
+        raise ConfigError("'springs' and 'functionals' apply to the information criteria, not to detect "
+                          "(its nuisance always includes the elastic springs).")
+    severity, length, false_alarm, n_crossings, step = _check_options(
+        case, target.severity, target.length, target.false_alarm, n_crossings, target.nuisance, target.step)
+    centres, region = _centres(case, target, region)
+    all_pos = np.concatenate([positions, fixed])
+    sensors = SensorLayout.candidates(all_pos, kind, noise_std=[noise_std] * all_pos.size)
+    correlation = 0.0 if case.noise is None else case.noise.correlation_length
+    model = SignatureModel(case, sensors, NoiseModel(np.full(all_pos.size, noise_std), correlation),
+                           target.nuisance, length)
+    grams = gram_matrices(model.damage(centres, severity), model.nuisance) * n_crossings
+    # nuisance columns no sensor sees do not change d^2: drop them
+    seen = np.concatenate([[True], np.einsum("snn->n", grams[:, 0, 1:, 1:]) > 0.0])
+    grams = np.ascontiguousarray(grams[:, :, seen][:, :, :, seen])
+    n_cand = positions.size
+    blocks, q0 = grams[:n_cand], grams[n_cand:].sum(axis=0)
+    ridge = RIDGE * np.einsum("snn->sn", blocks[:, 0, 1:, 1:]).mean(axis=0)
+    crit = DetectCriterion(centres.size, centres=centres, ridge=ridge, false_alarm=false_alarm,
+                           n_crossings=n_crossings, severity=severity, length=length, nuisance=target.nuisance,
+                           region=region, step=step,
+                           nuisance_names=[n for n, k in zip(model.nuisance_names, seen[1:]) if k])
+    n_el = case.n_elements
+
+    def posterior_of(index):
+        sensors_i = SensorLayout.candidates(np.concatenate([positions[list(index)], fixed]), kind,
+                                            noise_std=[noise_std] * (len(index) + fixed.size))
+        info = fisher_blocks(case, sensors=sensors_i, parameterisation="log_ei", n_crossings=n_crossings)
+        return prior.precision(n_el, 0) + info.blocks.sum(axis=0)
+
+    return blocks, q0, crit, posterior_of
