@@ -151,7 +151,8 @@ def _recommend(job):
 
 
 def design_study(cases: Sequence, *, criteria: Sequence[str] = ("D",), counts: "int | Sequence[int] | None" = None,
-                 baselines: "bool | Sequence[str]" = True, n_scenarios: int = 8, n_crossings: int = 10,
+                 baselines: "bool | Sequence[str]" = True, n_scenarios: int = 8, n_controls: int | None = None,
+                 n_crossings: int = 10,
                  severity: float = 0.25, length: float = 2.0, false_alarm: float = 0.05, nuisance: str = "smooth",
                  spacing: float = 0.5, design_crossings: int = 1, seed: int = 0,
                  executor: Executor | None = None, workers: int = 1, scheduler: str | None = None,
@@ -168,7 +169,7 @@ def design_study(cases: Sequence, *, criteria: Sequence[str] = ("D",), counts: "
     baselines : bool or sequence of str
         Verify the feasible baselines of each design too (True: all; or their names, e.g.
         ``["equally_spaced"]``).
-    n_scenarios, n_crossings, severity, length, false_alarm, nuisance :
+    n_scenarios, n_controls, n_crossings, severity, length, false_alarm, nuisance :
         The verification, as in :func:`sensorplan.verify_layouts` (``n_scenarios`` is its ``n_locations``).
     spacing, design_crossings :
         Candidate grid spacing [m] and crossings per campaign of the design (as ``recommend``).
@@ -213,8 +214,8 @@ def design_study(cases: Sequence, *, criteria: Sequence[str] = ("D",), counts: "
         for case in loaded:
             layouts = list(dict.fromkeys(row[1] for job, rows in selected if job[0] is case for row in rows))
             plans.append(plan_verification(case, layouts, n_locations=n_scenarios, severity=severity, length=length,
-                                           n_crossings=n_crossings, seed=seed, kind=case.default_kind,
-                                           false_alarm=false_alarm, nuisance=nuisance))
+                                           n_controls=n_controls, n_crossings=n_crossings, seed=seed,
+                                           kind=case.default_kind, false_alarm=false_alarm, nuisance=nuisance))
         starts = map_ordered(runner, run_pilot, [t for plan in plans for t in plan.pilots()], chunksize=1)
         tasks, k = [], 0
         for plan in plans:
