@@ -105,14 +105,15 @@ class DesignStudy:
         lines = [f"Design study: {len(self.verifications)} case(s), {len(self.rows)} rows; local losses of "
                  f"{100 * self.severity:.0f} % over {self.length:g} m, {self.n_crossings} crossings per scenario, "
                  f"seed {self.seed}",
-                 f"  {'case':16s} {'R':>2s} {'crit.':>5s} {'layout':22s} {'efficiency':>10s} {'detection':>12s} "
-                 f"{'limit':>6s} {'loc. err [m]':>13s} {'coverage95':>12s} {'false alarm':>12s}"]
+                 f"  {'case':16s} {'R':>2s} {'crit.':>5s} {'layout':20s} {'efficiency':>10s} {'detection':>12s} "
+                 f"{'limit':>6s} {'loc. err [m]':>13s} {'coverage95':>12s} {'false alarm':>12s}  positions [m]"]
         for r in self.rows:
             limit = "n/a" if r.detection_limit is None else f"{r.detection_limit:.3f}"
-            lines.append(f"  {r.case[:16]:16s} {r.count:2d} {r.criterion[:5]:>5s} {r.layout[:22]:22s} "
+            lines.append(f"  {r.case[:16]:16s} {r.count:2d} {r.criterion[:5]:>5s} {r.layout[:20]:20s} "
                          f"{100 * r.efficiency:9.1f}% {_pm(r.detection_rate, r.detection_rate_se):>12s} "
                          f"{limit:>6s} {_pm(r.localisation_error_m, r.localisation_error_m_se):>13s} "
-                         f"{_pm(r.coverage95, r.coverage95_se):>12s} {_pm(r.false_alarm_rate, r.false_alarm_rate_se):>12s}")
+                         f"{_pm(r.coverage95, r.coverage95_se):>12s} {_pm(r.false_alarm_rate, r.false_alarm_rate_se):>12s}"
+                         "  " + ", ".join(f"{x:g}" for x in r.layout_m))
         lines.append("  (mean ± Monte-Carlo standard error over the scenarios; efficiency certified against the "
                      "relaxation bound of the row's criterion)")
         return "\n".join(lines)
@@ -123,7 +124,9 @@ def _missing(value):
 
 
 def _pm(mean, se):
-    return f"{mean:5.3f}±{se:5.3f}"
+    if math.isnan(mean):
+        return "n/a"
+    return f"{mean:5.3f}±{se:5.3f}" if not math.isnan(se) else f"{mean:5.3f}"
 
 
 def _load(case):
