@@ -41,6 +41,8 @@ _EXPORTS = {
     "Metric": "verification.results", "Scenario": "verification.scenarios", "Analysis": "analysis", "analyse": "analysis", "verify_layouts": "verification.verify",
     "GapDiagnosis": "diagnosis.results", "EffectFit": "diagnosis.results", "Gap": "diagnosis.results",
     "Confounding": "diagnosis.results", "diagnose": "diagnosis.diagnose",
+    "design_study": "verification.study", "DesignStudy": "verification.study", "StudyRow": "verification.study",
+    "ExecutorError": "_errors",
 }
 
 __all__ = sorted(_EXPORTS)

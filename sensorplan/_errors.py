@@ -11,6 +11,7 @@ __all__ = [
     "ConfigError",
     "DataError",
     "SolverError",
+    "ExecutorError",
     "SensorplanWarning",
 ]
 
@@ -29,6 +30,10 @@ class DataError(SensorplanError, ValueError):
 
 class SolverError(SensorplanError, RuntimeError):
     """A numerical solver failed or returned an inaccurate solution."""
+
+
+class ExecutorError(SensorplanError, RuntimeError):
+    """The machinery running the work failed: an unreachable scheduler, a worker that died."""
 
 
 class SensorplanWarning(UserWarning):

@@ -19,7 +19,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "sensorplan"
 
 LAYERS = {
     "_errors": 0, "examples": 0,
-    "_validation": 0.5, "_threads": 0.5,
+    "_validation": 0.5, "_threads": 0.5, "_executors": 0.5,
     "model": 1,
     "detection": 1.5,
     "inference": 2, "design": 2, "io": 2,
@@ -30,8 +30,10 @@ LAYERS = {
     "cli": 7, "__main__": 8,
 }
 
-# third-party packages only the presentation layer (matplotlib) or the design relaxation (cvxpy) may load
-RESTRICTED = {"matplotlib": {"plotting", "report"}, "cvxpy": {"design"}}
+# third-party packages only the presentation layer (matplotlib), the design relaxation (cvxpy) or the
+# executors (the optional Dask, imported lazily) may load
+RESTRICTED = {"matplotlib": {"plotting", "report"}, "cvxpy": {"design"},
+              "dask": {"_executors"}, "distributed": {"_executors"}}
 
 
 def _modules():
@@ -102,8 +104,8 @@ def test_subpackages_say_what_they_own():
 
 def test_import_sensorplan_is_light():
     code = ("import sys, sensorplan; sensorplan.Case; sensorplan.invert; sensorplan.recommend; "
-            "sensorplan.verify_layouts; sensorplan.diagnose; "
-            "bad = [m for m in ('matplotlib', 'cvxpy') if m in sys.modules]; print(bad); sys.exit(bool(bad))")
+            "sensorplan.verify_layouts; sensorplan.diagnose; sensorplan.design_study; "
+            "bad = [m for m in ('matplotlib', 'cvxpy', 'dask', 'distributed') if m in sys.modules]; print(bad); sys.exit(bool(bad))")
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=PACKAGE.parent)
     assert run.returncode == 0, run.stdout + run.stderr
 

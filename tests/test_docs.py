@@ -57,8 +57,8 @@ EXPECTED_DOCS = ("index.md", "user-guide.md", "theory.md", "api.md", "examples.m
 
 _FENCE = re.compile(r"^(\s*)(`{3,})\s*([^`\s]*)\s*$")
 _EXECUTABLE = ("python", "console", "")
-# What makes a block slow (> 10 s): verification, a report, a diagnosis run from Python.
-_SLOW = re.compile(r"sensorplan (?:verify|report|diagnose)\b|--verify\b|\"(?:verify|report|diagnose)\"")
+# What makes a block slow (> 10 s): verification, a report, a diagnosis run from Python, a design study.
+_SLOW = re.compile(r"sensorplan (?:verify|report|diagnose)\b|--verify\b|\"(?:verify|report|diagnose)\"|design_study\(")
 
 # A number as the docs show it: not part of a name (PE1, rotational_0) or of a longer number.
 _NUMBER = r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?"

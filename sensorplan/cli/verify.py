@@ -1,5 +1,7 @@
 """``sensorplan verify``: score layouts by Bayesian inversion of synthetic damage."""
 
+import argparse
+
 from ._common import (
     add_case_arguments,
     add_out_arguments,
@@ -15,6 +17,7 @@ NAME = "verify"
 HELP = "verify layouts by Bayesian inversion of synthetic damage"
 EPILOG = """example:
   sensorplan verify --example openlab-like --layout 11,19 --layout 2,13,28.5 --scenarios 8 --workers 2 --seed 1
+  sensorplan verify --example three-span --layout 4,14,20,26,36 --severity 0.1,0.25 --scheduler local --workers 2
 """
 
 
@@ -24,8 +27,25 @@ def add_verify_arguments(p, *, with_flag):
                        help="verify the layout and the baselines by inversion of synthetic damage")
     p.add_argument("--scenarios", type=int, default=8, help="damage locations scanned (default 8)")
     p.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the scenarios on a Dask cluster: a scheduler address such as tcp://127.0.0.1:8786, "
+                        "or 'local' for a local cluster of --workers processes (needs the dask extra); "
+                        "results are identical to --workers 1")
+    p.add_argument("--scheduler-timeout", type=float, default=10.0, metavar="S",
+                   help="seconds to wait for the Dask scheduler to answer (default 10)")
     p.add_argument("--verify-crossings", type=int, default=10,
                    help="crossings simulated per scenario (default 10)")
+
+
+def parse_severities(text):
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated fractions of EI lost, e.g. 0.1,0.25; got {text!r}") from None
+    if not values:
+        raise argparse.ArgumentTypeError("give at least one severity, e.g. 0.25")
+    return values
 
 
 def add_arguments(p):
@@ -37,22 +57,56 @@ def add_arguments(p):
     p.add_argument("--noise-std", type=float,
                    help="noise std of the new sensors in SI units (rad or m); default: the case's sensors'")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--severity", type=parse_severities, default=[0.25],
+                   help="fraction(s) of EI lost by the local damage, in (0, 1), e.g. 0.1,0.25: one verification "
+                        "per severity (default 0.25)")
+    p.add_argument("--length", type=float, default=2.0, help="length of the local damage in m (default 2)")
+    p.add_argument("--false-alarm", type=float, default=0.05,
+                   help="false alarm rate of the detector, in (0, 0.5) (default 0.05)")
+    p.add_argument("--nuisance", choices=["smooth", "levels"], default="smooth",
+                   help="what the detector must not mistake for damage: a quadratic log-EI trend per span "
+                        "(smooth, default) or one EI factor per span (levels)")
     add_out_arguments(p, json_default="verification.json")
     add_verify_arguments(p, with_flag=False)
 
 
 def run_verification(args, case, layouts, names, files, *, json_path):
-    """Verify ``layouts``; stage the JSON and the figure; returns (result, json path, figure path)."""
+    """Verify ``layouts`` at one severity; stage the JSON and the figure; returns (result, json path, figure path)."""
+    results, json_path, figures = run_verifications(args, case, layouts, names, files, json_path=json_path)
+    return results[0], json_path, figures[0]
+
+
+def run_verifications(args, case, layouts, names, files, *, json_path):
+    """Verify ``layouts`` once per severity; stage the JSON and the figure(s).
+
+    Returns (results, json path, figure paths).  The JSON is the result's dict
+    for one severity, {"severities": [...], "verifications": [...]} for several.
+    """
     from .. import plotting
+    from .._executors import executor_for
     from ..verification.verify import verify_layouts
 
-    result = verify_layouts(case, layouts, names=names, n_locations=args.scenarios, n_crossings=args.verify_crossings,
-                            seed=args.seed, workers=args.workers, kind=args.kind, noise_std=args.noise_std,
-                            progress=progress(args, args.command))
-    json_path = stage_json(files, json_path, result.to_dict())
-    axes = plotting.plot_verification(result, supports=case.bridge.support_positions)
-    figure = stage_figure(files, axes[0], args.out / "verification.png")
-    return result, json_path, figure
+    severity = getattr(args, "severity", 0.25)  # recommend may define its own (a float)
+    severities = list(severity) if isinstance(severity, (list, tuple)) else [severity]
+    options = dict(length=getattr(args, "length", 2.0), false_alarm=getattr(args, "false_alarm", 0.05),
+                   nuisance=getattr(args, "nuisance", "smooth"))
+    results = []
+    with executor_for(args.workers, args.scheduler, timeout=args.scheduler_timeout, name="--scheduler") as runner:
+        for sev in severities:
+            results.append(verify_layouts(case, layouts, names=names, n_locations=args.scenarios,
+                                          n_crossings=args.verify_crossings, seed=args.seed, executor=runner,
+                                          kind=args.kind, noise_std=args.noise_std, severity=sev, **options,
+                                          progress=progress(args, args.command)))
+    if len(results) == 1:
+        payload = results[0].to_dict()
+        paths = [args.out / "verification.png"]
+    else:
+        payload = {"severities": severities, "verifications": [r.to_dict() for r in results]}
+        paths = [args.out / f"verification-{100 * sev:g}pct.png" for sev in severities]
+    json_path = stage_json(files, json_path, payload)
+    figures = [stage_figure(files, plotting.plot_verification(r, supports=case.bridge.support_positions)[0], path)
+               for r, path in zip(results, paths)]
+    return results, json_path, figures
 
 
 def run(args, out, files):
@@ -60,8 +114,10 @@ def run(args, out, files):
     args.kind, args.noise_std = kind_and_noise(args, case)
     for layout in args.layout:
         case.bridge.check_on_bridge(layout, "layout", "--layout")
-    result, json_path, figure = run_verification(args, case, args.layout, None, files,
-                                                 json_path=args.json or args.out / "verification.json")
-    out(result.summary())
-    out(f"verification written to {json_path}; figure: {figure}")
+    results, json_path, figures = run_verifications(args, case, args.layout, None, files,
+                                                    json_path=args.json or args.out / "verification.json")
+    for result in results:
+        out(result.summary())
+    out(f"verification written to {json_path}; figure{'s' if len(figures) > 1 else ''}: "
+        + ", ".join(str(f) for f in figures))
     return 0

@@ -15,7 +15,8 @@ results are identical whatever the number of workers.
 import math
 import warnings
 from collections.abc import Callable, Sequence
-from concurrent.futures import Executor, ProcessPoolExecutor
+from concurrent.futures import Executor
+from contextlib import nullcontext
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
@@ -23,6 +24,7 @@ import numpy as np
 from scipy import stats
 
 from .._errors import ConfigError, SensorplanWarning
+from .._executors import executor_for, map_ordered
 from .._threads import single_threaded
 from ..inference.inversion import invert
 from ..model.noise import NoiseModel
@@ -35,7 +37,7 @@ from .scenarios import Scenario, element_average_ei, make_scenarios, truth_mesh
 if TYPE_CHECKING:
     from ..model.case import Case
 
-__all__ = ["verify_layouts", "detection_limit"]
+__all__ = ["verify_layouts", "detection_limit", "plan_verification", "VerificationPlan"]
 
 
 @dataclass(frozen=True)
@@ -121,8 +123,8 @@ def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float]]", *, names:
                    n_locations: int = 8, severity: float = 0.25, length: float = 2.0, n_controls: int | None = None,
                    n_crossings: int = 10, seed: int = 0, kind: str = "rotation", noise_std: float | None = None,
                    executor: "Executor | None" = None, workers: int = 1, false_alarm: float = 0.05,
-                   nuisance: str = "smooth", progress: "Callable[[int, int], None] | None" = None
-                   ) -> VerificationResult:
+                   nuisance: str = "smooth", progress: "Callable[[int, int], None] | None" = None,
+                   scheduler: str | None = None) -> VerificationResult:
     """Score ``layouts`` (lists of positions [m]) on the same synthetic scenarios.
 
     Parameters
@@ -146,6 +148,11 @@ def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float]]", *, names:
     executor : concurrent.futures.Executor, optional
         Any executor (e.g. Dask's or Ray's); by default a process pool of
         ``workers`` processes, or none when ``workers == 1``.
+    scheduler : str, optional
+        Run on a Dask cluster instead (the ``dask`` extra): the address of a
+        running ``dask scheduler`` (e.g. ``"tcp://127.0.0.1:8786"``) or
+        ``"local"`` for a LocalCluster of ``workers`` processes, closed afterwards.
+        Ignored when ``executor`` is given.  Results are identical to ``workers=1``.
     false_alarm, nuisance :
         The damage detector (:func:`sensorplan.detect_damage`) of every
         scenario: its false-alarm rate and what an undamaged bridge may do.
@@ -155,44 +162,82 @@ def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float]]", *, names:
     progress : callable, optional
         Called with (done, total) after each scenario.
     """
+    plan = plan_verification(case, layouts, n_locations=n_locations, severity=severity, length=length,
+                             n_controls=n_controls, n_crossings=n_crossings, seed=seed, kind=kind,
+                             noise_std=noise_std, false_alarm=false_alarm, nuisance=nuisance)
+    with nullcontext(executor) if executor is not None else executor_for(workers, scheduler) as runner:
+        starts = map_ordered(runner, run_pilot, plan.pilots(), chunksize=1)
+        records = map_ordered(runner, run_scenario, plan.tasks(starts), progress=progress)
+    return plan.result(records, names)
+
+
+@dataclass(frozen=True, eq=False)
+class VerificationPlan:
+    """The work of one verification: pilot inversions, then one task per (layout, scenario).
+
+    Every task carries its own seed (a child of ``SeedSequence(seed)`` per
+    scenario, shared by the layouts), so :meth:`result` does not depend on
+    where or in which order the tasks ran.
+    """
+
+    case: object
+    layouts: tuple
+    scenarios: tuple
+    seeds: tuple
+    kind: str
+    noise_std: float
+    n_crossings: int
+    false_alarm: float
+    nuisance: str
+    seed: int
+    severity: float
+    length: float
+
+    def pilots(self):
+        """One pilot task per layout (the first scenario): its posterior warm-starts that layout's tasks."""
+        return [_Task(self.case, layout, self.kind, self.scenarios[0], self.seeds[0], self.n_crossings,
+                      self.false_alarm, self.nuisance, noise_std=self.noise_std) for layout in self.layouts]
+
+    def tasks(self, starts):
+        """The (layout, scenario) tasks, layout by layout; ``starts`` are the pilots' results."""
+        return [_Task(self.case, layout, self.kind, scenario, s, self.n_crossings, self.false_alarm, self.nuisance,
+                      start, self.noise_std)
+                for layout, start in zip(self.layouts, starts) for scenario, s in zip(self.scenarios, self.seeds)]
+
+    def result(self, records, names=None):
+        """The VerificationResult of the tasks' records (in the order of :meth:`tasks`)."""
+        n = len(self.scenarios)
+        scores = tuple(_aggregate(layout, records[k * n:(k + 1) * n],
+                                  detection_limit(self.case, layout, self.scenarios, kind=self.kind,
+                                                  noise_std=self.noise_std, n_crossings=self.n_crossings,
+                                                  false_alarm=self.false_alarm, nuisance=self.nuisance))
+                       for k, layout in enumerate(self.layouts))
+        return VerificationResult(scores, self.scenarios, self.n_crossings, self.seed, self.severity,
+                                  self.length, tuple(names) if names else (), self.false_alarm, self.nuisance)
+
+
+def plan_verification(case, layouts, *, n_locations=8, severity=0.25, length=2.0, n_controls=None, n_crossings=10,
+                      seed=0, kind="rotation", noise_std=None, false_alarm=0.05, nuisance="smooth"):
+    """Check the inputs of :func:`verify_layouts` and lay out its work (nothing is computed yet)."""
     if case.noise is None:
         raise ConfigError("Verification needs a noise model: set noise_std in [sensors].")
-    layout_list = [tuple(float(x) for x in layout) for layout in layouts]
+    layout_list = tuple(tuple(float(x) for x in layout) for layout in layouts)
     if not layout_list:
         raise ConfigError("Give at least one layout to verify.")
     for layout in layout_list:
         case.bridge.check_on_bridge(layout, "layout", "verify")
     scenarios = make_scenarios(case, n_locations, severity=severity, length=length, n_controls=n_controls)
     seeds = np.random.SeedSequence(seed).spawn(len(scenarios))
-    noise_std = case.noise_std_for(kind, noise_std)
-    tasks = []
-    for layout in layout_list:
-        # warm start: hyperparameters of a pilot inversion (the first scenario,
-        # computed here, before dispatch, so results do not depend on workers)
-        pilot = _run_task(_Task(case, layout, kind, scenarios[0], seeds[0], int(n_crossings), false_alarm, nuisance,
-                                noise_std=noise_std), posterior=True)
-        start = (pilot.noise_scale, pilot.tau)
-        tasks += [_Task(case, layout, kind, scenario, s, int(n_crossings), false_alarm, nuisance, start, noise_std)
-                  for scenario, s in zip(scenarios, seeds)]
-    results = []
-    own = None
-    if executor is None and workers > 1:
-        own = executor = ProcessPoolExecutor(max_workers=int(workers))
-    try:
-        iterator = map(_run_task, tasks) if executor is None else executor.map(
-            _run_task, tasks, chunksize=max(1, len(tasks) // (8 * max(1, workers))))
-        for i, record in enumerate(iterator, start=1):
-            results.append(record)
-            if progress is not None:
-                progress(i, len(tasks))
-    finally:
-        if own is not None:
-            own.shutdown()
-    n = len(scenarios)
-    scores = tuple(_aggregate(layout, results[k * n:(k + 1) * n],
-                              detection_limit(case, layout, scenarios, kind=kind, noise_std=noise_std,
-                                              n_crossings=int(n_crossings), false_alarm=false_alarm,
-                                              nuisance=nuisance))
-                   for k, layout in enumerate(layout_list))
-    return VerificationResult(scores, tuple(scenarios), int(n_crossings), int(seed), float(severity),
-                              float(length), tuple(names) if names else (), float(false_alarm), nuisance)
+    return VerificationPlan(case, layout_list, tuple(scenarios), tuple(seeds), kind, case.noise_std_for(kind, noise_std),
+                            int(n_crossings), float(false_alarm), nuisance, int(seed), float(severity), float(length))
+
+
+def run_pilot(task):
+    """(noise scale, tau) of a pilot inversion: the warm start of a layout's scenarios."""
+    post = _run_task(task, posterior=True)
+    return (post.noise_scale, post.tau)
+
+
+def run_scenario(task):
+    """The scored record of one (layout, scenario) task."""
+    return _run_task(task)

@@ -74,6 +74,7 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
+from sensorplan._executors import executor_for  # noqa: E402
 from sensorplan.io.config import example_case  # noqa: E402
 from sensorplan._errors import SensorplanWarning  # noqa: E402
 from sensorplan.inference.inversion import invert  # noqa: E402
@@ -136,11 +137,30 @@ def run_invert(inv_case, data, start):
         return invert(inv_case, data, screen=False, noise_scale=start[0], tau=start[1])
 
 
-def run_verify(case, workers):
+def run_verify(case, workers, scheduler=None, executor=None):
     t0 = time.perf_counter()
     result = verify_layouts(case, [LAYOUT], n_locations=N_LOCATIONS, n_crossings=N_CROSSINGS, seed=SEED,
-                            workers=workers, length=DAMAGE_LENGTH)
+                            workers=workers, length=DAMAGE_LENGTH, scheduler=scheduler, executor=executor)
     return time.perf_counter() - t0, result
+
+
+def run_dask(case):
+    """LocalCluster of 2 processes: cold (started and closed inside the timed call) and warm (started before)."""
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        return None
+    cold, warm, dicts = [], [], set()
+    for _ in range(REPEATS):
+        dt, result = run_verify(case, 2, scheduler="local")
+        cold.append(dt)
+        dicts.add(json.dumps(result.to_dict(), sort_keys=True))
+    with executor_for(2, "local") as cluster:
+        for _ in range(REPEATS):
+            dt, result = run_verify(case, 2, executor=cluster)
+            warm.append(dt)
+            dicts.add(json.dumps(result.to_dict(), sort_keys=True))
+    return cold, warm, dicts
 
 
 def main():
@@ -175,7 +195,8 @@ def main():
             runs[w].append(dt)
             dicts.setdefault(w, json.dumps(result.to_dict(), sort_keys=True))
     n_total = result.layouts[0].n_scenarios
-    same = len(set(dicts.values())) == 1
+    dask_runs = run_dask(case)
+    same = len(set(dicts.values()) | (dask_runs[2] if dask_runs else set())) == 1
     load1 = os.getloadavg()
 
     # --- Report ------------------------------------------------------------------------------
@@ -217,13 +238,23 @@ def main():
         print(f"{w:>7d}{best:>10.3f}{worst:>11.3f}{rate[w]:>9.1f}{1e3 * per:>16.1f}{1e3 * core:>14.1f}"
               f"{core / t_inv:>12.2f}{(core - t_inv) / t_inv:>14.2f}x")
     print(f"speed-up 2 workers / 1 worker: {rate[2] / rate[1]:.2f} (ideal 2.00)")
+    if dask_runs is None:
+        print("Dask LocalCluster: not measured (the dask extra is not installed)")
+    else:
+        for label, times in (("cold", dask_runs[0]), ("warm", dask_runs[1])):
+            best = min(times)
+            print(f"Dask LocalCluster, 2 processes, {label}: best {best:.3f} s, worst {max(times):.3f} s, "
+                  f"{n_total / best:.1f} scen/s = {n_total / best / rate[2]:.2f} x the 2-process pool")
+        print("  (cold: the cluster is started and closed inside the timed call, as the pool is; warm: started "
+              "before)")
     print("core-ms/scen = wall time x workers / scenarios (the pilot is counted in the wall time);")
     print("'/ 1 invert' divides it by reference 1; overhead/scen = (core-ms/scen - 1 invert) / 1 invert")
     print("(simulation of the truth, truth mesh, scoring, pilot, pool start-up and pickling, idle time).")
     print(f"Of the 1-worker time, the {n_scen} inversions alone (reference 2) are "
           f"{100 * t_inv_sum / min(runs[1]):.0f} %.")
     print(line)
-    print(f"workers=1 and workers=2 give identical JSON (result.to_dict()): {'yes' if same else 'NO'}")
+    print(f"workers=1, workers=2{' and the Dask LocalCluster' if dask_runs else ''} give identical JSON "
+          f"(result.to_dict()): {'yes' if same else 'NO'}")
     print(line)
     met = rate[2] >= TARGET_PER_S
     note = "" if cores == 2 else f" (this machine has {cores} logical CPUs, not 2)"

@@ -1,0 +1,254 @@
+"""Design studies: recommend layouts for many cases and criteria, verify them all, one table.
+
+:func:`design_study` runs, for every case, sensor count and criterion,
+:func:`sensorplan.recommend` (plus the chosen baselines), then verifies
+every distinct layout of a case on that case's scenarios with
+:func:`sensorplan.verify_layouts`' machinery.  All the work, the
+recommendations, the pilot inversions and each (case, layout, scenario),
+goes through one executor: this process, a process pool, or a Dask
+cluster (``scheduler``).  Each case's scenarios draw their noise from the
+children of ``SeedSequence(seed)`` exactly as ``verify_layouts(case,
+layouts, seed=seed)`` does, so a row's numbers equal that call's and do
+not depend on where the work ran.
+"""
+
+import csv
+import io
+import math
+import os
+from collections.abc import Callable, Sequence
+from concurrent.futures import Executor
+from contextlib import nullcontext
+from dataclasses import asdict, dataclass, fields
+
+from .._errors import ConfigError
+from .._executors import executor_for, map_ordered
+from .verify import plan_verification, run_pilot, run_scenario
+
+__all__ = ["design_study", "DesignStudy", "StudyRow"]
+
+
+@dataclass(frozen=True)
+class StudyRow:
+    """One layout of a design study with its criterion value and its verification metrics.
+
+    ``criterion`` is the criterion that chose the layout (for a baseline, the
+    one its value and efficiency refer to); ``layout`` is "recommended" or the
+    baseline's name.  ``efficiency`` is the certified efficiency against the
+    relaxation bound.  Metrics are means over the scenarios with their
+    Monte-Carlo standard errors (``*_se``); ``detection_limit`` is the
+    layout's known-location power (:func:`sensorplan.verification.verify.detection_limit`).
+    """
+
+    case: str
+    count: int
+    criterion: str
+    layout: str
+    layout_m: tuple
+    value: float
+    efficiency: float
+    detection_rate: float
+    detection_rate_se: float
+    detection_limit: float | None
+    localisation_error_m: float
+    localisation_error_m_se: float
+    coverage95: float
+    coverage95_se: float
+    false_alarm_rate: float
+    false_alarm_rate_se: float
+    n_scenarios: int
+
+
+@dataclass(frozen=True, eq=False)
+class DesignStudy:
+    """The table of a design study (:func:`design_study`): one :class:`StudyRow` per case, count, criterion, layout."""
+
+    rows: tuple
+    seed: int
+    n_crossings: int
+    severity: float
+    length: float
+    false_alarm: float
+    nuisance: str
+    verifications: dict  # case name -> VerificationResult of its distinct layouts
+
+    COLUMNS = tuple(f.name for f in fields(StudyRow))
+
+    def columns(self):
+        """The table as a dict of columns (layout_m as "x1;x2;..." strings in metres)."""
+        out = {name: [] for name in self.COLUMNS}
+        for row in self.rows:
+            for name, value in asdict(row).items():
+                out[name].append(";".join(f"{x:g}" for x in value) if name == "layout_m" else value)
+        return out
+
+    def to_csv(self, path: "str | os.PathLike[str] | None" = None) -> str:
+        """The table as CSV text (empty cells for missing values); written to ``path`` when given."""
+        buffer = io.StringIO()
+        writer = csv.writer(buffer, lineterminator="\n")
+        cols = self.columns()
+        writer.writerow(self.COLUMNS)
+        for i in range(len(self.rows)):
+            writer.writerow(["" if _missing(cols[c][i]) else cols[c][i] for c in self.COLUMNS])
+        text = buffer.getvalue()
+        if path is not None:
+            with open(path, "w", encoding="utf-8", newline="") as handle:
+                handle.write(text)
+        return text
+
+    def to_dict(self):
+        return {"rows": [dict(asdict(r), layout_m=list(r.layout_m)) for r in self.rows], "seed": self.seed,
+                "n_crossings": self.n_crossings, "severity": self.severity, "damage_length_m": self.length,
+                "false_alarm": self.false_alarm, "nuisance": self.nuisance}
+
+    def summary(self):
+        lines = [f"Design study: {len(self.verifications)} case(s), {len(self.rows)} rows; local losses of "
+                 f"{100 * self.severity:.0f} % over {self.length:g} m, {self.n_crossings} crossings per scenario, "
+                 f"seed {self.seed}",
+                 f"  {'case':16s} {'R':>2s} {'crit.':>5s} {'layout':20s} {'efficiency':>10s} {'detection':>12s} "
+                 f"{'limit':>6s} {'loc. err [m]':>13s} {'coverage95':>12s} {'false alarm':>12s}  positions [m]"]
+        for r in self.rows:
+            limit = "n/a" if r.detection_limit is None else f"{r.detection_limit:.3f}"
+            lines.append(f"  {r.case[:16]:16s} {r.count:2d} {r.criterion[:5]:>5s} {r.layout[:20]:20s} "
+                         f"{100 * r.efficiency:9.1f}% {_pm(r.detection_rate, r.detection_rate_se):>12s} "
+                         f"{limit:>6s} {_pm(r.localisation_error_m, r.localisation_error_m_se):>13s} "
+                         f"{_pm(r.coverage95, r.coverage95_se):>12s} {_pm(r.false_alarm_rate, r.false_alarm_rate_se):>12s}"
+                         "  " + ", ".join(f"{x:g}" for x in r.layout_m))
+        lines.append("  (mean ± Monte-Carlo standard error over the scenarios; efficiency certified against the "
+                     "relaxation bound of the row's criterion)")
+        return "\n".join(lines)
+
+
+def _missing(value):
+    return value is None or (isinstance(value, float) and math.isnan(value))
+
+
+def _pm(mean, se):
+    if math.isnan(mean):
+        return "n/a"
+    return f"{mean:5.3f}±{se:5.3f}" if not math.isnan(se) else f"{mean:5.3f}"
+
+
+def _load(case):
+    from ..io.config import EXAMPLES, example_case, load_case
+
+    if isinstance(case, (str, os.PathLike)):
+        return example_case(case) if isinstance(case, str) and case in EXAMPLES else load_case(case)
+    if not hasattr(case, "bridge"):
+        raise ConfigError(f"The 'cases' parameter takes Case objects, example names or TOML paths. "
+                          f"Got {case!r} instead.")
+    return case
+
+
+def _recommend(job):
+    """Layout, value, efficiency and baselines of one (case, count, criterion); run on a worker."""
+    from ..design.recommend import CandidateGrid, recommend
+
+    case, count, criterion, spacing, n_crossings, seed = job
+    design = recommend(case, count, criterion, grid=CandidateGrid(spacing=spacing), kind=case.default_kind,
+                       n_crossings=n_crossings, rng=seed, curve_max=0)
+    rows = [("recommended", design.layout_m, design.value, design.efficiency)]
+    rows += [(b.name, b.layout_m, b.value, min(1.0, b.relative * design.efficiency))
+             for b in design.baselines if b.feasible]
+    return rows
+
+
+def design_study(cases: Sequence, *, criteria: Sequence[str] = ("D",), counts: "int | Sequence[int] | None" = None,
+                 baselines: "bool | Sequence[str]" = True, n_scenarios: int = 8, n_controls: int | None = None,
+                 n_crossings: int = 10,
+                 severity: float = 0.25, length: float = 2.0, false_alarm: float = 0.05, nuisance: str = "smooth",
+                 spacing: float = 0.5, design_crossings: int = 1, seed: int = 0,
+                 executor: Executor | None = None, workers: int = 1, scheduler: str | None = None,
+                 progress: "Callable[[int, int], None] | None" = None) -> DesignStudy:
+    """Recommend and verify layouts for several cases; returns one table (:class:`DesignStudy`).
+
+    Parameters
+    ----------
+    cases : sequence of Case, example name or TOML path
+    criteria : sequence of str
+        Design criteria (see :data:`sensorplan.CRITERIA`), each recommending its own layout.
+    counts : int or sequence of int, optional
+        Numbers of new sensors R studied (default: each case's own number of sensors).
+    baselines : bool or sequence of str
+        Verify the feasible baselines of each design too (True: all; or their names, e.g.
+        ``["equally_spaced"]``).
+    n_scenarios, n_controls, n_crossings, severity, length, false_alarm, nuisance :
+        The verification, as in :func:`sensorplan.verify_layouts` (``n_scenarios`` is its ``n_locations``).
+    spacing, design_crossings :
+        Candidate grid spacing [m] and crossings per campaign of the design (as ``recommend``).
+    seed : int
+        Seed of the scenarios' noise (as ``verify_layouts``) and of the random baseline.
+    executor, workers, scheduler :
+        Where the work runs, as in :func:`sensorplan.verify_layouts`; the table does not depend on it.
+    progress : callable, optional
+        Called with (done, total) after each verification scenario.
+    """
+    from ..design.criteria import CRITERIA
+
+    loaded = [_load(c) for c in cases]
+    if not loaded:
+        raise ConfigError("The 'cases' parameter needs at least one case.")
+    names = [c.name for c in loaded]
+    if len(set(names)) != len(names):
+        raise ConfigError(f"The 'cases' parameter has cases with the same name ({', '.join(names)}); rename them "
+                          "(Case.name) so that the rows can tell them apart.")
+    criteria = [criteria] if isinstance(criteria, str) else list(criteria)
+    unknown = [c for c in criteria if c not in CRITERIA]
+    if not criteria or unknown:
+        raise ConfigError(f"The 'criteria' parameter must list criteria among {', '.join(CRITERIA)}. "
+                          f"Got {criteria!r} instead.")
+    per_case = [[c.sensors.n_sensors] if counts is None else [counts] if isinstance(counts, int) else list(counts)
+                for c in loaded]
+    for cs in per_case:
+        if not cs or any(isinstance(r, bool) or int(r) != r or r < 1 for r in cs):
+            raise ConfigError(f"The 'counts' parameter must be positive integers. Got {counts!r} instead.")
+    jobs = [(case, int(r), crit, float(spacing), int(design_crossings), int(seed))
+            for case, cs in zip(loaded, per_case) for r in cs for crit in criteria]
+    with nullcontext(executor) if executor is not None else executor_for(workers, scheduler) as runner:
+        designs = map_ordered(runner, _recommend, jobs, chunksize=1)
+        if not isinstance(baselines, bool):
+            known = {row[0] for rows in designs for row in rows}
+            missing = sorted(set(baselines) - known)
+            if missing:
+                raise ConfigError(f"The 'baselines' parameter names no feasible baseline of these designs: "
+                                  f"{', '.join(missing)}; choose among {', '.join(sorted(known - {'recommended'}))}.")
+        selected = [(job, [row for row in rows if _keep(row[0], baselines)]) for job, rows in zip(jobs, designs)]
+        plans = []
+        for case in loaded:
+            layouts = list(dict.fromkeys(row[1] for job, rows in selected if job[0] is case for row in rows))
+            plans.append(plan_verification(case, layouts, n_locations=n_scenarios, severity=severity, length=length,
+                                           n_controls=n_controls, n_crossings=n_crossings, seed=seed,
+                                           kind=case.default_kind, false_alarm=false_alarm, nuisance=nuisance))
+        starts = map_ordered(runner, run_pilot, [t for plan in plans for t in plan.pilots()], chunksize=1)
+        tasks, k = [], 0
+        for plan in plans:
+            tasks += plan.tasks(starts[k:k + len(plan.layouts)])
+            k += len(plan.layouts)
+        records = map_ordered(runner, run_scenario, tasks, progress=progress)
+    verifications, k = {}, 0
+    for case, plan in zip(loaded, plans):
+        n = len(plan.layouts) * len(plan.scenarios)
+        verifications[case.name] = plan.result(records[k:k + n])
+        k += n
+    rows = []
+    for (case, count, crit, *_), chosen in selected:
+        result = verifications[case.name]
+        scores = {s.layout_m: s for s in result.layouts}
+        for name, layout, value, efficiency in chosen:
+            score = scores[tuple(float(x) for x in layout)]
+            m = score.metrics
+            rows.append(StudyRow(
+                case.name, count, crit, name, score.layout_m, float(value), float(efficiency),
+                m["detection_rate"].mean, m["detection_rate"].se, score.detection_limit,
+                m["localisation_error_m"].mean, m["localisation_error_m"].se, m["coverage95"].mean,
+                m["coverage95"].se, m["false_alarm_rate"].mean, m["false_alarm_rate"].se, score.n_scenarios))
+    return DesignStudy(tuple(rows), int(seed), int(n_crossings), float(severity), float(length), float(false_alarm),
+                       nuisance, verifications)
+
+
+def _keep(name, baselines):
+    if name == "recommended":
+        return True
+    if isinstance(baselines, bool):
+        return baselines
+    return name in baselines
