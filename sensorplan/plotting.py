@@ -13,7 +13,7 @@ import numpy as np
 
 __all__ = ["plot_informativeness", "plot_spectrum", "plot_eigenvectors", "plot_ei_posterior", "plot_fit", "plot_layout",
            "plot_posterior_std", "plot_criterion_curve", "plot_verification", "plot_residual_map",
-           "plot_shrinkage", "plot_ei_before_after", "plot_influence_lines", "plot_detectability", "save_figure",
+           "plot_shrinkage", "plot_ei_before_after", "plot_influence_lines", "plot_detectability", "plot_crossing_events", "save_figure",
            "mark_bridge", "new_figure"]
 
 
@@ -348,4 +348,38 @@ def plot_detectability(result, *, axes=None):
                 clip_on=False, zorder=5, label="sensors" if i == 0 else None)
         ax.set_xlim(0.0, float(result.supports_m[-1]))
     axes[0].legend(fontsize=7, loc="best")
+    return axes
+
+
+def eng_unit(kind):
+    """(scale from SI, unit label) of a reading at the edges: tilt in urad, deflection in mm."""
+    return (1e6, "µrad") if kind == "rotation" else (1e3, "mm")
+
+
+def plot_crossing_events(result, series, *, axes=None):
+    """The logger record per channel with the detected events and the fitted influence lines; returns the Axes."""
+    n = len(result.names)
+    if axes is None:
+        _, axes = new_figure((9, 1.2 + 1.9 * n), n, 1, sharex=True, squeeze=False)
+        axes = axes[:, 0]
+    for c, (ax, name, kind) in enumerate(zip(axes, result.names, result.kinds)):
+        scale, unit = eng_unit(kind)
+        ax.plot(series.time, scale * series.values[series.names.index(name)], color="0.6", linewidth=0.5,
+                label="record")
+        for e in result.events:
+            color = "C2" if e.accepted else "C3"
+            ax.axvspan(e.t_start, e.t_end, color=color, alpha=0.08)
+            if e.fit_time.size:
+                ax.plot(e.fit_time, scale * e.fit_values[c], color=color, linewidth=1.1,
+                        label=("fit, accepted" if e.accepted else "fit, rejected") if c == 0 else None)
+            if c == 0:
+                ax.annotate(e.label + ("" if e.accepted else f"\n{e.reason}"), (0.5 * (e.t_start + e.t_end), 1.0),
+                            xycoords=("data", "axes fraction"), ha="center", va="bottom", fontsize=7, color=color)
+        ax.set_ylabel(f"{name} [{unit}]")
+    handles, labels = axes[0].get_legend_handles_labels()
+    unique = dict(zip(labels, handles))
+    axes[0].legend(unique.values(), unique.keys(), fontsize=7, loc="lower right", ncol=3)
+    axes[0].set_title(f"{len(result.events)} event(s), {len(result.accepted)} accepted "
+                      "(green: accepted, red: rejected)", pad=22)
+    axes[-1].set_xlabel("time [s]")
     return axes
