@@ -45,18 +45,28 @@ def mark_bridge(ax, supports, sensors=None, *, labels=True):
     return ax
 
 
-def plot_informativeness(blocks, *, ax=None, supports=None, log=False):
-    """Informativeness curves (diag of I^(i) per element) along the bridge."""
+def plot_informativeness(blocks, *, ax=None, supports=None, log=False, ei=None):
+    """Informativeness curves along the bridge.
+
+    In log-EI parameters, or with the nominal ``ei`` [N m^2] per element, each
+    curve is shown as the EI standard deviation [%] one sensor alone would
+    leave on an element if every other element were known (100 / sqrt(I_jj)
+    of log EI; lower is better); otherwise as the diagonal I_jj itself.
+    """
     ax = _axes(ax)
     edges = blocks.edges
-    for name, curve in zip(blocks.sensors.names, blocks.curves):
-        ax.stairs(curve, edges, label=name, linewidth=1.4)
-    if log:
+    percent = blocks.parameterisation == "log_ei" or (ei is not None and blocks.parameterisation == "ei")
+    factor = np.asarray(ei, float) if blocks.parameterisation == "ei" and ei is not None else 1.0
+    with np.errstate(divide="ignore"):
+        curves = 100.0 / (factor * np.sqrt(blocks.curves)) if percent else blocks.curves
+    for name, curve in zip(blocks.sensors.names, curves):
+        ax.stairs(curve, edges, label=name, linewidth=1.4, baseline=None)
+    if log or percent:
         ax.set_yscale("log")
     ax.set_xlabel("position along the bridge x [m]")
-    ax.set_ylabel(f"Fisher information I_jj\n[{blocks.unit}]")
-    ax.set_title(f"Informativeness curves ({blocks.parameterisation}, "
-                 f"{blocks.n_crossings} crossing(s))")
+    ax.set_ylabel("EI std this sensor alone\nwould leave [%] (lower: better)" if percent else
+                  f"Fisher information I_jj\n[{blocks.unit}]")
+    ax.set_title(f"Informativeness of each sensor ({blocks.n_crossings} crossing(s))")
     ax.set_xlim(edges[0], edges[-1])
     if supports is not None:
         mark_bridge(ax, supports, blocks.sensors, labels=False)
@@ -128,11 +138,11 @@ def plot_ei_posterior(result, *, ax=None, supports=None, truth=None):
               label="95 % credible")
     ax.stairs(ci75[:, 1], edges, baseline=ci75[:, 0], fill=True, color="C0", alpha=0.35,
               label="75 % credible")
-    ax.stairs(result.ei_mean, edges, color="C0", linewidth=1.8, label="posterior mean")
-    ax.stairs(result.ei_nominal, edges, color="0.3", linestyle="--", linewidth=1.0, label="nominal")
+    ax.stairs(result.ei_mean, edges, color="C0", linewidth=1.8, label="posterior mean", baseline=None)
+    ax.stairs(result.ei_nominal, edges, color="0.3", linestyle="--", linewidth=1.0, label="nominal", baseline=None)
     if truth is not None:
         truth_edges, truth_values = truth
-        ax.stairs(truth_values, truth_edges, color="k", linewidth=1.2, label="truth")
+        ax.stairs(truth_values, truth_edges, color="k", linewidth=1.2, label="truth", baseline=None)
     if supports is not None:
         mark_bridge(ax, supports)
     damage = getattr(result, "damage", None)
@@ -172,10 +182,12 @@ def plot_fit(result, sensor, *, ax=None, level=0.95):
     return ax
 
 
-def plot_layout(design, *, ax=None):
-    """Bridge elevation: supports, relaxed weights of the candidates, chosen and fixed sensors."""
+def plot_layout(design, *, ax=None, exclude=()):
+    """Bridge elevation: supports, exclusion zones, relaxed weights of the candidates, chosen and fixed sensors."""
     ax = _axes(ax, figsize=(8, 2.8))
     x0, x1 = design.supports_m[0], design.supports_m[-1]
+    for i, (a, b) in enumerate(exclude):
+        ax.axvspan(a, b, color="0.5", alpha=0.25, hatch="//", linewidth=0, label="excluded" if i == 0 else None)
     ax.plot([x0, x1], [0, 0], color="0.2", linewidth=3, solid_capstyle="butt")
     ax.plot(design.supports_m, np.full(len(design.supports_m), -0.08), "^", color="0.3",
             markersize=12, label="supports")
@@ -295,9 +307,9 @@ def plot_shrinkage(diagnosis, *, ax=None):
 def plot_ei_before_after(diagnosis, *, ax=None, supports=None):
     """Identified EI with the base model and with the selected effects."""
     ax = _axes(ax)
-    ax.stairs(diagnosis.ei_base, diagnosis.ei_edges, linewidth=1.5, label="base model")
+    ax.stairs(diagnosis.ei_base, diagnosis.ei_edges, linewidth=1.5, label="base model", baseline=None)
     label = "with " + ", ".join(diagnosis.causes) if diagnosis.causes else "final model (= base)"
-    ax.stairs(diagnosis.ei_final, diagnosis.ei_edges, linewidth=1.5, linestyle="--", label=label)
+    ax.stairs(diagnosis.ei_final, diagnosis.ei_edges, linewidth=1.5, linestyle="--", label=label, baseline=None)
     if supports is not None:
         mark_bridge(ax, supports)
     ax.set_xlabel("position along the bridge x [m]")
@@ -308,19 +320,26 @@ def plot_ei_before_after(diagnosis, *, ax=None, supports=None):
 
 
 def plot_influence_lines(lines, *, ax=None, supports=None):
-    """Predicted influence lines of each sensor against the reference-axle position."""
+    """Predicted influence lines against the reference-axle position; tilt (µrad) and deflection (mm) on
+    separate y axes (the deflection one on the right when both are present)."""
     ax = _axes(ax)
-    for name, kind, y in zip(lines.sensors.names, lines.sensors.kinds, lines.predictions):
-        unit = "urad" if kind == "rotation" else "mm"
-        scale = 1e6 if kind == "rotation" else 1e3
-        ax.plot(lines.positions, scale * y, label=f"{name} [{unit}]")
+    kinds = list(dict.fromkeys(lines.sensors.kinds))
+    axes = {kinds[0]: ax}
+    if len(kinds) > 1:
+        axes[kinds[1]] = ax.twinx()
+    for i, (name, kind, y) in enumerate(zip(lines.sensors.names, lines.sensors.kinds, lines.predictions)):
+        scale, unit = eng_unit(kind)
+        axes[kind].plot(lines.positions, scale * y, color=f"C{i % 10}", label=f"{name} [{unit}]",
+                        linestyle="-" if kind == kinds[0] else "--")
+    for kind, a in axes.items():
+        a.set_ylabel(("tilt" if kind == "rotation" else "deflection") + f" [{eng_unit(kind)[1]}]")
     if supports is not None:
         mark_bridge(ax, supports)
     ax.axhline(0.0, color="0.3", linewidth=0.6)
     ax.set_xlabel("reference-axle position [m]")
-    ax.set_ylabel("reading (urad or mm)")
     ax.set_title("Influence lines at nominal EI")
-    ax.legend(fontsize=8)
+    handles = [h for a in axes.values() for h in a.get_legend_handles_labels()[0]]
+    ax.legend(handles, [h.get_label() for h in handles], fontsize=8)
     return ax
 
 
