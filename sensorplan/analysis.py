@@ -117,7 +117,7 @@ def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None 
         if noise_std is None or (same_kind and noise_std == case.noise_std_for(kind)):
             detect_map = detectability(case, layout=installed, kind=kind, n_crossings=n_crossings)
         else:  # new sensors with their own noise (the case's correlation length)
-            noise = NoiseModel([noise_std] * len(installed), case.noise.correlation_length if case.noise else 0.0)
+            noise = NoiseModel(np.full(len(installed), noise_std), case.noise.correlation_length if case.noise else 0.0)
             detect_map = detectability(case.with_sensors(SensorLayout.candidates(installed, kind), noise),
                                        n_crossings=n_crossings)
         if progress:

@@ -162,21 +162,25 @@ def plot_ei_posterior(result, *, ax=None, supports=None, truth=None):
     return ax
 
 
-def plot_fit(result, sensor, *, ax=None, level=0.95):
-    """Measured readings of one sensor against the fitted model and its predictive band."""
+def plot_fit(result, sensor, *, ax=None, level=0.95, kind=None):
+    """Measured readings of one sensor against the fitted model and its predictive band.
+
+    With the sensor's ``kind`` the readings are shown in µrad (tilt) or mm (deflection), else in SI.
+    """
     ax = _axes(ax)
+    scale, unit = _eng_unit(kind) if kind is not None else (1.0, "rad or m")
     i = result.sensor_names.index(sensor) if isinstance(sensor, str) else int(sensor)
     name = result.sensor_names[i]
     for k, fit in enumerate(result.fits):
-        ax.plot(fit.positions, fit.data[i], ".", color="0.5", markersize=2,
+        ax.plot(fit.positions, scale * fit.data[i], ".", color="0.5", markersize=2,
                 label="data" if k == 0 else None)
     fit = result.fits[0]
     band = fit.predictive_band(level)
-    ax.fill_between(fit.positions, band[0, i], band[1, i], color="C1", alpha=0.3,
+    ax.fill_between(fit.positions, scale * band[0, i], scale * band[1, i], color="C1", alpha=0.3,
                     label=f"{int(level * 100)} % predictive")
-    ax.plot(fit.positions, fit.model[i], color="C1", linewidth=1.5, label="model")
+    ax.plot(fit.positions, scale * fit.model[i], color="C1", linewidth=1.5, label="model")
     ax.set_xlabel("reference-axle position [m]")
-    ax.set_ylabel(f"{name} reading")
+    ax.set_ylabel(f"{name} reading [{unit}]")
     ax.set_title(f"Data vs model: {name}")
     ax.legend(fontsize=7)
     return ax
@@ -328,11 +332,11 @@ def plot_influence_lines(lines, *, ax=None, supports=None):
     if len(kinds) > 1:
         axes[kinds[1]] = ax.twinx()
     for i, (name, kind, y) in enumerate(zip(lines.sensors.names, lines.sensors.kinds, lines.predictions)):
-        scale, unit = eng_unit(kind)
+        scale, unit = _eng_unit(kind)
         axes[kind].plot(lines.positions, scale * y, color=f"C{i % 10}", label=f"{name} [{unit}]",
                         linestyle="-" if kind == kinds[0] else "--")
     for kind, a in axes.items():
-        a.set_ylabel(("tilt" if kind == "rotation" else "deflection") + f" [{eng_unit(kind)[1]}]")
+        a.set_ylabel(("tilt" if kind == "rotation" else "deflection") + f" [{_eng_unit(kind)[1]}]")
     if supports is not None:
         mark_bridge(ax, supports)
     ax.axhline(0.0, color="0.3", linewidth=0.6)
@@ -370,7 +374,7 @@ def plot_detectability(result, *, axes=None):
     return axes
 
 
-def eng_unit(kind):
+def _eng_unit(kind):
     """(scale from SI, unit label) of a reading at the edges: tilt in urad, deflection in mm."""
     return (1e6, "µrad") if kind == "rotation" else (1e3, "mm")
 
@@ -382,7 +386,7 @@ def plot_crossing_events(result, series, *, axes=None):
         _, axes = new_figure((9, 1.2 + 1.9 * n), n, 1, sharex=True, squeeze=False)
         axes = axes[:, 0]
     for c, (ax, name, kind) in enumerate(zip(axes, result.names, result.kinds)):
-        scale, unit = eng_unit(kind)
+        scale, unit = _eng_unit(kind)
         ax.plot(series.time, scale * series.values[series.names.index(name)], color="0.6", linewidth=0.5,
                 label="record")
         for e in result.events:

@@ -283,7 +283,8 @@ def render_report(analysis, *, provenance=None):
 
     posterior, diagnosis = analysis.posterior, analysis.diagnosis
     if posterior is not None:
-        fit_figs = "".join(_figure(plotting.plot_fit(posterior, name), f"Data and model for {name}",
+        kinds = dict(zip(case.sensors.names, case.sensors.kinds))
+        fit_figs = "".join(_figure(plotting.plot_fit(posterior, name, kind=kinds.get(name)), f"Data and model for {name}",
                                    "grey dots are the measurements; the orange band is where the model "
                                    "expects 95 % of them.") for name in posterior.sensor_names)
         ci = posterior.credible_interval(0.95)
