@@ -122,9 +122,11 @@ def _conclusion(analysis):
     if det is not None:
         loss = det.min_detectable_loss_array
         finite = loss[np.isfinite(loss)]
+        where = (f"for zone centres in {_stretches(det.covered)}" if det.covered
+                 else "at no zone centre of the bridge")
         text += (f"With {det.n_crossings} crossing(s) it detects a {100 * det.severity:g} % EI loss over "
-                 f"{det.length_m:g} m with at least 90 % probability for zone centres in {_stretches(det.covered)}"
-                 f" (false-alarm rate {100 * det.false_alarm_rate:g} %); blind spots (probability below 50 %): "
+                 f"{det.length_m:g} m with at least 90 % probability {where} (false-alarm rate "
+                 f"{100 * det.false_alarm_rate:g} %); blind spots (probability below 50 %): "
                  f"{_stretches(det.blind_spots)}")
         text += (f"; the smallest loss it detects with 90 % probability is {100 * finite.min():.0f} % "
                  f"(median over the bridge {100 * np.median(finite):.0f} %). " if finite.size else ". ")
@@ -139,6 +141,9 @@ def _conclusion(analysis):
             f"{html.escape(n)} ({html.escape(r)})" for n, r in better) + "; consider installing it instead "
             "(the design criterion and the verification measure different things).</b> ")
     caveats = []
+    if not m["detection_rate"].mean >= 0.5:
+        caveats.append(f"this layout is unlikely to detect a local {100 * v.severity:.0f} % loss over {v.length:g} m "
+                       "(verified detection below 0.5): more sensors or crossings are needed for that")
     if m["coverage95"].mean < 0.9:
         caveats.append("the credible bands are too narrow (coverage below 0.90)")
     if d.efficiency < 0.95:
@@ -146,7 +151,7 @@ def _conclusion(analysis):
     caveats.append(f"the verification uses {len(rec.records)} synthetic scenarios of the configured model "
                    "(supports, vehicle, noise); a model the bridge does not follow makes every number optimistic")
     if analysis.diagnosis is not None:
-        caveats.append(f"the measured data: {analysis.diagnosis.verdict}")
+        caveats.append(f"gap diagnosis of the measured data: {analysis.diagnosis.verdict}")
     return text + "Caveats: " + "; ".join(html.escape(c) for c in caveats) + "."
 
 
