@@ -203,10 +203,13 @@ def plot_layout(design, *, ax=None, exclude=()):
     if design.fixed_m:
         ax.plot(design.fixed_m, np.zeros(len(design.fixed_m)), "s", color="k", markersize=8,
                 label="existing", zorder=5)
-    for x in design.layout_m:
-        ax.annotate(f"{x:.2f} m", (x, 0.0), xytext=(0, -22), textcoords="offset points", ha="center",
-                    fontsize=8, color="C3")
-    ax.set_ylim(-0.35, 0.7)
+    low, previous = False, -np.inf
+    for x in sorted(design.layout_m):  # neighbours closer than 6 % of the length alternate rows (no overlap)
+        low = (not low) if x - previous < 0.06 * (x1 - x0) else False
+        previous = x
+        ax.annotate(f"{x:.2f} m", (x, 0.0), xytext=(0, -32 if low else -22), textcoords="offset points",
+                    ha="center", fontsize=8, color="C3")
+    ax.set_ylim(-0.45, 0.7)
     ax.set_yticks([])
     ax.set_xlim(x0 - 0.02 * (x1 - x0), x1 + 0.02 * (x1 - x0))
     ax.set_xlabel("position along the bridge x [m]")
