@@ -29,6 +29,10 @@ class Analysis:
     design : DesignResult
     verification : VerificationResult
         The recommended layout and the feasible baselines, on the same scenarios.
+    detectability : DetectabilityMap or None
+        What the recommended layout detects along the bridge.
+    exclude : tuple of (float, float)
+        Exclusion zones of the design [m].
     posterior : PosteriorResult or None
         EI identified from ``data`` (when given).
     diagnosis : GapDiagnosis or None
@@ -41,6 +45,8 @@ class Analysis:
     verification: object
     posterior: object = None
     diagnosis: object = None
+    detectability: object = None
+    exclude: tuple = ()
 
     @property
     def verified_names(self):
@@ -49,7 +55,8 @@ class Analysis:
 
 def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None = None, criterion: str = "D",
             spacing: float | None = None, n_scenarios: int = 6, n_crossings: int = 10, seed: int = 0,
-            progress: "Callable[[str], None] | None" = None) -> Analysis:
+            progress: "Callable[[str], None] | None" = None, design_options: dict | None = None,
+            detect: bool = True) -> Analysis:
     """Run the analyses of a report: informativeness, layout, verification, identification, gap.
 
     Parameters
@@ -66,6 +73,12 @@ def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None 
     n_scenarios, n_crossings, seed : verification settings.
     progress : callable, optional
         Called with a short message after each stage.
+    design_options : dict, optional
+        Keyword arguments of :func:`sensorplan.design.recommend.recommend`
+        (``grid``, ``constraints``, ``kind``, ``noise_std``, ...); a ``grid``
+        here overrides ``spacing``.
+    detect : bool
+        Add the detectability map of the recommended layout.
 
     Returns
     -------
@@ -82,15 +95,33 @@ def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None 
     candidates = fisher_blocks(case, sensors=SensorLayout.candidates(
         positions, case.default_kind, noise_std=[case.noise_std_for(case.default_kind)] * positions.size),
         parameterisation="ei")
-    design = recommend(case, count, criterion, grid=CandidateGrid(spacing=spacing), rng=seed)
+    options = {"grid": CandidateGrid(spacing=spacing), "rng": seed, **(design_options or {})}
+    design = recommend(case, count, criterion, **options)
     if progress:
         progress("layout recommended")
+    kind, noise_std = options.get("kind", case.default_kind), options.get("noise_std")
     feasible = [b for b in design.baselines if b.feasible]
     verification = verify_layouts(case, [design.layout_m] + [b.layout_m for b in feasible],
                                   names=["recommended"] + [b.name for b in feasible], n_locations=n_scenarios,
-                                  n_crossings=n_crossings, seed=seed)
+                                  n_crossings=n_crossings, seed=seed, kind=kind, noise_std=noise_std)
     if progress:
         progress("layouts verified")
+    detect_map = None
+    if detect:
+        from .detection.detectability import detectability
+
+        from .model.noise import NoiseModel
+
+        installed = sorted(tuple(design.layout_m) + tuple(design.fixed_m))  # new and existing sensors
+        same_kind = [std for k, std in zip(case.sensors.kinds, case.sensors.noise_std or ()) if k == kind]
+        if noise_std is None or (same_kind and noise_std == case.noise_std_for(kind)):
+            detect_map = detectability(case, layout=installed, kind=kind, n_crossings=n_crossings)
+        else:  # new sensors with their own noise (the case's correlation length)
+            noise = NoiseModel(np.full(len(installed), noise_std), case.noise.correlation_length if case.noise else 0.0)
+            detect_map = detectability(case.with_sensors(SensorLayout.candidates(installed, kind), noise),
+                                       n_crossings=n_crossings)
+        if progress:
+            progress("detectability mapped")
     posterior = diagnosis = None
     if data is not None:
         from .diagnosis.diagnose import diagnose
@@ -98,4 +129,5 @@ def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None 
 
         posterior = invert(case, data)
         diagnosis = diagnose(case, data)
-    return Analysis(case, candidates, design, verification, posterior, diagnosis)
+    return Analysis(case, candidates, design, verification, posterior, diagnosis, detect_map,
+                    tuple(getattr(options["grid"], "exclude", ())))

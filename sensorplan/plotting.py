@@ -13,7 +13,7 @@ import numpy as np
 
 __all__ = ["plot_informativeness", "plot_spectrum", "plot_eigenvectors", "plot_ei_posterior", "plot_fit", "plot_layout",
            "plot_posterior_std", "plot_criterion_curve", "plot_verification", "plot_residual_map",
-           "plot_shrinkage", "plot_ei_before_after", "plot_influence_lines", "plot_detectability", "save_figure",
+           "plot_shrinkage", "plot_ei_before_after", "plot_influence_lines", "plot_detectability", "plot_crossing_events", "save_figure",
            "mark_bridge", "new_figure"]
 
 
@@ -45,18 +45,28 @@ def mark_bridge(ax, supports, sensors=None, *, labels=True):
     return ax
 
 
-def plot_informativeness(blocks, *, ax=None, supports=None, log=False):
-    """Informativeness curves (diag of I^(i) per element) along the bridge."""
+def plot_informativeness(blocks, *, ax=None, supports=None, log=False, ei=None):
+    """Informativeness curves along the bridge.
+
+    In log-EI parameters, or with the nominal ``ei`` [N m^2] per element, each
+    curve is shown as the EI standard deviation [%] one sensor alone would
+    leave on an element if every other element were known (100 / sqrt(I_jj)
+    of log EI; lower is better); otherwise as the diagonal I_jj itself.
+    """
     ax = _axes(ax)
     edges = blocks.edges
-    for name, curve in zip(blocks.sensors.names, blocks.curves):
-        ax.stairs(curve, edges, label=name, linewidth=1.4)
-    if log:
+    percent = blocks.parameterisation == "log_ei" or (ei is not None and blocks.parameterisation == "ei")
+    factor = np.asarray(ei, float) if blocks.parameterisation == "ei" and ei is not None else 1.0
+    with np.errstate(divide="ignore"):
+        curves = 100.0 / (factor * np.sqrt(blocks.curves)) if percent else blocks.curves
+    for name, curve in zip(blocks.sensors.names, curves):
+        ax.stairs(curve, edges, label=name, linewidth=1.4, baseline=None)
+    if log or percent:
         ax.set_yscale("log")
     ax.set_xlabel("position along the bridge x [m]")
-    ax.set_ylabel(f"Fisher information I_jj\n[{blocks.unit}]")
-    ax.set_title(f"Informativeness curves ({blocks.parameterisation}, "
-                 f"{blocks.n_crossings} crossing(s))")
+    ax.set_ylabel("EI std this sensor alone\nwould leave [%] (lower: better)" if percent else
+                  f"Fisher information I_jj\n[{blocks.unit}]")
+    ax.set_title(f"Informativeness of each sensor ({blocks.n_crossings} crossing(s))")
     ax.set_xlim(edges[0], edges[-1])
     if supports is not None:
         mark_bridge(ax, supports, blocks.sensors, labels=False)
@@ -128,11 +138,11 @@ def plot_ei_posterior(result, *, ax=None, supports=None, truth=None):
               label="95 % credible")
     ax.stairs(ci75[:, 1], edges, baseline=ci75[:, 0], fill=True, color="C0", alpha=0.35,
               label="75 % credible")
-    ax.stairs(result.ei_mean, edges, color="C0", linewidth=1.8, label="posterior mean")
-    ax.stairs(result.ei_nominal, edges, color="0.3", linestyle="--", linewidth=1.0, label="nominal")
+    ax.stairs(result.ei_mean, edges, color="C0", linewidth=1.8, label="posterior mean", baseline=None)
+    ax.stairs(result.ei_nominal, edges, color="0.3", linestyle="--", linewidth=1.0, label="nominal", baseline=None)
     if truth is not None:
         truth_edges, truth_values = truth
-        ax.stairs(truth_values, truth_edges, color="k", linewidth=1.2, label="truth")
+        ax.stairs(truth_values, truth_edges, color="k", linewidth=1.2, label="truth", baseline=None)
     if supports is not None:
         mark_bridge(ax, supports)
     damage = getattr(result, "damage", None)
@@ -152,30 +162,36 @@ def plot_ei_posterior(result, *, ax=None, supports=None, truth=None):
     return ax
 
 
-def plot_fit(result, sensor, *, ax=None, level=0.95):
-    """Measured readings of one sensor against the fitted model and its predictive band."""
+def plot_fit(result, sensor, *, ax=None, level=0.95, kind=None):
+    """Measured readings of one sensor against the fitted model and its predictive band.
+
+    With the sensor's ``kind`` the readings are shown in µrad (tilt) or mm (deflection), else in SI.
+    """
     ax = _axes(ax)
+    scale, unit = _eng_unit(kind) if kind is not None else (1.0, "rad or m")
     i = result.sensor_names.index(sensor) if isinstance(sensor, str) else int(sensor)
     name = result.sensor_names[i]
     for k, fit in enumerate(result.fits):
-        ax.plot(fit.positions, fit.data[i], ".", color="0.5", markersize=2,
+        ax.plot(fit.positions, scale * fit.data[i], ".", color="0.5", markersize=2,
                 label="data" if k == 0 else None)
     fit = result.fits[0]
     band = fit.predictive_band(level)
-    ax.fill_between(fit.positions, band[0, i], band[1, i], color="C1", alpha=0.3,
+    ax.fill_between(fit.positions, scale * band[0, i], scale * band[1, i], color="C1", alpha=0.3,
                     label=f"{int(level * 100)} % predictive")
-    ax.plot(fit.positions, fit.model[i], color="C1", linewidth=1.5, label="model")
+    ax.plot(fit.positions, scale * fit.model[i], color="C1", linewidth=1.5, label="model")
     ax.set_xlabel("reference-axle position [m]")
-    ax.set_ylabel(f"{name} reading")
+    ax.set_ylabel(f"{name} reading [{unit}]")
     ax.set_title(f"Data vs model: {name}")
     ax.legend(fontsize=7)
     return ax
 
 
-def plot_layout(design, *, ax=None):
-    """Bridge elevation: supports, relaxed weights of the candidates, chosen and fixed sensors."""
+def plot_layout(design, *, ax=None, exclude=()):
+    """Bridge elevation: supports, exclusion zones, relaxed weights of the candidates, chosen and fixed sensors."""
     ax = _axes(ax, figsize=(8, 2.8))
     x0, x1 = design.supports_m[0], design.supports_m[-1]
+    for i, (a, b) in enumerate(exclude):
+        ax.axvspan(a, b, color="0.5", alpha=0.25, hatch="//", linewidth=0, label="excluded" if i == 0 else None)
     ax.plot([x0, x1], [0, 0], color="0.2", linewidth=3, solid_capstyle="butt")
     ax.plot(design.supports_m, np.full(len(design.supports_m), -0.08), "^", color="0.3",
             markersize=12, label="supports")
@@ -187,10 +203,13 @@ def plot_layout(design, *, ax=None):
     if design.fixed_m:
         ax.plot(design.fixed_m, np.zeros(len(design.fixed_m)), "s", color="k", markersize=8,
                 label="existing", zorder=5)
-    for x in design.layout_m:
-        ax.annotate(f"{x:.2f} m", (x, 0.0), xytext=(0, -22), textcoords="offset points", ha="center",
-                    fontsize=8, color="C3")
-    ax.set_ylim(-0.35, 0.7)
+    low, previous = False, -np.inf
+    for x in sorted(design.layout_m):  # neighbours closer than 6 % of the length alternate rows (no overlap)
+        low = (not low) if x - previous < 0.06 * (x1 - x0) else False
+        previous = x
+        ax.annotate(f"{x:.2f} m", (x, 0.0), xytext=(0, -32 if low else -22), textcoords="offset points",
+                    ha="center", fontsize=8, color="C3")
+    ax.set_ylim(-0.45, 0.7)
     ax.set_yticks([])
     ax.set_xlim(x0 - 0.02 * (x1 - x0), x1 + 0.02 * (x1 - x0))
     ax.set_xlabel("position along the bridge x [m]")
@@ -295,9 +314,9 @@ def plot_shrinkage(diagnosis, *, ax=None):
 def plot_ei_before_after(diagnosis, *, ax=None, supports=None):
     """Identified EI with the base model and with the selected effects."""
     ax = _axes(ax)
-    ax.stairs(diagnosis.ei_base, diagnosis.ei_edges, linewidth=1.5, label="base model")
+    ax.stairs(diagnosis.ei_base, diagnosis.ei_edges, linewidth=1.5, label="base model", baseline=None)
     label = "with " + ", ".join(diagnosis.causes) if diagnosis.causes else "final model (= base)"
-    ax.stairs(diagnosis.ei_final, diagnosis.ei_edges, linewidth=1.5, linestyle="--", label=label)
+    ax.stairs(diagnosis.ei_final, diagnosis.ei_edges, linewidth=1.5, linestyle="--", label=label, baseline=None)
     if supports is not None:
         mark_bridge(ax, supports)
     ax.set_xlabel("position along the bridge x [m]")
@@ -308,19 +327,26 @@ def plot_ei_before_after(diagnosis, *, ax=None, supports=None):
 
 
 def plot_influence_lines(lines, *, ax=None, supports=None):
-    """Predicted influence lines of each sensor against the reference-axle position."""
+    """Predicted influence lines against the reference-axle position; tilt (µrad) and deflection (mm) on
+    separate y axes (the deflection one on the right when both are present)."""
     ax = _axes(ax)
-    for name, kind, y in zip(lines.sensors.names, lines.sensors.kinds, lines.predictions):
-        unit = "urad" if kind == "rotation" else "mm"
-        scale = 1e6 if kind == "rotation" else 1e3
-        ax.plot(lines.positions, scale * y, label=f"{name} [{unit}]")
+    kinds = list(dict.fromkeys(lines.sensors.kinds))
+    axes = {kinds[0]: ax}
+    if len(kinds) > 1:
+        axes[kinds[1]] = ax.twinx()
+    for i, (name, kind, y) in enumerate(zip(lines.sensors.names, lines.sensors.kinds, lines.predictions)):
+        scale, unit = _eng_unit(kind)
+        axes[kind].plot(lines.positions, scale * y, color=f"C{i % 10}", label=f"{name} [{unit}]",
+                        linestyle="-" if kind == kinds[0] else "--")
+    for kind, a in axes.items():
+        a.set_ylabel(("tilt" if kind == "rotation" else "deflection") + f" [{_eng_unit(kind)[1]}]")
     if supports is not None:
         mark_bridge(ax, supports)
     ax.axhline(0.0, color="0.3", linewidth=0.6)
     ax.set_xlabel("reference-axle position [m]")
-    ax.set_ylabel("reading (urad or mm)")
     ax.set_title("Influence lines at nominal EI")
-    ax.legend(fontsize=8)
+    handles = [h for a in axes.values() for h in a.get_legend_handles_labels()[0]]
+    ax.legend(handles, [h.get_label() for h in handles], fontsize=8)
     return ax
 
 
@@ -348,4 +374,38 @@ def plot_detectability(result, *, axes=None):
                 clip_on=False, zorder=5, label="sensors" if i == 0 else None)
         ax.set_xlim(0.0, float(result.supports_m[-1]))
     axes[0].legend(fontsize=7, loc="best")
+    return axes
+
+
+def _eng_unit(kind):
+    """(scale from SI, unit label) of a reading at the edges: tilt in urad, deflection in mm."""
+    return (1e6, "µrad") if kind == "rotation" else (1e3, "mm")
+
+
+def plot_crossing_events(result, series, *, axes=None):
+    """The logger record per channel with the detected events and the fitted influence lines; returns the Axes."""
+    n = len(result.names)
+    if axes is None:
+        _, axes = new_figure((9, 1.2 + 1.9 * n), n, 1, sharex=True, squeeze=False)
+        axes = axes[:, 0]
+    for c, (ax, name, kind) in enumerate(zip(axes, result.names, result.kinds)):
+        scale, unit = _eng_unit(kind)
+        ax.plot(series.time, scale * series.values[series.names.index(name)], color="0.6", linewidth=0.5,
+                label="record")
+        for e in result.events:
+            color = "C2" if e.accepted else "C3"
+            ax.axvspan(e.t_start, e.t_end, color=color, alpha=0.08)
+            if e.fit_time.size:
+                ax.plot(e.fit_time, scale * e.fit_values[c], color=color, linewidth=1.1,
+                        label=("fit, accepted" if e.accepted else "fit, rejected") if c == 0 else None)
+            if c == 0:
+                ax.annotate(e.label + ("" if e.accepted else f"\n{e.reason}"), (0.5 * (e.t_start + e.t_end), 1.0),
+                            xycoords=("data", "axes fraction"), ha="center", va="bottom", fontsize=7, color=color)
+        ax.set_ylabel(f"{name} [{unit}]")
+    handles, labels = axes[0].get_legend_handles_labels()
+    unique = dict(zip(labels, handles))
+    axes[0].legend(unique.values(), unique.keys(), fontsize=7, loc="lower right", ncol=3)
+    axes[0].set_title(f"{len(result.events)} event(s), {len(result.accepted)} accepted "
+                      "(green: accepted, red: rejected)", pad=22)
+    axes[-1].set_xlabel("time [s]")
     return axes

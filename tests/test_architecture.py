@@ -1,7 +1,7 @@
 """The package's shape: layers that only look down, a light ``import sensorplan``, small modules.
 
 The layers (docs/api.md, "Architecture"): foundations (errors, validation,
-threads) -> model -> inference, design, io -> verification, diagnosis ->
+threads) -> model -> inference, design, io, acquisition -> verification, diagnosis ->
 analysis -> plotting -> report -> cli.  A module may import its own
 subpackage and lower layers only; peers on one layer do not import each
 other.  The check parses every import statement, including the lazy ones
@@ -22,7 +22,7 @@ LAYERS = {
     "_validation": 0.5, "_threads": 0.5, "_executors": 0.5,
     "model": 1,
     "detection": 1.5,
-    "inference": 2, "design": 2, "io": 2,
+    "inference": 2, "design": 2, "io": 2, "acquisition": 2,
     "verification": 3, "diagnosis": 3,
     "analysis": 4,
     "plotting": 5,

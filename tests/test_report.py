@@ -6,6 +6,9 @@ marked slow.
 """
 
 import base64
+import dataclasses
+import hashlib
+import json
 import re
 import shutil
 import subprocess
@@ -17,6 +20,7 @@ import pytest
 
 import sensorplan as sp
 from sensorplan.cli import main
+from sensorplan.io.config import example_text
 from sensorplan.report import build_report
 
 _NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?|\bnan\b")
@@ -97,8 +101,9 @@ def report_with_data(built_report):
 @pytest.mark.slow
 def test_report_sections_and_embedded_figures(report_with_data):
     parsed = _parse(report_with_data)
-    assert parsed.h2 == ["Bridge and load model", "Informativeness of candidate positions",
-                         "Recommended layout and certificate", "Verification by inversion of synthetic damage",
+    assert parsed.h2 == ["Conclusion", "Bridge and load model", "Informativeness of candidate positions",
+                         "Recommended layout and certificate", "What the layout will detect",
+                         "Verification by inversion of synthetic damage",
                          "Identified EI with credible bands", "Sim-to-real gap diagnosis"]
     assert len(parsed.images) >= 10
     for src in parsed.images:
@@ -151,11 +156,71 @@ def test_report_shows_the_computed_results(built_report):
 def test_report_on_every_example(example, tmp_path, capsys):
     assert main(["report", "--example", example, "--count", "2", "--scenarios", "2", "--out", str(tmp_path)]) == 0
     parsed = _parse(tmp_path / "report.html")
-    assert len(parsed.h2) == 4 and "Recommended layout and certificate" in parsed.h2
+    assert parsed.h2[0] == "Conclusion" and parsed.h2[-1] == "Provenance"
+    assert "Recommended layout and certificate" in parsed.h2 and "What the layout will detect" in parsed.h2
     # the layout printed on the console is the one in the report
     printed = capsys.readouterr().out
     line = next(x for x in printed.splitlines() if x.startswith("  positions [m]: "))
     assert numbers(_row(parsed, "positions [m]")[0]) == numbers(line)
+
+
+@pytest.mark.slow
+def test_report_honours_exclude_and_design_json_reproduces_the_layout(tmp_path, capsys):
+    config = tmp_path / "case.toml"
+    config.write_text(example_text("openlab-like"), encoding="utf-8")
+    args = ["report", "--config", str(config), "--count", "3", "--exclude", "14:16,0:3,27:30", "--fixed", "11",
+            "--scenarios", "2", "--verify-crossings", "3", "--out", str(tmp_path / "rep")]
+    assert main(args) == 0
+    design = json.loads((tmp_path / "rep" / "design.json").read_text())
+    layout = design["layout_m"]
+    # no sensor in an excluded zone
+    assert all(not (a <= x <= b) for x in layout for a, b in ((14, 16), (0, 3), (27, 30))), layout
+    # provenance: version, the sha256 of the case file, every option, the command line
+    record = design["provenance"]
+    assert record["sensorplan_version"] == sp.__version__
+    assert record["inputs"]["config"]["sha256"] == hashlib.sha256(config.read_bytes()).hexdigest()
+    assert record["options"]["exclude"] == [[14.0, 16.0], [0.0, 3.0], [27.0, 30.0]]
+    assert "--exclude" in record["command_line"]
+    html_text = (tmp_path / "rep" / "report.html").read_text(encoding="utf-8")
+    parsed = _parse(html_text)
+    assert parsed.h2[0] == "Conclusion" and parsed.h2[-1] == "Provenance"
+    assert "Install 3 rotation sensor(s) at x = " + ", ".join(f"{x:.2f}" for x in layout) in html_text
+    assert "@media print" in html_text and "http://" not in html_text and "https://" not in html_text
+    assert record["inputs"]["config"]["sha256"] in html_text
+    capsys.readouterr()
+    # rerunning recommend from design.json gives the same layout
+    again = tmp_path / "again.json"
+    assert main([*design["recommend_argv"], "--out", str(tmp_path / "again"), "--json", str(again), "--quiet"]) == 0
+    assert json.loads(again.read_text())["layout_m"] == layout
+
+
+@pytest.mark.slow
+def test_conclusion_says_plainly_when_a_baseline_verified_better(built_report):
+    from sensorplan.analysis import Analysis
+    from sensorplan.report import better_baselines
+    from sensorplan.verification.results import Metric
+
+    report, _ = built_report
+    v = report.verification
+    rec = v.layouts[0]
+    # a baseline that detects every loss the recommended layout misses (mean 1, se 0) beats it plainly
+    boosted = dataclasses.replace(v.layouts[1], metrics={**v.layouts[1].metrics,
+                                                         "detection_rate": Metric(1.0, 0.0)})
+    worse = dataclasses.replace(rec, metrics={**rec.metrics, "detection_rate": Metric(0.0, 0.0)})
+    verification = dataclasses.replace(v, layouts=(worse, boosted, *v.layouts[2:]))
+    analysis = Analysis(None, None, report.design, verification)
+    name = [b.name for b in report.design.baselines if b.feasible][0]
+    assert [n for n, _ in better_baselines(analysis)][0] == name
+    page = render_report_conclusion(analysis)
+    assert "A baseline verified better than the recommended layout" in page and name in page
+    same = Analysis(None, None, report.design, dataclasses.replace(v, layouts=(rec, rec, *v.layouts[2:])))
+    assert better_baselines(same) == []
+
+
+def render_report_conclusion(analysis):
+    from sensorplan.report import _conclusion
+
+    return _conclusion(analysis)
 
 
 def _browser():

@@ -16,11 +16,11 @@ import os
 import sys
 
 from .._errors import SensorplanError
-from . import detectability, diagnose, informativeness, invert, recommend, report, simulate, verify
+from . import crossings, detectability, diagnose, informativeness, invert, recommend, report, simulate, verify
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
-COMMANDS = (simulate, informativeness, detectability, invert, recommend, verify, diagnose, report)
+COMMANDS = (simulate, crossings, informativeness, detectability, invert, recommend, verify, diagnose, report)
 
 
 def build_parser():

@@ -38,7 +38,7 @@ def run(args, out, files):
     files.write_text(csv_path, format_table(header, [blocks.edges[:-1], blocks.edges[1:], *blocks.curves]))
     supports = result.supports_m
     figures = [
-        stage_figure(files, plotting.plot_informativeness(blocks, supports=supports), args.out / "informativeness.png"),
+        stage_figure(files, plotting.plot_informativeness(blocks, supports=supports, ei=case.ei), args.out / "informativeness.png"),
         stage_figure(files, plotting.plot_spectrum(ident), args.out / "spectrum.png"),
         stage_figure(files, plotting.plot_eigenvectors(ident, supports=supports), args.out / "eigenvectors.png"),
     ]

@@ -56,22 +56,18 @@ def add_arguments(p):
 
 def run(args, out, files):
     from .. import plotting
-    from ..design.recommend import CandidateGrid, Constraints, recommend
+    from ..design.recommend import recommend
 
     case = load_case(args)
     args.kind, args.noise_std = kind_and_noise(args, case)
     count = case.sensors.n_sensors if args.count is None else args.count
     if args.fixed:
         case.bridge.check_on_bridge(args.fixed, "fixed", "--fixed")
-    result = recommend(case, count, args.criterion,
-                       grid=CandidateGrid(spacing=args.spacing, exclude=tuple(args.exclude or ())), kind=args.kind, noise_std=args.noise_std, n_crossings=args.crossings,
-                       constraints=Constraints(fixed=tuple(args.fixed or ()), min_spacing=args.min_spacing),
-                       springs=args.springs, solver=args.solver, rng=args.seed, region=_region(args),
-                       target=_detection_target(args))
+    result = recommend(case, count, args.criterion, **design_options(args))
     outdir = args.out
     figures = [
-        stage_figure(files, plotting.plot_layout(result), outdir / "layout.png"),
-        stage_figure(files, plotting.plot_informativeness(result.informativeness, supports=result.supports_m),
+        stage_figure(files, plotting.plot_layout(result, exclude=args.exclude or ()), outdir / "layout.png"),
+        stage_figure(files, plotting.plot_informativeness(result.informativeness, supports=result.supports_m, ei=case.ei),
                      outdir / "layout_informativeness.png"),
         stage_figure(files, plotting.plot_posterior_std(result), outdir / "posterior_std.png"),
     ]
@@ -113,3 +109,42 @@ def _detection_target(args):
             raise ConfigError(f"{names} apply to --criterion detect only. Got --criterion {args.criterion}.")
         return None
     return DetectionTarget(**given)
+
+
+def design_options(args):
+    """The keyword arguments of :func:`sensorplan.design.recommend.recommend` given by the options
+    (``args.kind`` and ``args.noise_std`` resolved by ``kind_and_noise`` first)."""
+    from ..design.recommend import CandidateGrid, Constraints
+
+    return {"grid": CandidateGrid(spacing=args.spacing, exclude=tuple(args.exclude or ())),
+            "constraints": Constraints(fixed=tuple(args.fixed or ()), min_spacing=args.min_spacing),
+            "kind": args.kind, "noise_std": args.noise_std, "n_crossings": args.crossings,
+            "springs": args.springs, "solver": args.solver, "rng": args.seed,
+            "region": _region(args), "target": _detection_target(args)}
+
+
+_NOT_DESIGN = {"help", "out", "json", "verify", "quiet", "debug", "scenarios", "workers", "verify_crossings"}
+
+
+def recommend_argv(args):
+    """``sensorplan recommend`` arguments that redo the design of ``args`` (every design option explicit)."""
+    import argparse
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    argv = ["recommend"]
+    for action in parser._actions:
+        if action.dest in _NOT_DESIGN or not action.option_strings:
+            continue
+        value = getattr(args, action.dest, None)
+        if value is None or value is False:
+            continue
+        flag = action.option_strings[-1]
+        if value is True:
+            argv.append(flag)
+        elif isinstance(value, (list, tuple)):
+            argv += [flag, ",".join(":".join(repr(float(v)) for v in x) if isinstance(x, (list, tuple))
+                                    else repr(float(x)) for x in value)]
+        else:
+            argv += [flag, repr(value) if isinstance(value, float) else str(value)]
+    return argv

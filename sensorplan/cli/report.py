@@ -1,41 +1,65 @@
-"""``sensorplan report``: one self-contained HTML report."""
+"""``sensorplan report``: one self-contained HTML report and the design inputs (design.json)."""
 
 import sys
 from pathlib import Path
 
-from ._common import add_case_arguments, load_case
+from ._common import kind_and_noise, load_case, stage_json
+from .recommend import add_arguments as add_recommend_arguments
+from .recommend import design_options, recommend_argv
 
 NAME = "report"
-HELP = "one self-contained HTML report: model, layout, verification, data"
+HELP = "one self-contained HTML report: conclusion, model, layout, verification, data, provenance"
 EPILOG = """example:
-  sensorplan report --example openlab-like --count 3 --criterion D --out out/report
+  sensorplan report --example openlab-like --count 3 --criterion D --exclude 14:16 --out out/report
+
+Takes every design option of `sensorplan recommend`; writes OUT/report.html and
+OUT/design.json (the inputs of the design: rerun `sensorplan recommend` with its
+"recommend_argv" to reproduce the layout).
 """
 
 
 def add_arguments(p):
-    from ..design.criteria import CRITERIA
-
-    add_case_arguments(p)
+    add_recommend_arguments(p)
+    p.set_defaults(scenarios=6)
     p.add_argument("--data", type=Path, help="measured crossings CSV (adds identified EI and the gap diagnosis)")
-    p.add_argument("--count", type=int, help="number of sensors to place (default: as many as the case has)")
-    p.add_argument("--criterion", choices=list(CRITERIA), default="D", help="design criterion (default D)")
-    p.add_argument("--scenarios", type=int, default=6, help="damage locations in the verification (default 6)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--out", type=Path, required=True, help="output folder (report.html)")
+
+
+def _inputs(args):
+    """Input files (name -> path) whose hashes the provenance records."""
+    files = {}
+    if args.config is not None:
+        files["config"] = args.config
+    if args.data is not None:
+        files["data"] = args.data
+    return files
 
 
 def run(args, out, files):
     from ..analysis import analyse
     from ..io.csvio import read_crossings
-    from ..report import render_report
+    from ..report import provenance, render_report
 
     case = load_case(args)
+    args.kind, args.noise_std = kind_and_noise(args, case)
+    if args.fixed:
+        case.bridge.check_on_bridge(args.fixed, "fixed", "--fixed")
     data = read_crossings(args.data, case.sensors) if args.data is not None else None
     progress = None if args.quiet else (lambda msg: print(f"sensorplan report: {msg}", file=sys.stderr, flush=True))
     analysis = analyse(case, data=data, count=args.count, criterion=args.criterion, n_scenarios=args.scenarios,
-                       seed=args.seed, progress=progress)
-    report = render_report(analysis)
+                       n_crossings=args.verify_crossings, seed=args.seed, progress=progress,
+                       design_options=design_options(args))
+    argv = recommend_argv(args)
+    options = {k: (str(v) if isinstance(v, Path) else v) for k, v in sorted(vars(args).items())
+               if k not in ("handler", "quiet", "debug")}
+    record = provenance(options, _inputs(args), ["sensorplan", "report", *argv[1:],
+                                                 *(["--data", str(args.data)] if args.data else []),
+                                                 "--scenarios", str(args.scenarios), "--out", str(args.out)],
+                        example=args.example)
+    report = render_report(analysis, provenance=record)
     path = files.write_text(args.out / "report.html", report.html)
+    json_path = stage_json(files, args.json or args.out / "design.json",
+                           {"recommend_argv": argv, "provenance": record, "layout_m": list(analysis.design.layout_m),
+                            "design": analysis.design.to_dict()})
     out(analysis.design.summary())
-    out(f"report with {len(report.sections)} sections written to {path}")
+    out(f"report with {len(report.sections)} sections written to {path}; design inputs: {json_path}")
     return 0

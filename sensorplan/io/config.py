@@ -17,8 +17,9 @@ from ..model.loads import LoadSweep, Vehicle
 from ..model.noise import NoiseModel
 from ..model.sensors import SensorLayout
 from ..model.structure import Bridge, Mesh
+from ..model.timeseries import LoggerFormat
 
-__all__ = ["load_case", "case_from_dict", "example_case", "EXAMPLES"]
+__all__ = ["load_case", "case_from_dict", "example_case", "load_logger_format", "EXAMPLES"]
 
 EXAMPLES = ("simply-supported", "openlab-like", "three-span")
 
@@ -31,6 +32,7 @@ _KEYS = {
     "loads": {"start", "stop", "step"},
     "noise": {"correlation_length"},
     "case": {"name"},
+    "logger": {"temperature_columns", "tilt_unit", "deflection_unit"},
 }
 _REQUIRED = {"bridge": {"spans", "ei"}, "vehicle": {"axle_offsets", "axle_loads"},
              "sensors": {"positions"}}
@@ -73,6 +75,27 @@ def example_text(name):
     """The TOML text of an embedded example (to copy and edit)."""
     example_case(name)
     return resources.files("sensorplan.examples").joinpath(f"{name}.toml").read_text("utf-8")
+
+
+def load_logger_format(path: "str | os.PathLike[str] | None") -> LoggerFormat:
+    """The ``[logger]`` section of a case file (the defaults when ``path`` is None or has none)."""
+    if path is None:
+        return LoggerFormat()
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_bytes().decode("utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot read the case file ({exc}).") from None
+    try:
+        return _logger_format(data, str(path))
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: [logger] {exc}") from None
+
+
+def _logger_format(data, source):
+    lg = _section(data, "logger", source)
+    return LoggerFormat(lg.get("temperature_columns", ()), lg.get("tilt_unit", "rad"),
+                        lg.get("deflection_unit", "m"))
 
 
 def _section(data, name, source):
@@ -138,6 +161,8 @@ def case_from_dict(data, *, source="config", name="case"):
             if missing:
                 raise ConfigError(f"the key {sorted(missing)[0]!r} is missing (give start, stop and step).")
             sweep = LoadSweep.from_range(lo["start"], lo["stop"], lo["step"])
+        section = "logger"
+        _logger_format(data, source)
         section = "case"
         name = _section(data, "case", source).get("name", name)
         section = "bridge"

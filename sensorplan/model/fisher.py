@@ -304,14 +304,24 @@ class Informativeness:
         Eigen-analysis of the log-EI information against the GMRF prior.
     supports_m : tuple of float
         Support positions [m] (for figures).
+    ei_std_percent : tuple of float
+        Per sensor: the EI standard deviation [%] it alone would leave on its
+        best-informed element if every other element were known
+        (100 / sqrt(max_j I_jj) of log EI, the Cramér-Rao bound).
     """
 
     blocks: FisherBlocks
     identifiability: "Identifiability"
     supports_m: tuple
+    ei_std_percent: tuple = ()
 
     def summary(self):
-        return self.blocks.summary() + "\n" + self.identifiability.summary()
+        lines = [self.blocks.summary()]
+        if self.ei_std_percent:
+            lines.append("  alone, each sensor pins EI of its best element to a std of: " + ", ".join(
+                f"{n} {p:.3g} %" for n, p in zip(self.blocks.sensors.names, self.ei_std_percent))
+                + " (other elements known)")
+        return "\n".join(lines + [self.identifiability.summary()])
 
     def to_dict(self):
         return {"blocks": self.blocks.to_dict(), "identifiability": self.identifiability.to_dict()}
@@ -355,4 +365,7 @@ def informativeness(case: "Case", *, positions: "Sequence[float] | None" = None,
         case, sensors=sensors, parameterisation="log_ei", n_crossings=n_crossings)
     prior = GMRFPrior() if prior is None else prior
     ident = identifiability(log_blocks, prior_precision=prior.precision(case.n_elements))
-    return Informativeness(blocks, ident, tuple(float(x) for x in case.bridge.support_positions))
+    with np.errstate(divide="ignore"):
+        std = 100.0 / np.sqrt(log_blocks.curves.max(axis=1))
+    return Informativeness(blocks, ident, tuple(float(x) for x in case.bridge.support_positions),
+                           tuple(float(x) for x in std))

@@ -1,0 +1,63 @@
+"""``sensorplan crossings``: a data logger's record -> crossings CSV (readings against load position)."""
+
+from pathlib import Path
+
+from ._common import add_case_arguments, stage_figure, stage_json
+
+NAME = "crossings"
+HELP = "find the crossings in a logger record and write them as a crossings CSV"
+EPILOG = """example:
+  sensorplan crossings --config bridge.toml --timeseries logger.csv --out out/crossings.csv
+
+The logger file has a column time_s and one column per sensor name (units as
+in the case's [logger] section, default rad / m); temperature columns named
+in [logger] temperature_columns are averaged per crossing.
+"""
+
+
+def add_arguments(p):
+    add_case_arguments(p)
+    p.add_argument("--timeseries", type=Path, required=True, help="logger export CSV: time_s,<sensor names>")
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("--speed", type=float, help="known constant speed in m/s (only entry times are fitted)")
+    group.add_argument("--axle-times", type=Path,
+                       help="axle-detector CSV: time_s (front axle at x = 0)[,speed_m_s], one row per vehicle")
+    p.add_argument("--min-speed", type=float, default=0.3, help="slowest plausible speed in m/s (default 0.3)")
+    p.add_argument("--max-speed", type=float, default=40.0, help="fastest plausible speed in m/s (default 40)")
+    p.add_argument("--quiet-gap", type=float, default=3.0,
+                   help="minimum quiet time between two vehicles in s (default 3)")
+    p.add_argument("--max-rms", type=float, default=2.0,
+                   help="largest accepted fit rms in noise std (default 2)")
+    p.add_argument("--out", type=Path, required=True, help="crossings CSV to write (crossing,position_m,...)")
+    p.add_argument("--json", type=Path, help="events JSON (default: OUT with suffix .json)")
+    p.add_argument("--figure", type=Path, help="figure of the record and the fits (default: OUT with suffix .png)")
+
+
+def run(args, out, files):
+    from .. import plotting
+    from .._errors import DataError
+    from ..acquisition import extract_crossings
+    from ..io.config import load_logger_format
+    from ..io.csvio import format_crossings
+    from ._common import load_case
+    from ..io.logger import read_axle_times, read_timeseries
+
+    case = load_case(args)
+    series = read_timeseries(args.timeseries, case.sensors, load_logger_format(args.config))
+    axle_times = axle_speeds = None
+    if args.axle_times is not None:
+        axle_times, axle_speeds = read_axle_times(args.axle_times)
+    result = extract_crossings(case, series, speed=args.speed, axle_times=axle_times, axle_speeds=axle_speeds,
+                               speed_range=(args.min_speed, args.max_speed), quiet_gap=args.quiet_gap,
+                               max_rms=args.max_rms)
+    if result.crossings is None:
+        reasons = ", ".join(f"{e.label}: {e.reason}" for e in result.events) or "no event above the noise floor"
+        raise DataError(f"{args.timeseries}: no crossing accepted ({reasons}); check the units in [logger], "
+                        "the speed range (--min-speed, --max-speed) or --max-rms.")
+    csv_path = files.write_text(args.out, format_crossings(result.crossings))
+    json_path = stage_json(files, args.json or args.out.with_suffix(".json"), result.to_dict())
+    figure = stage_figure(files, plotting.plot_crossing_events(result, series)[0],
+                          args.figure or args.out.with_suffix(".png"))
+    out(result.summary())
+    out(f"{len(result.accepted)} crossing(s) written to {csv_path}; events: {json_path}; figure: {figure}")
+    return 0
