@@ -112,8 +112,11 @@ def executor_for(workers: int = 1, scheduler: str | None = None, *, timeout: flo
     try:
         try:
             if scheduler == "local":
+                # no dashboard; the scheduler's HTTP server on a free local port (8787 may be taken)
                 cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                                   dashboard_address=None, silence_logs=logging.ERROR)
+                                                   dashboard_address=None, silence_logs=logging.ERROR,
+                                                   scheduler_kwargs={"dashboard": False,
+                                                                     "dashboard_address": "127.0.0.1:0"})
                 client = distributed.Client(cluster, timeout=timeout)
             else:
                 client = distributed.Client(scheduler, timeout=timeout)

@@ -173,3 +173,27 @@ def test_cli_on_a_running_scheduler_and_worker_equals_one_worker(tmp_path, capsy
             assert main(CLI_SMALL + ["--scheduler", address, "--scheduler-timeout", "30", "--json", str(got),
                                      "--out", str(tmp_path / "c")]) == 0
     assert json.loads(got.read_text()) == json.loads(ref.read_text())
+
+
+def test_verify_options_reach_verify_layouts_once_per_severity(tmp_path, capsys):
+    # reference: verify_layouts called directly with the same options, one call per severity
+    js = tmp_path / "v.json"
+    assert main(["verify", "--example", "simply-supported", "--layout", "4,16", "--scenarios", "1",
+                 "--verify-crossings", "3", "--seed", "2", "--severity", "0.1,0.3", "--length", "3",
+                 "--false-alarm", "0.1", "--nuisance", "levels", "--json", str(js), "--out", str(tmp_path)]) == 0
+    got = json.loads(js.read_text())
+    assert got["severities"] == [0.1, 0.3]
+    case = example_case("simply-supported")
+    for severity, entry in zip((0.1, 0.3), got["verifications"]):
+        ref = verify_layouts(case, [[4.0, 16.0]], n_locations=1, n_crossings=3, seed=2, severity=severity,
+                             length=3.0, false_alarm=0.1, nuisance="levels")
+        assert entry == json.loads(json.dumps(ref.to_dict()))
+    printed = capsys.readouterr().out
+    assert printed.count("Verification:") == 2 and "10 % over 3 m" in printed and "levels nuisance" in printed
+    assert (tmp_path / "verification-10pct.png").exists() and (tmp_path / "verification-30pct.png").exists()
+
+
+def test_bad_severity_is_one_line(tmp_path, capsys):
+    assert main(CLI_SMALL + ["--severity", "0.1,1.5", "--out", str(tmp_path)]) == 1
+    assert "severity" in one_error_line(capsys)
+    assert not list(tmp_path.iterdir())

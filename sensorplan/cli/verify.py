@@ -70,6 +70,11 @@ def add_arguments(p):
     add_verify_arguments(p, with_flag=False)
 
 
+def _given(args, name, default):
+    value = getattr(args, name, None)
+    return default if value is None else value
+
+
 def run_verification(args, case, layouts, names, files, *, json_path):
     """Verify ``layouts`` at one severity; stage the JSON and the figure; returns (result, json path, figure path)."""
     results, json_path, figures = run_verifications(args, case, layouts, names, files, json_path=json_path)
@@ -86,10 +91,11 @@ def run_verifications(args, case, layouts, names, files, *, json_path):
     from .._executors import executor_for
     from ..verification.verify import verify_layouts
 
-    severity = getattr(args, "severity", 0.25)  # recommend may define its own (a float)
+    # recommend may have options of the same names (one value, None when not given): the defaults apply then
+    severity = _given(args, "severity", 0.25)
     severities = list(severity) if isinstance(severity, (list, tuple)) else [severity]
-    options = dict(length=getattr(args, "length", 2.0), false_alarm=getattr(args, "false_alarm", 0.05),
-                   nuisance=getattr(args, "nuisance", "smooth"))
+    options = dict(length=_given(args, "length", 2.0), false_alarm=_given(args, "false_alarm", 0.05),
+                   nuisance=_given(args, "nuisance", "smooth"))
     results = []
     with executor_for(args.workers, args.scheduler, timeout=args.scheduler_timeout, name="--scheduler") as runner:
         for sev in severities:

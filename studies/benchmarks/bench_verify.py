@@ -21,7 +21,13 @@ call therefore contains 93 inversions for 92 scenarios.
 W = 1 (everything in this process) and W = 2 (a ``ProcessPoolExecutor`` of
 2 processes created and shut down by ``verify_layouts``, so its start-up is
 included) are each run ``REPEATS`` times; the best and the worst are
-printed.
+printed.  When the ``dask`` extra is installed, the same call also runs on
+a Dask LocalCluster of 2 single-threaded worker processes, "cold"
+(``scheduler="local"``: the cluster is started and closed inside the timed
+call, as the pool is) and "warm" (``executor=`` a cluster started before
+the loop), reported as scenarios/s and as a ratio to the 2-process pool.
+The four variants are interleaved in every repeat, so that a load drifting
+on a shared machine favours none of them.
 
 References measured in the same run (never asserted):
 
@@ -45,13 +51,34 @@ workers inherit them).  The load average is printed at start and end: the
 machine may be shared, and a load above the number of cores means the
 workers competed with other processes.
 
+Measured (2026-11-24, commit 67e84b3 + the LocalCluster port fix, 2 logical
+CPUs shared with about six other jobs: load average 8.5 to 12.5, i.e. this
+benchmark got a fraction of a core at any time; interleaved run)
+-------------------------------------------------------------------------
+* reference 1 (one inversion): 524 ms best, 606 ms median; reference 2:
+  547 ms per scenario; ceiling 3.7 scenarios/s on 2 idle cores.
+* workers=1: 3.7 scenarios/s best (24.6 s), worst 59.4 s; workers=2 (pool):
+  1.6 scenarios/s best (57.4 s), worst 80.2 s: speed-up 0.43.  Best/worst
+  spreads of 2-3x show that the load, not the scheduling, dominates.
+* Dask LocalCluster, 2 processes: cold 1.2 scenarios/s = 0.76 x the pool
+  (best 75.1 s, includes starting and closing the cluster), warm 1.5
+  scenarios/s = 0.94 x the pool (best 60.8 s).
+* identical JSON for workers=1, workers=2, cold and warm Dask: yes.
+* target of 50 scenarios/s: NOT MET (the inversions alone cap it at 3.7
+  scenarios/s on 2 idle cores).
+An earlier, non-interleaved run of the same day (load 10 rising to 17 while
+the Dask variants ran last) gave pool 1.4 scenarios/s and Dask 0.8 (0.53 x
+cold, 0.54 x warm): on this machine the Dask/pool ratio is between about
+0.5 and 0.95 and its precision is limited by the shared load.  A Dask
+cluster is for more cores than one machine has, not for speed on two.
+
 How to run
 ----------
 From the repository root (the folder holding ``sensorplan/``)::
 
     python studies/benchmarks/bench_verify.py
 
-It takes well under a minute on an idle 2-core machine.
+It takes a few minutes on an idle 2-core machine (10-15 minutes on a busy one).
 """
 
 import os
@@ -61,6 +88,7 @@ THREADS_PRESET = {k: os.environ.get(k) for k in THREAD_VARS}
 for _var in THREAD_VARS:  # before numpy is imported (the pool workers inherit it)
     os.environ.setdefault(_var, "1")
 
+import contextlib  # noqa: E402
 import json  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -144,23 +172,12 @@ def run_verify(case, workers, scheduler=None, executor=None):
     return time.perf_counter() - t0, result
 
 
-def run_dask(case):
-    """LocalCluster of 2 processes: cold (started and closed inside the timed call) and warm (started before)."""
+def has_dask():
     try:
         import distributed  # noqa: F401
     except ImportError:
-        return None
-    cold, warm, dicts = [], [], set()
-    for _ in range(REPEATS):
-        dt, result = run_verify(case, 2, scheduler="local")
-        cold.append(dt)
-        dicts.add(json.dumps(result.to_dict(), sort_keys=True))
-    with executor_for(2, "local") as cluster:
-        for _ in range(REPEATS):
-            dt, result = run_verify(case, 2, executor=cluster)
-            warm.append(dt)
-            dicts.add(json.dumps(result.to_dict(), sort_keys=True))
-    return cold, warm, dicts
+        return False
+    return True
 
 
 def main():
@@ -187,15 +204,23 @@ def main():
     t_inv_sum = time.perf_counter() - t0
 
     # --- verify_layouts with 1 and 2 workers -------------------------------------------------
+    # interleaved (1 worker, pool, Dask cold, Dask warm in every repeat) so that a drifting load on a shared
+    # machine biases none of them
     runs = {w: [] for w in WORKERS}
     dicts = {}
-    for _ in range(REPEATS):
-        for w in WORKERS:
-            dt, result = run_verify(case, w)
-            runs[w].append(dt)
-            dicts.setdefault(w, json.dumps(result.to_dict(), sort_keys=True))
+    dask_runs = ([], [], set()) if has_dask() else None
+    with (executor_for(2, "local") if dask_runs else contextlib.nullcontext()) as cluster:
+        for _ in range(REPEATS):
+            for w in WORKERS:
+                dt, result = run_verify(case, w)
+                runs[w].append(dt)
+                dicts.setdefault(w, json.dumps(result.to_dict(), sort_keys=True))
+            if dask_runs:
+                for k, options in ((0, dict(scheduler="local")), (1, dict(executor=cluster))):
+                    dt, other = run_verify(case, 2, **options)
+                    dask_runs[k].append(dt)
+                    dask_runs[2].add(json.dumps(other.to_dict(), sort_keys=True))
     n_total = result.layouts[0].n_scenarios
-    dask_runs = run_dask(case)
     same = len(set(dicts.values()) | (dask_runs[2] if dask_runs else set())) == 1
     load1 = os.getloadavg()
 
@@ -246,7 +271,7 @@ def main():
             print(f"Dask LocalCluster, 2 processes, {label}: best {best:.3f} s, worst {max(times):.3f} s, "
                   f"{n_total / best:.1f} scen/s = {n_total / best / rate[2]:.2f} x the 2-process pool")
         print("  (cold: the cluster is started and closed inside the timed call, as the pool is; warm: started "
-              "before)")
+              "before; runs interleaved with the pool's)")
     print("core-ms/scen = wall time x workers / scenarios (the pilot is counted in the wall time);")
     print("'/ 1 invert' divides it by reference 1; overhead/scen = (core-ms/scen - 1 invert) / 1 invert")
     print("(simulation of the truth, truth mesh, scoring, pilot, pool start-up and pickling, idle time).")
