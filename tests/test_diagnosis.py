@@ -129,3 +129,62 @@ def test_diagnosis_json_holds_the_computed_values(case):
     np.testing.assert_array_equal(j["ei_edges_m"], case.mesh.edges)
     np.testing.assert_array_equal(j["ei_base"], d.ei_base)
     np.testing.assert_array_equal(j["ei_final"], d.ei_final)
+
+
+def test_linearised_folds_match_refits_on_the_training_rows():
+    # reference: brute force, the base model refitted on each fold's training rows (masked problem,
+    # Levenberg-Marquardt to convergence), and the Gaussian predictive density of the held-out whitened
+    # rows evaluated with scipy.stats (not the Woodbury form of refit.heldout)
+    from scipy import stats
+
+    from sensorplan.diagnosis.diagnose import _folds
+    from sensorplan.diagnosis.refit import fold_rows, heldout, quick_fit
+    from sensorplan.inference.laplace import solve_map
+
+    case = small_case()
+    data = simulate_crossings(case, 3, noise=True, rng=4)
+    prior = GMRFPrior()
+    problem = JointProblem(case, data, [], prior)
+    fit = quick_fit(problem, problem.theta0, 1.0, 1.0)
+    folds = _folds(data, 4)
+    r, jac, cross, load, _ = problem.rows(fit.theta)
+    masks = fold_rows(data, folds, cross, load)
+    scores = heldout(fit, masks).log_density
+    q = problem.rough + problem.fixed
+    for (train, test), mask, score in zip(folds, masks, scores):
+        a2 = float(np.sum(r[~mask] ** 2)) / int((~mask).sum())
+        sub = JointProblem(case, data, [], prior, masks=train)
+        theta, lin, _, ok = solve_map(sub, fit.theta, np.sqrt(a2), q, sub.theta0, max_iter=100, tol=1e-12)
+        assert ok
+        rf, jf, *_ = problem.rows(theta)
+        cov = a2 * np.eye(int(mask.sum())) + jf[mask] @ np.linalg.inv(lin.jtj / a2 + q) @ jf[mask].T
+        reference = stats.multivariate_normal(np.zeros(int(mask.sum())), cov).logpdf(rf[mask])
+        # the leave-fold-out step is one Newton step from the full-data MAP: second-order error only
+        assert score == pytest.approx(reference, abs=0.2)
+
+
+def test_static_load_steps_do_not_offer_dynamic_effects():
+    case = small_case()
+    sim = simulate_crossings(case, 3, noise=True, rng=2)
+    steps = sp.Crossings(sim.sensor_names, tuple(sp.Crossing(c.label, c.positions[10:11], c.values[:, 10:11],
+                                                             c.load_factor[10:11]) for c in sim.crossings))
+    d = diagnose(case, steps, effects=["dynamic_amplification", "thermal_drift", "sensor_offset", "axle_loads"])
+    assert set(d.not_offered) == {"dynamic_amplification", "thermal_drift", "sensor_offset"}
+    assert [e.name for e in d.effects] == ["axle_loads"]
+
+
+def test_sign_flipped_sensor_is_named_quickly():
+    import time
+
+    case = small_case()
+    data = simulate_crossings(case, 4, noise=True, rng=3)
+    flipped = sp.Crossings(data.sensor_names, tuple(replace(c, values=c.values * np.array([[1.0], [-1.0]]))
+                                                    for c in data.crossings))
+    t0 = time.process_time()
+    d = diagnose(case, flipped)
+    assert time.process_time() - t0 < 15.0
+    assert d.causes[0] == "sensor_gain"
+    texts = [f["text"] for f in d.findings["sensor_gain"]]
+    assert len(texts) == 1 and "PE2" in texts[0] and "wrong way round" in texts[0]
+    gain = d.findings["sensor_gain"][0]
+    assert gain["low"] < -1.0 < gain["high"]

@@ -43,9 +43,14 @@ def describe(effect, problem, mean, std):
             i = int(pname.rsplit("_", 1)[1])
             if ok[j] or name == "case_springs":
                 unit = "N·m/rad" if kind == "rotational" else "N/m"
-                out.append(finding(f"{kind} spring at support {i} (x = {xs[i]:.1f} m)", math.exp(mean[j]),
-                                   math.exp(mean[j] - Z95 * std[j]), math.exp(mean[j] + Z95 * std[j]), unit,
-                                   ".2e"))
+                f = finding(f"{kind} spring at support {i} (x = {xs[i]:.1f} m)", math.exp(mean[j]),
+                            math.exp(mean[j] - Z95 * std[j]), math.exp(mean[j] + Z95 * std[j]), unit, ".2e")
+                if name == "case_springs":
+                    nominal = math.exp(effect.mean[j])
+                    f["case_value"] = nominal
+                    f["differs"] = bool(not f["low"] <= nominal <= f["high"])
+                    f["text"] += f" (case: {nominal:.2e} {unit}{'; differs' if f['differs'] else ''})"
+                out.append(f)
     elif name in ("sensor_offset", "thermal_drift"):
         step = 2 if name == "thermal_drift" else 1
         for i, sname in enumerate(problem.sensor_names):

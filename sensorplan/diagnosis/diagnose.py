@@ -92,11 +92,14 @@ class _Context:
         problem = JointProblem(self.case, self.crossings, [make_effect(n) for n in names], self.prior,
                                estimate_springs=self.estimate_springs)
         start = warm_start(problem, self.blocks if blocks is None else blocks)
-        for e, sl in zip(problem.effects, problem.slices):
-            if e.name == names[-1]:
-                init = e.initial(problem, self.predictions)
-                if init is not None:
-                    start[sl] = init
+        effect, sl = problem.block(names[-1])
+        init = effect.initial(problem, self.predictions)
+        if init is not None:
+            # a moment estimate against the nominal model (a sign flip, a unit slip): the base MAP is
+            # distorted by exactly what the effect explains, so this fit starts from the nominal EI
+            start = warm_start(problem, {"log_ei": problem.theta0[:problem.n_elements]} if blocks is None
+                               else blocks)
+            start[sl] = init
         fit = quick_fit(problem, start, self.alpha, self.tau)
         held = heldout(fit, self.test_masks) if fit is not None and fit.converged else None
         return fit, held
@@ -200,7 +203,7 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
     test_masks = fold_rows(crossings, folds, cross, load)
     base_held = heldout(base, test_masks)
     gap, residual_map = residual_gap(base_problem, base.theta, alpha)
-    predictions = [y for y, _ in base_problem.predict(base.theta, jacobian=False)]
+    predictions = [y for y, _ in base_problem.predict(base_problem.theta0, jacobian=False)]  # nominal model
     ctx = _Context(case, crossings, prior, estimate_springs, alpha, tau, blocks_of(base_problem, base.theta),
                    test_masks, predictions)
     n_base = base_problem.n_elements
@@ -265,6 +268,9 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
                              base.theta, alpha, tau, estimate_springs)
     unexplained = bool(gap_after.significant)
     verdict = _verdict(selected, unexplained, gap.significant, confounded)
+    differs = [f["where"] for f in springs if f.get("differs")]
+    if differs:
+        verdict += "; the case's elastic springs differ from the configured values: " + ", ".join(differs)
     kinds = dict(zip(base_problem.sensor_names, base_problem.sensors.kinds))
     shrinkage = {n: {"kind": kinds[n], "rms_before": gap.by_sensor[n].rms_residual,
                      "rms_after": gap_after.by_sensor[n].rms_residual,
