@@ -57,6 +57,7 @@ import numpy as np  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "diagnosis"))
+sys.path.insert(0, str(HERE.parents[1]))  # this checkout's sensorplan, not another installed copy
 
 import sensorplan as sp  # noqa: E402
 from effects_data import generate  # noqa: E402
