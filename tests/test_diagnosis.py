@@ -188,3 +188,38 @@ def test_sign_flipped_sensor_is_named_quickly():
     assert len(texts) == 1 and "PE2" in texts[0] and "wrong way round" in texts[0]
     gain = d.findings["sensor_gain"][0]
     assert gain["low"] < -1.0 < gain["high"]
+
+
+@pytest.mark.slow
+def test_written_case_brings_invert_back_to_the_truth(tmp_path, capsys):
+    # issue 17, acceptance 2: the middle bearing of the openLAB-like bridge settles (k = 3e8 N/m) while
+    # the case says rigid; `diagnose --write-case` then `invert` on the written case must give a noise
+    # scale of 1 +- 0.1 and bands that hold the true EI (the example's nominal 7.5e9 / 1e10 N m^2,
+    # simulated on the truth mesh of the public forward model with the spring in place)
+    import math
+    import warnings
+    from importlib import resources
+
+    from sensorplan.cli import main
+
+    text = resources.files("sensorplan.examples").joinpath("openlab-like.toml").read_text()
+    truth = text.replace("vertical_springs = [inf, inf, inf]", "vertical_springs = [inf, 3.0e8, inf]")
+    assert truth != text
+    (tmp_path / "truth.toml").write_text(truth)
+    data, written = tmp_path / "d.csv", tmp_path / "fixed.toml"
+    assert main(["simulate", "--config", str(tmp_path / "truth.toml"), "--crossings", "4", "--noise", "--seed", "7",
+                 "--out", str(data), "--quiet"]) == 0
+    assert main(["diagnose", "--example", "openlab-like", "--data", str(data), "--out", str(tmp_path),
+                 "--write-case", str(written)]) == 0
+    assert "corrected case written to" in capsys.readouterr().out
+    fixed = sp.load_case(written)
+    # the bearing written in, the other supports as they were
+    assert math.isinf(fixed.bridge.vertical_springs[0]) and math.isinf(fixed.bridge.vertical_springs[2])
+    assert 2.0e8 < fixed.bridge.vertical_springs[1] < 4.5e8
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sp.SensorplanWarning)
+        post = sp.invert(fixed, sp.read_crossings(data, fixed.sensors))
+    assert abs(post.noise_scale - 1.0) < 0.1
+    band = post.credible_interval(0.95)
+    true_ei = example_case("openlab-like").ei
+    assert np.all((band[:, 0] <= true_ei) & (true_ei <= band[:, 1]))

@@ -26,6 +26,9 @@ def add_arguments(p):
     p.add_argument("--fixed-springs", action="store_true",
                    help="hold the case's elastic springs at their configured values (default: estimate them, "
                         "as invert does)")
+    p.add_argument("--write-case", type=Path, metavar="FILE",
+                   help="write the case (TOML) with the identified springs, sensor positions and axle loads, "
+                        "for rerunning invert")
     add_out_arguments(p, json_default="diagnosis.json")
 
 
@@ -57,4 +60,13 @@ def run(args, out, files):
     json_path = stage_json(files, args.json or args.out / "diagnosis.json", result.to_dict())
     out(result.summary())
     out(f"diagnosis written to {json_path}; figures: " + ", ".join(str(p) for p in figures))
+    if args.write_case is not None:
+        from ..diagnosis.corrected import corrected_case
+        from ..io.case_writer import case_to_toml
+
+        kept_out = result.corrected_model.get("not_in_case", [])
+        header = (f"{case.name} corrected by `sensorplan diagnose` ({result.verdict})"
+                  + (f"\nnot in the case (properties of the data): {', '.join(kept_out)}" if kept_out else ""))
+        path = files.write_text(args.write_case, case_to_toml(corrected_case(case, result), header=header))
+        out(f"corrected case written to {path}" + (f" (not in it: {', '.join(kept_out)})" if kept_out else ""))
     return 0

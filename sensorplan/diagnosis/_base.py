@@ -26,6 +26,7 @@ class Effect:
 
     name = ""
     structural = False  # changes the forward model (else only the outputs)
+    in_case = False  # a property of the case (springs, sensor positions, axle loads), written by --write-case
     frees: tuple = ()  # spring kinds whose stiffness the effect sets (the case's springs of that kind step aside)
 
     def applicable(self, crossings):

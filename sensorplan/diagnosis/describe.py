@@ -26,7 +26,7 @@ def finding(where, value, low, high, unit, fmt=".3g"):
             "text": f"{where}: {value:{fmt}} {unit}, 95 % interval {low:{fmt}} to {high:{fmt}} {unit}"}
 
 
-def _informed(mean, std, prior_mean, prior_std):
+def informed(mean, std, prior_mean, prior_std):
     """Parameters the data informed: moved by > 2 posterior std from the prior mean, and std < 0.7 prior std."""
     return (np.abs(mean - prior_mean) > 2.0 * std) & (std < 0.7 * prior_std)
 
@@ -34,7 +34,7 @@ def _informed(mean, std, prior_mean, prior_std):
 def describe(effect, problem, mean, std):
     """Findings (list of dicts) of ``effect`` with parameter MAP ``mean`` and std ``std``."""
     name = effect.name
-    ok = _informed(mean, std, effect.mean, effect.std)
+    ok = informed(mean, std, effect.mean, effect.std)
     out = []
     if name in ("support_rotational_spring", "vertical_support_spring", "case_springs"):
         xs = problem.case.bridge.support_positions

@@ -36,7 +36,7 @@ from ..inference.screening import check_case_data_scale
 from ..model.crossings import Crossings
 from ..model.prior import GMRFPrior
 from .confounding import confounding
-from .describe import describe
+from .describe import describe, informed
 from .effects import EFFECTS, make_effect
 from .gap import residual_gap
 from .joint import JointProblem
@@ -263,6 +263,7 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
     for e, sl in zip(final_problem.effects, final_problem.slices):
         findings[e.name] = tuple(describe(e, final_problem, theta_final[sl], sd_all[sl]))
     springs = findings.pop("case_springs", ())
+    corrected = _corrected_model(final_problem, theta_final, sd_all)
     say("confounding with EI")
     confounded = confounding(case, crossings, [r.name for r in results if r.name not in selected], prior,
                              base.theta, alpha, tau, estimate_springs)
@@ -287,7 +288,36 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
         springs=springs, springs_estimated=bool(estimate_springs and case.bridge.spring_names),
         noise_scale=float(final.noise_scale), converged=bool(base_full.converged and final.converged),
         heldout_ratio_after=None if current_held is None else current_held.ratio,
-        heldout_ratio_before=None if base_held is None else base_held.ratio)
+        heldout_ratio_before=None if base_held is None else base_held.ratio, corrected_model=corrected)
+
+
+def _corrected_model(problem, theta, std):
+    """The model state of the final MAP (SI): springs, sensor positions, axle loads, and what a case cannot hold.
+
+    A support-spring effect frees every support of its kind; supports the
+    data did not inform (posterior = prior) keep the case's value.
+    """
+    state = problem.initial_state()
+    for e, sl in zip(problem.effects, problem.slices):
+        if e.structural:
+            e.apply(state, theta[sl])
+    if any(e.frees for e in problem.effects):  # uninformed supports back to pins, clamps, rigid
+        rot, vert = list(state.bridge.rotational_springs), list(state.bridge.vertical_springs)
+        for e, sl in zip(problem.effects, problem.slices):
+            if e.frees:
+                keep = ~informed(theta[sl], std[sl], e.mean, e.std)
+                target = rot if "rotational" in e.frees else vert
+                source = (problem.case.bridge.rotational_springs if "rotational" in e.frees
+                          else problem.case.bridge.vertical_springs)
+                for i in np.flatnonzero(keep):
+                    target[i] = source[i]
+        state.bridge = type(state.bridge)(state.bridge.spans, tuple(rot), tuple(vert))
+    b = state.bridge
+    return {"rotational_springs": [float(k) for k in b.rotational_springs],
+            "vertical_springs": [float(k) for k in b.vertical_springs],
+            "sensor_positions": [float(x) for x in state.sensor_positions],
+            "axle_loads": [float(w) for w in np.asarray(problem.case.vehicle.axle_loads) * state.axle_factors],
+            "not_in_case": [e.name for e in problem.effects if not e.in_case]}
 
 
 def _verdict(selected, unexplained, significant, confounded):

@@ -55,6 +55,7 @@ class SupportRotationalSpring(Effect):
 
     name = "support_rotational_spring"
     structural = True
+    in_case = True
     frees = ("rotational",)
 
     def configure(self, ctx):
@@ -77,6 +78,7 @@ class VerticalSupportSpring(Effect):
 
     name = "vertical_support_spring"
     structural = True
+    in_case = True
     frees = ("vertical",)
 
     def configure(self, ctx):
@@ -204,6 +206,7 @@ class AxleLoads(Effect):
 
     name = "axle_loads"
     structural = True
+    in_case = True
 
     def configure(self, ctx):
         n = ctx.case.vehicle.n_axles
@@ -227,6 +230,7 @@ class SensorPosition(Effect):
 
     name = "sensor_position"
     structural = True
+    in_case = True
 
     def configure(self, ctx):
         self.names = [f"shift_{name}" for name in ctx.sensor_names]

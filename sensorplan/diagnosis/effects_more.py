@@ -20,6 +20,7 @@ class CaseSprings(Effect):
 
     name = "case_springs"
     structural = True
+    in_case = True
 
     def __init__(self, freed=()):
         self.freed = set(freed)

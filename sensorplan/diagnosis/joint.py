@@ -136,14 +136,17 @@ class JointProblem(WhitenedData):
         return self._cache[key]
 
     # -- evaluation ------------------------------------------------------------------------
+    def initial_state(self):
+        """The case's model state before any effect acts."""
+        return State(self.case.bridge, self.sensors.positions.copy(), [c.positions.copy() for c in self.crossings],
+                     np.ones(self.case.vehicle.n_axles), np.zeros(self.n_crossings))
+
     def predict(self, theta, *, jacobian=True):
         """Unwhitened predictions and Jacobians per crossing: list of (y (S,K), J (S,K,P) or None)."""
         self._ei = np.exp(theta[:self.n_elements])
         self._cache = {}
         self.n_evaluations += 1
-        state = State(self.case.bridge, self.sensors.positions.copy(),
-                      [c.positions.copy() for c in self.crossings], np.ones(self.case.vehicle.n_axles),
-                      np.zeros(self.n_crossings))
+        state = self.initial_state()
         for e, sl in zip(self.effects, self.slices):
             if e.structural:
                 e.apply(state, theta[sl])

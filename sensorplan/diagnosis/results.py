@@ -137,6 +137,7 @@ class GapDiagnosis:
     converged: bool = True
     heldout_ratio_before: float | None = None  # held-out rms / configured noise
     heldout_ratio_after: float | None = None
+    corrected_model: dict = field(default_factory=dict)  # final MAP state (SI), for a corrected case
 
     def summary(self):
         from .summary import summary_lines
@@ -167,6 +168,7 @@ class GapDiagnosis:
             "converged": self.converged,
             "heldout_ratio_before": self.heldout_ratio_before,
             "heldout_ratio_after": self.heldout_ratio_after,
+            "corrected_model": dict(self.corrected_model),
         }
 
 
