@@ -16,7 +16,11 @@
    with a significant held-out gain over the current model is added;
    effects within ``bf_threshold`` of it are reported as alternatives, and
    the others are retested given the selection (an effect that only absorbs
-   what a selected one explains gains nothing and is not added).
+   what a selected one explains gains nothing and is not added).  With two
+   or more selected, a swap pass replaces a selected effect by another one
+   when that raises the evidence without losing held-out score (an early
+   pick that also absorbed part of a later one, drift for offsets, gives
+   way).
 5. The selected model is refitted with its hyperparameters; its EI and
    bands are the EI after correction.
 6. Confounding: an effect whose data signature a plausible EI change can
@@ -249,6 +253,20 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
         alternatives[best] = tuple(n for bf, n in eligible[1:] if bf >= best_bf - bf_threshold)
         selected.append(best)
         current, current_held = candidates[best]
+    if len(selected) >= 2:  # swap pass: an early pick that absorbed part of a later one gives way
+        for name in list(selected):
+            others = [n for n in selected if n != name]
+            for other in [n for n in names if n not in selected]:
+                say(f"swap test: {other} for {name}")
+                fit, held = ctx.fit(others + [other], blocks_of(current.problem, current.theta))
+                better = fit is not None and fit.converged and fit.log_evidence > current.log_evidence
+                if better and held is not None and current_held is not None:
+                    better = float(np.sum(held.log_density)) >= float(np.sum(current_held.log_density))
+                if better:
+                    alternatives[other] = tuple(a for a in alternatives.pop(name, ()) if a != other)
+                    selected[selected.index(name)] = other
+                    current, current_held = fit, held
+                    break
     say("final refit of the selected model with its hyperparameters")
     final_problem = JointProblem(case, crossings, [make_effect(n) for n in selected], prior,
                                  estimate_springs=estimate_springs)
