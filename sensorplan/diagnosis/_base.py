@@ -31,7 +31,7 @@ class Effect:
 
     def applicable(self, crossings):
         """Reason the effect cannot act on these data (None: it can)."""
-        return None
+        return
 
     def positions_needed(self, state, c):
         """Load positions of crossing ``c`` whose lines the Jacobian needs besides the current ones."""
@@ -39,7 +39,7 @@ class Effect:
 
     def initial(self, ctx, predictions):
         """Start values from the base model's ``predictions`` per crossing (None: the prior mean)."""
-        return None
+        return
 
     def configure(self, ctx):
         """Set ``names``, ``mean``, ``std`` for the context; return self."""

@@ -44,7 +44,15 @@ from .describe import describe, informed
 from .effects import EFFECTS, make_effect
 from .gap import residual_gap
 from .joint import JointProblem
-from .refit import blocks_of, fold_rows, gain_is_significant, heldout, integrated_fit, quick_fit, warm_start
+from .refit import (
+    blocks_of,
+    fold_rows,
+    gain_is_significant,
+    heldout,
+    integrated_fit,
+    quick_fit,
+    warm_start,
+)
 from .results import EffectFit, GapDiagnosis
 
 if TYPE_CHECKING:

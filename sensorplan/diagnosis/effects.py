@@ -19,7 +19,7 @@ import numpy as np
 from ._base import _H, Effect, State
 from .effects_more import CaseSprings, LoadDependentStiffness, SensorGain
 
-__all__ = ["EFFECTS", "make_effect", "State", "CaseSprings"]
+__all__ = ["EFFECTS", "CaseSprings", "State", "make_effect"]
 
 
 def _span_reference(ctx, support):

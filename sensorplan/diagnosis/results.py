@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-__all__ = ["SensorGap", "Gap", "EffectFit", "Confounding", "GapDiagnosis"]
+__all__ = ["Confounding", "EffectFit", "Gap", "GapDiagnosis", "SensorGap"]
 
 
 @dataclass(frozen=True)

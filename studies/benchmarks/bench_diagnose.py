@@ -58,19 +58,20 @@ import sys
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import argparse  # noqa: E402
-import time  # noqa: E402
-import warnings  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import time
+import warnings
+from pathlib import Path
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "diagnosis"))
 sys.path.insert(0, str(HERE.parents[1]))  # this checkout's sensorplan, not another installed copy
 
-import sensorplan as sp  # noqa: E402
-from effects_data import generate  # noqa: E402
+from effects_data import generate
+
+import sensorplan as sp
 
 EFFECTS = (None, "support_rotational_spring", "vertical_support_spring", "sensor_offset", "thermal_drift",
            "position_offset", "axle_loads", "sensor_position", "dynamic_amplification", "sensor_gain",
@@ -123,7 +124,7 @@ def main(argv=None):
         for effect in effects:
             t_diag, t_inv, verdict = run_one(bridge, effect, 0)
             rows.append((bridge, t_diag, t_inv))
-            print(f"{bridge:6s} {str(effect):26s} {t_diag:12.2f} {t_inv:10.2f} {t_diag / t_inv:6.1f}  {verdict[:70]}",
+            print(f"{bridge:6s} {effect!s:26s} {t_diag:12.2f} {t_inv:10.2f} {t_diag / t_inv:6.1f}  {verdict[:70]}",
                   flush=True)
     for bridge in CASES:
         t = np.array([r[1] for r in rows if r[0] == bridge])
