@@ -13,7 +13,14 @@ Scored per dataset: both effects among the causes and no other cause.
 
 Run: python studies/diagnosis/pairs.py [--seeds N]
 
-Last run: see the docstring's end (filled in from the printed summary).
+Last run (2026-11-24, with the swap pass): both named and nothing else in 12/20
+= 60 % (target >= 67 %: NOT met); CPU median 4.2 s, max 7.5 s.  Right: every
+single-span pair but axle loads (sensor offset, drift, position offset, sign
+flip, both seeds), two-span position offset and sign flip.  Missed: axle loads
+with the spring (4/4: the spring is named, the axle loads are confounded with
+EI and not added); two-span offsets + spring (2/2: offsets only, the 2
+tiltmeters cannot separate the settlement from the offsets); two-span drift +
+spring (2/2: drift, spring and an extra sensor_gain).
 """
 
 import os
