@@ -317,6 +317,9 @@ def plot_ei_before_after(diagnosis, *, ax=None, supports=None):
     ax.stairs(diagnosis.ei_base, diagnosis.ei_edges, linewidth=1.5, label="base model", baseline=None)
     label = "with " + ", ".join(diagnosis.causes) if diagnosis.causes else "final model (= base)"
     ax.stairs(diagnosis.ei_final, diagnosis.ei_edges, linewidth=1.5, linestyle="--", label=label, baseline=None)
+    if len(diagnosis.ei_final_band) == 2:  # 95 % band of the corrected model, refitted with its hyperparameters
+        low, high = diagnosis.ei_final_band
+        ax.stairs(high, diagnosis.ei_edges, baseline=low, fill=True, alpha=0.2, color="C1", label="95 % band after")
     if supports is not None:
         mark_bridge(ax, supports)
     ax.set_xlabel("position along the bridge x [m]")

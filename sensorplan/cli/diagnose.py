@@ -1,12 +1,12 @@
 """``sensorplan diagnose``: where model and measurements disagree, and why."""
 
+import sys
 from pathlib import Path
 
 from ._common import (
     add_case_arguments,
     add_out_arguments,
     load_case,
-    progress,
     stage_figure,
     stage_json,
 )
@@ -22,18 +22,35 @@ EPILOG = """example:
 def add_arguments(p):
     add_case_arguments(p)
     p.add_argument("--data", type=Path, required=True, help="crossings CSV (crossing,position_m,<sensors>)")
+    p.add_argument("--workers", type=int, default=1, help="processes for screening the candidate effects (default 1)")
+    p.add_argument("--fixed-springs", action="store_true",
+                   help="hold the case's elastic springs at their configured values (default: estimate them, "
+                        "as invert does)")
+    p.add_argument("--write-case", type=Path, metavar="FILE",
+                   help="write the case (TOML) with the identified springs, sensor positions and axle loads, "
+                        "for rerunning invert")
     add_out_arguments(p, json_default="diagnosis.json")
+
+
+def _progress(args):
+    """Stage lines on stderr (base fit, effect k of n, selection round), or None with --quiet."""
+    if args.quiet:
+        return None
+    return lambda text: print(f"sensorplan diagnose: {text}", file=sys.stderr, flush=True)
 
 
 def run(args, out, files):
     from .. import plotting
+    from .._errors import ConfigError
     from ..diagnosis.diagnose import diagnose
     from ..io.csvio import read_crossings
 
+    if args.workers < 1:
+        raise ConfigError(f"The '--workers' option must be a positive integer. Got {args.workers} instead.")
     case = load_case(args)
     data = read_crossings(args.data, case.sensors)
-    result = diagnose(case, data, progress=progress(args, "diagnose", "effects") if len(data) * 8 >= 20 else None,
-                      check_scale=str(args.data))
+    result = diagnose(case, data, progress=_progress(args), workers=args.workers,
+                      estimate_springs=not args.fixed_springs, check_scale=str(args.data))
     supports = case.bridge.support_positions
     figures = [
         stage_figure(files, plotting.plot_residual_map(result), args.out / "residual_map.png"),
@@ -43,4 +60,13 @@ def run(args, out, files):
     json_path = stage_json(files, args.json or args.out / "diagnosis.json", result.to_dict())
     out(result.summary())
     out(f"diagnosis written to {json_path}; figures: " + ", ".join(str(p) for p in figures))
+    if args.write_case is not None:
+        from ..diagnosis.corrected import corrected_case
+        from ..io.case_writer import case_to_toml
+
+        kept_out = result.corrected_model.get("not_in_case", [])
+        header = (f"{case.name} corrected by `sensorplan diagnose` ({result.verdict})"
+                  + (f"\nnot in the case (properties of the data): {', '.join(kept_out)}" if kept_out else ""))
+        path = files.write_text(args.write_case, case_to_toml(corrected_case(case, result), header=header))
+        out(f"corrected case written to {path}" + (f" (not in it: {', '.join(kept_out)})" if kept_out else ""))
     return 0

@@ -1,18 +1,31 @@
 """Sim-to-real gap diagnosis: where model and data disagree, which effect causes it.
 
-1. Base fit: the case's model with EI identified (evidence-optimal).
+1. Base fit: the case's model with EI (and the case's elastic springs, as
+   ``invert`` estimates them) identified, hyperparameters by evidence.
 2. Where: residuals split into crossing-to-crossing scatter (noise) and the
    mean over crossings (systematic part), per sensor and load position,
    with Ljung-Box tests on the whitened residuals.
-3. Which effect: every candidate effect is refitted jointly with EI and
-   ranked by its Laplace log Bayes factor, with its held-out predictive
-   score (blocks of load positions held out in every crossing; whole
-   crossings for static load steps) reported and required to improve; its EI shift is the bias it was causing.  Forward
-   selection adds effects while the evidence improves clearly.
-4. Confounding: an effect whose data signature a plausible EI change can
-   mimic (its information given unknown EI is a small fraction of its
-   information given known EI) is reported as confounded, with the
-   candidate sensor position that best separates the two.
+3. Which effect (screening): every candidate effect that can act on the
+   data is refitted jointly with EI, warm-started at the base MAP with the
+   base hyperparameters held (:mod:`.refit`), and ranked by its Laplace log
+   Bayes factor, with its held-out predictive gain (blocks of load
+   positions held out in every crossing; whole crossings for static load
+   steps) from rank updates of the linearised problem.  Non-converged fits
+   are flagged and never selected.
+4. Forward selection: the effect with the largest Bayes factor among those
+   with a significant held-out gain over the current model is added;
+   effects within ``bf_threshold`` of it are reported as alternatives, and
+   the others are retested given the selection (an effect that only absorbs
+   what a selected one explains gains nothing and is not added).  With two
+   or more selected, a swap pass replaces a selected effect by another one
+   when that raises the evidence without losing held-out score (an early
+   pick that also absorbed part of a later one, drift for offsets, gives
+   way).
+5. The selected model is refitted with its hyperparameters; its EI and
+   bands are the EI after correction.
+6. Confounding: an effect whose data signature a plausible EI change can
+   mimic is reported as confounded, with the candidate sensor position that
+   best separates the two.
 """
 
 import math
@@ -23,49 +36,29 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .._threads import single_threaded
-from ..inference.laplace import fit_problem
 from ..inference.screening import check_case_data_scale
 from ..model.crossings import Crossings
 from ..model.prior import GMRFPrior
+from .confounding import confounding
+from .describe import describe, informed
 from .effects import EFFECTS, make_effect
 from .gap import residual_gap
 from .joint import JointProblem
-from .results import Confounding, EffectFit, GapDiagnosis
+from .refit import (
+    blocks_of,
+    fold_rows,
+    gain_is_significant,
+    heldout,
+    integrated_fit,
+    quick_fit,
+    warm_start,
+)
+from .results import EffectFit, GapDiagnosis
 
 if TYPE_CHECKING:
     from ..model.case import Case
 
 __all__ = ["diagnose"]
-
-_SEPARABLE = ("support_rotational_spring", "vertical_support_spring", "position_offset", "axle_loads",
-              "dynamic_amplification")
-
-
-def _fit(case, crossings, effects, prior, start=None, masks=None):
-    problem = JointProblem(case, crossings, [make_effect(e) for e in effects], prior, masks=masks)
-    theta0 = problem.theta0
-    if start is not None:
-        theta_start = theta0.copy()
-        theta_start[:problem.n_elements] = start["theta"][:problem.n_elements]
-        for name, value in start.get("effects", {}).items():
-            idx = [i for i, n in enumerate(problem.param_names) if n.startswith(name + ":")]
-            if len(idx) == len(value):
-                theta_start[idx] = value
-        alpha, tau = start["alpha"], start["tau"]
-    else:
-        theta_start, alpha, tau = None, 1.0, prior.tau
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        fit = fit_problem(problem, problem.rough, problem.fixed, theta0, noise_scale=alpha, tau=tau,
-                          start=theta_start, max_outer=60, tol=1e-9)
-    return problem, fit
-
-
-def _start(problem, fit):
-    eff = {}
-    for e, sl in zip(problem.effects, problem.slices):
-        eff[e.name] = fit.theta[sl]
-    return {"theta": fit.theta, "alpha": fit.noise_scale, "tau": fit.tau, "effects": eff}
 
 
 def _folds(crossings, n_folds=4):
@@ -75,10 +68,8 @@ def _folds(crossings, n_folds=4):
     contiguous blocks of load positions in every crossing, one in each half
     of the sweep (blocks b and b + n_folds of 2 n_folds), so parameters of a
     single crossing (offsets, drift, amplification, trigger shifts) are
-    estimated from the rest of that crossing, no fold has to extrapolate a
-    drift from one end of the sweep, and the held-out score tests the shape
-    of the model along the bridge.  With fewer positions (static load
-    steps) whole crossings are held out.
+    estimated from the rest of that crossing.  With fewer positions (static
+    load steps) whole crossings are held out.
     """
     n_c = len(crossings)
     folds = []
@@ -101,82 +92,72 @@ def _folds(crossings, n_folds=4):
     return folds
 
 
-def _heldout(case, crossings, effects, prior, start, folds):
-    if not folds:
-        return None, None
-    logp, sq, count = 0.0, 0.0, 0
-    for train, test in folds:
-        problem, fit = _fit(case, crossings, effects, prior, start=start, masks=train)
-        lp, s, n = problem.heldout(fit.theta, fit.covariance, fit.noise_scale, test)
-        logp, sq, count = logp + lp, sq + s, count + n
-    return logp, math.sqrt(sq / max(count, 1))
+class _Context:
+    """What every refit shares: the data, the base fit's hyperparameters and blocks, the fold rows."""
+
+    def __init__(self, case, crossings, prior, estimate_springs, alpha, tau, blocks, test_masks, predictions):
+        self.case, self.crossings, self.prior = case, crossings, prior
+        self.estimate_springs, self.alpha, self.tau = estimate_springs, alpha, tau
+        self.blocks, self.test_masks, self.predictions = blocks, test_masks, predictions
+
+    def fit(self, names, blocks=None):
+        problem = JointProblem(self.case, self.crossings, [make_effect(n) for n in names], self.prior,
+                               estimate_springs=self.estimate_springs)
+        start = warm_start(problem, self.blocks if blocks is None else blocks)
+        effect, sl = problem.block(names[-1])
+        init = effect.initial(problem, self.predictions)
+        if init is not None:
+            # a moment estimate against the nominal model (a sign flip, a unit slip): the base MAP is
+            # distorted by exactly what the effect explains, so this fit starts from the nominal EI
+            start = warm_start(problem, {"log_ei": problem.theta0[:problem.n_elements]} if blocks is None
+                               else blocks)
+            start[sl] = init
+        fit = quick_fit(problem, start, self.alpha, self.tau)
+        held = heldout(fit, self.test_masks) if fit is not None and fit.converged else None
+        return fit, held
 
 
-def _confounding(case, crossings, name, prior, base_start):
-    """Fraction of the effect's information that survives unknown EI, and the best separating sensor."""
-    problem = JointProblem(case, crossings, [make_effect(name)], prior)
-    theta = problem.theta0.copy()
-    theta[:problem.n_elements] = base_start["theta"][:problem.n_elements]
-    lin = problem.evaluate(theta)
-    if lin is None:
-        return 1.0, None
-    kept = _kept_fraction(lin.jtj / base_start["alpha"] ** 2, problem, base_start["tau"])
-    best = None
-    if kept < 0.2 and name in _SEPARABLE:
-        best = _separating_sensor(case, crossings, name, prior, theta, base_start, kept)
-    return kept, best
+def _screen(ctx, name):
+    fit, held = ctx.fit([name])
+    if fit is not None:  # the influence-line cache is not needed any more (and not worth sending back)
+        fit.problem._cache, fit.problem._last = {}, None
+    return name, fit, held
 
 
-def _kept_fraction(info, problem, tau):
-    n = problem.n_elements
-    q = tau * problem.rough + problem.fixed
-    e, f = slice(0, n), slice(n, problem.n_params)
-    known = info[f, f] + q[f, f]
-    marg = known - info[f, e] @ np.linalg.solve(info[e, e] + q[e, e], info[e, f])
-    data_known = info[f, f]
-    # directions the data would inform if EI were known (data info >= 3 x prior)
-    vals, vecs = np.linalg.eigh(data_known)
-    useful = vecs[:, vals >= 3.0 * np.max(np.diag(q[f, f]))]
-    if useful.shape[1] == 0:
-        return 1.0
-    a = useful.T @ known @ useful
-    b = useful.T @ marg @ useful
-    ratio = np.linalg.eigvals(np.linalg.solve(a, b)).real
-    return float(np.clip(ratio.min(), 0.0, 1.0))
+def _executor(workers):
+    """The pool the screening runs on (None: in this process); one place to plug in another scheduler."""
+    if workers is None or workers <= 1:
+        return None
+    from concurrent.futures import ProcessPoolExecutor
+
+    return ProcessPoolExecutor(max_workers=int(workers))
 
 
-def _separating_sensor(case, crossings, name, prior, theta, base_start, kept):
-    from dataclasses import replace
-
-    from ..model.crossings import Crossing, Crossings
-    from ..model.noise import NoiseModel
-    from ..model.sensors import SensorLayout
-
-    kind = case.sensors.kinds[0]
-    std = float(np.median(case.noise.std)) if case.noise is not None else 1e-6
-    base_problem = JointProblem(case, crossings, [make_effect(name)], prior)
-    base_info = base_problem.evaluate(theta).jtj / base_start["alpha"] ** 2
-    best, best_kept = None, kept
-    for x in np.linspace(0.0, case.bridge.length, 41):
-        sensors = SensorLayout([x], kind, ["candidate"], [std])
-        cand_case = replace(case, sensors=sensors, noise=NoiseModel([std], case.noise.correlation_length
-                                                                    if case.noise is not None else 0.0))
-        dummy = Crossings(("candidate",), tuple(Crossing(c.label, c.positions, np.zeros((1, c.n_loads)),
-                                                         c.load_factor) for c in crossings))
-        p = JointProblem(cand_case, dummy, [make_effect(name)], prior)
-        lin = p.evaluate(theta)
-        if lin is None:
-            continue
-        k = _kept_fraction(base_info + lin.jtj / base_start["alpha"] ** 2, base_problem, base_start["tau"])
-        if k > best_kept + 1e-6:
-            best, best_kept = float(x), k
-    return best
+def _entry(name, fit, held, base, base_held, ei_base):
+    if fit is None:
+        return EffectFit(name=name, log_bayes_factor=math.nan, heldout_score_gain=None, rms_after=math.nan,
+                         heldout_rms_after=None, parameters={}, ei_shift=(), max_ei_shift=math.nan,
+                         converged=False)
+    problem = fit.problem
+    effect, sl = problem.block(name)
+    std = np.sqrt(np.clip(np.diag(fit.covariance)[sl], 0, None))
+    shift = np.exp(fit.theta[:problem.n_elements]) / ei_base - 1.0
+    gain = None if held is None or base_held is None else float(np.sum(held.log_density - base_held.log_density))
+    res = np.concatenate([r.ravel() for r in problem.residuals(fit.theta)])
+    return EffectFit(
+        name=name, log_bayes_factor=float(fit.log_evidence - base.log_evidence), heldout_score_gain=gain,
+        rms_after=float(math.sqrt(np.mean(res**2))), heldout_rms_after=None if held is None else held.rms,
+        parameters={n: {"map": float(v), "std": float(s)} for n, v, s in zip(effect.names, fit.theta[sl], std)},
+        ei_shift=tuple(shift.tolist()), max_ei_shift=float(np.max(np.abs(shift))), converged=fit.converged,
+        findings=tuple(describe(effect, problem, fit.theta[sl], std)))
 
 
 @single_threaded
 def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | None" = None,
-             prior: GMRFPrior | None = None, bf_threshold: float = 3.0, n_folds: int = 4,
-             progress: "Callable[[int, int], None] | None" = None, check_scale: bool | str = True) -> GapDiagnosis:
+             prior: GMRFPrior | None = None, bf_threshold: float = 3.0, gain_threshold: float = 3.0,
+             n_folds: int = 4, max_rounds: int = 3, estimate_springs: bool = True,
+             progress: "Callable[[str], None] | None" = None, workers: int = 1,
+             check_scale: bool | str = True) -> GapDiagnosis:
     """Diagnose the gap between ``case`` and measured ``crossings``.
 
     Parameters
@@ -184,15 +165,25 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
     case : Case
     crossings : Crossings
     effects : sequence of str, optional
-        Candidate effects (default: the whole library, ``EFFECTS``).
+        Candidate effects (default: the whole library, ``EFFECTS``); those
+        that cannot act on the data are not offered (see ``not_offered``).
     prior : GMRFPrior, optional
     bf_threshold : float
-        Log Bayes factor an effect needs to be selected as a cause (3 is
-        "strong" on Jeffreys' scale).
-    n_folds : int
-        Folds of the held-out score.
+        Log Bayes factor an effect needs to be selected (3 is "strong" on
+        Jeffreys' scale); also the margin within which other effects are
+        reported as alternatives.
+    gain_threshold : float
+        Total held-out log predictive gain the next effect needs (and a gain
+        consistent across folds).
+    n_folds, max_rounds : int
+        Held-out folds; largest number of selected effects.
+    estimate_springs : bool
+        Estimate the case's elastic springs with EI, as ``invert`` does.
     progress : callable, optional
-        Called with (done, total) after each candidate effect.
+        Called with a line of text at each stage (base fit, effect k of n,
+        selection round, final refit).
+    workers : int
+        Processes for the screening of the candidate effects.
     check_scale : bool or str
         Refuse data far larger or smaller than the model predicts (a unit
         slip); a string names the data source in the message.
@@ -201,91 +192,171 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
     -------
     GapDiagnosis
     """
+    say = progress if progress is not None else (lambda text: None)
     if check_scale:
         check_case_data_scale(case, crossings, source=check_scale if isinstance(check_scale, str) else "data")
     prior = GMRFPrior() if prior is None else prior
     names = list(EFFECTS) if effects is None else list(effects)
+    not_offered = {}
     for n in names:
-        make_effect(n)
+        reason = make_effect(n).applicable(crossings)
+        if reason is not None:
+            not_offered[n] = reason
+    names = [n for n in names if n not in not_offered]
     folds = _folds(crossings, n_folds)
-    base_problem, base = _fit(case, crossings, [], prior)
-    base_start = _start(base_problem, base)
-    gap, residual_map = residual_gap(base_problem, base.theta, base.noise_scale)
-    base_heldout, base_heldout_rms = _heldout(case, crossings, [], prior, base_start, folds)
-    ei_base = np.exp(base.theta[:base_problem.n_elements])
-    results, fits = [], {}
-    for k, name in enumerate(names):
-        problem, fit = _fit(case, crossings, [name], prior, start=base_start)
-        fits[name] = (problem, fit)
-        score, hrms = _heldout(case, crossings, [name], prior, _start(problem, fit), folds)
-        ei = np.exp(fit.theta[:problem.n_elements])
-        shift = ei / ei_base - 1.0
-        sl = problem.slices[0]
-        std = np.sqrt(np.clip(np.diag(fit.covariance)[sl], 0, None))
-        results.append(EffectFit(
-            name=name,
-            log_bayes_factor=float(fit.log_evidence - base.log_evidence),
-            heldout_score_gain=None if score is None else float(score - base_heldout),
-            rms_after=float(math.sqrt(np.mean(np.concatenate([r.ravel() for r in problem.residuals(fit.theta)]) ** 2))),
-            heldout_rms_after=hrms,
-            parameters={n: {"map": float(v), "std": float(s)} for n, v, s in
-                        zip(problem.effects[0].names, fit.theta[sl], std)},
-            ei_shift=tuple(shift.tolist()),
-            max_ei_shift=float(np.max(np.abs(shift))),
-        ))
-        if progress is not None:
-            progress(k + 1, len(names))
-    results.sort(key=lambda r: r.log_bayes_factor, reverse=True)
-    # forward selection
+    say("base fit (EI and the case's elastic springs, hyperparameters integrated as in invert)")
+    base_problem = JointProblem(case, crossings, [], prior, estimate_springs=estimate_springs)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        base_full = integrated_fit(base_problem, prior)
+    alpha, tau = base_full.noise_scale, base_full.tau
+    base = quick_fit(base_problem, base_full.theta_mode, alpha, tau)
+    _, _, cross, load, _ = base_problem.rows(base.theta)
+    test_masks = fold_rows(crossings, folds, cross, load)
+    base_held = heldout(base, test_masks)
+    gap, residual_map = residual_gap(base_problem, base.theta, alpha)
+    predictions = [y for y, _ in base_problem.predict(base_problem.theta0, jacobian=False)]  # nominal model
+    ctx = _Context(case, crossings, prior, estimate_springs, alpha, tau, blocks_of(base_problem, base.theta),
+                   test_masks, predictions)
+    n_base = base_problem.n_elements
+    ei_base = np.exp(base.theta[:n_base])
+    screened = {}
+    pool = _executor(workers)
+    if pool is None:
+        for k, name in enumerate(names):
+            say(f"effect {k + 1} of {len(names)}: {name}")
+            screened[name] = _screen(ctx, name)[1:]
+    else:
+        with pool:
+            for k, (name, fit, held) in enumerate(pool.map(_screen, [ctx] * len(names), names)):
+                say(f"effect {k + 1} of {len(names)}: {name}")
+                screened[name] = (fit, held)
+    results = [_entry(n, screened[n][0], screened[n][1], base, base_held, ei_base) for n in names]
+    results.sort(key=lambda r: (r.converged, -math.inf if math.isnan(r.log_bayes_factor) else r.log_bayes_factor),
+                 reverse=True)
     selected: list[str] = []
-    current, current_problem = base, base_problem
-    remaining = [r.name for r in results]
-    current_start = base_start
-    current_heldout = base_heldout
-    while remaining:
-        best: tuple | None = None
+    alternatives: dict[str, tuple] = {}
+    current, current_held = base, base_held
+    candidates = screened
+    for rnd in range(max_rounds):
+        remaining = [n for n in names if n not in selected]
+        if rnd > 0:
+            candidates = {}
+            for k, name in enumerate(remaining):
+                say(f"selection round {rnd + 1}: effect {k + 1} of {len(remaining)} given {', '.join(selected)}")
+                candidates[name] = ctx.fit(selected + [name], blocks_of(current.problem, current.theta))
+        eligible = []
         for name in remaining:
-            if not selected:
-                problem, fit = fits[name]
-            else:
-                problem, fit = _fit(case, crossings, selected + [name], prior, start=current_start)
+            fit, held = candidates[name]
+            if fit is None or not fit.converged:
+                continue
             bf = fit.log_evidence - current.log_evidence
-            if best is None or bf > best[1]:
-                best = (name, bf, problem, fit)
-        if best is None:
+            significant, _ = gain_is_significant(held, current_held, gain_threshold) if folds else (True, None)
+            if bf >= bf_threshold and significant:
+                eligible.append((bf, name))
+        if not eligible:
             break
-        name, bf, problem, fit = best
-        if bf < bf_threshold:
-            break
-        if folds:
-            score, _ = _heldout(case, crossings, selected + [name], prior, _start(problem, fit), folds)
-            if score is None or score <= current_heldout:
-                break
-            current_heldout = score
-        selected.append(name)
-        remaining.remove(name)
-        current, current_problem, current_start = fit, problem, _start(problem, fit)
-    gap_after, _ = residual_gap(current_problem, current.theta, current.noise_scale)
-    confounded = []
-    for r in results:
-        if r.name in selected:
-            continue
-        kept, where = _confounding(case, crossings, r.name, prior, base_start)
-        if kept < 0.2:
-            confounded.append(Confounding(r.name, kept, where))
+        eligible.sort(reverse=True)
+        best_bf, best = eligible[0]
+        alternatives[best] = tuple(n for bf, n in eligible[1:] if bf >= best_bf - bf_threshold)
+        selected.append(best)
+        current, current_held = candidates[best]
+    if len(selected) >= 2:  # swap pass: an early pick that absorbed part of a later one gives way
+        for name in list(selected):
+            others = [n for n in selected if n != name]
+            for other in [n for n in names if n not in selected]:
+                say(f"swap test: {other} for {name}")
+                fit, held = ctx.fit(others + [other], blocks_of(current.problem, current.theta))
+                better = fit is not None and fit.converged and fit.log_evidence > current.log_evidence
+                if better and held is not None and current_held is not None:
+                    better = float(np.sum(held.log_density)) >= float(np.sum(current_held.log_density))
+                if better:
+                    alternatives[other] = tuple(a for a in alternatives.pop(name, ()) if a != other)
+                    selected[selected.index(name)] = other
+                    current, current_held = fit, held
+                    break
+    say("final refit of the selected model with its hyperparameters")
+    final_problem = JointProblem(case, crossings, [make_effect(n) for n in selected], prior,
+                                 estimate_springs=estimate_springs)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        final = integrated_fit(final_problem, prior, start=current.theta, noise_scale=alpha, tau=tau)
+    theta_final = final.mixture.mean
+    gap_after, _ = residual_gap(final_problem, theta_final, final.noise_scale)
+    n_el = final_problem.n_elements
+    sd_all = np.sqrt(np.clip(np.diag(final.mixture.covariance), 0, None))
+    findings = {}
+    for e, sl in zip(final_problem.effects, final_problem.slices):
+        findings[e.name] = tuple(describe(e, final_problem, theta_final[sl], sd_all[sl]))
+    springs = findings.pop("case_springs", ())
+    corrected = _corrected_model(final_problem, theta_final, sd_all)
+    say("confounding with EI")
+    confounded = confounding(case, crossings, [r.name for r in results if r.name not in selected], prior,
+                             base.theta, alpha, tau, estimate_springs)
     unexplained = bool(gap_after.significant)
+    verdict = _verdict(selected, unexplained, gap.significant, confounded)
+    differs = [f["where"] for f in springs if f.get("differs")]
+    if differs:
+        verdict += "; the case's elastic springs differ from the configured values: " + ", ".join(differs)
+    kinds = dict(zip(base_problem.sensor_names, base_problem.sensors.kinds))
+    shrinkage = {n: {"kind": kinds[n], "rms_before": gap.by_sensor[n].rms_residual,
+                     "rms_after": gap_after.by_sensor[n].rms_residual,
+                     "heldout_rms_before": None if base_held is None else float(base_held.rms_by_sensor[i]),
+                     "heldout_rms_after": None if current_held is None else float(current_held.rms_by_sensor[i])}
+                 for i, n in enumerate(base_problem.sensor_names)}
+    return GapDiagnosis(
+        gap, tuple(results), tuple(selected), unexplained, tuple(confounded), verdict, gap_after,
+        case.mesh.edges.copy(), ei_base, np.exp(theta_final[:n_el]),
+        {"grid_m": residual_map[0], "normalised_mean_residual": residual_map[1]},
+        ei_base_band=tuple(np.exp(b[:n_base]) for b in base_full.band()),
+        ei_final_band=tuple(np.exp(b[:n_el]) for b in final.band()),
+        findings=findings, alternatives=alternatives, not_offered=not_offered, shrinkage=shrinkage,
+        springs=springs, springs_estimated=bool(estimate_springs and case.bridge.spring_names),
+        noise_scale=float(final.noise_scale), converged=bool(base_full.converged and final.converged),
+        heldout_ratio_after=None if current_held is None else current_held.ratio,
+        heldout_ratio_before=None if base_held is None else base_held.ratio, corrected_model=corrected)
+
+
+def _corrected_model(problem, theta, std):
+    """The model state of the final MAP (SI): springs, sensor positions, axle loads, and what a case cannot hold.
+
+    A support-spring effect frees every support of its kind; supports the
+    data did not inform (posterior = prior) keep the case's value.
+    """
+    state = problem.initial_state()
+    for e, sl in zip(problem.effects, problem.slices):
+        if e.structural:
+            e.apply(state, theta[sl])
+    if any(e.frees for e in problem.effects):  # uninformed supports back to pins, clamps, rigid
+        rot, vert = list(state.bridge.rotational_springs), list(state.bridge.vertical_springs)
+        for e, sl in zip(problem.effects, problem.slices):
+            if e.frees:
+                keep = ~informed(theta[sl], std[sl], e.mean, e.std)
+                target = rot if "rotational" in e.frees else vert
+                source = (problem.case.bridge.rotational_springs if "rotational" in e.frees
+                          else problem.case.bridge.vertical_springs)
+                for i in np.flatnonzero(keep):
+                    target[i] = source[i]
+        state.bridge = type(state.bridge)(state.bridge.spans, tuple(rot), tuple(vert))
+    b = state.bridge
+    return {"rotational_springs": [float(k) for k in b.rotational_springs],
+            "vertical_springs": [float(k) for k in b.vertical_springs],
+            "sensor_positions": [float(x) for x in state.sensor_positions],
+            "axle_loads": [float(w) for w in np.asarray(problem.case.vehicle.axle_loads) * state.axle_factors],
+            "not_in_case": [e.name for e in problem.effects if not e.in_case]}
+
+
+def _verdict(selected, unexplained, significant, confounded):
     if selected and not unexplained:
         verdict = "causes found: " + ", ".join(selected)
     elif selected:
         verdict = ("partly explained by " + ", ".join(selected) + "; a significant gap remains (unexplained)"
-                   if gap.significant else "causes found: " + ", ".join(selected)
+                   if significant else "causes found: " + ", ".join(selected)
                    + "; the residual structure after the fit is significant (unexplained remainder)")
-    elif gap.significant:
+    elif significant:
         verdict = "unexplained: a significant gap remains that no candidate effect explains"
     else:
         verdict = "none: the model is adequate (no significant gap)"
     if confounded and not selected:
         verdict += "; confounded with an EI change: " + ", ".join(c.name for c in confounded)
-    return GapDiagnosis(gap, tuple(results), tuple(selected), unexplained, tuple(confounded), verdict, gap_after,
-                        case.mesh.edges.copy(), ei_base, np.exp(current.theta[:current_problem.n_elements]),
-                        {"grid_m": residual_map[0], "normalised_mean_residual": residual_map[1]})
+    return verdict

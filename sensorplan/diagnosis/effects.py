@@ -13,47 +13,13 @@ State passed around (one per parameter vector):
 """
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["EFFECTS", "make_effect"]
+from ._base import _H, Effect, State
+from .effects_more import CaseSprings, LoadDependentStiffness, SensorGain
 
-_H = 1e-4  # position step of the central differences [m]
-
-
-@dataclass
-class State:
-    bridge: object
-    sensor_positions: np.ndarray
-    positions: list
-    axle_factors: np.ndarray
-
-
-class Effect:
-    """Base class: a named block of parameters with a Gaussian prior."""
-
-    name = ""
-    structural = False  # changes the forward model (else only the outputs)
-
-    def configure(self, ctx):
-        """Set ``names``, ``mean``, ``std`` for the context; return self."""
-        raise NotImplementedError
-
-    @property
-    def n_params(self):
-        return len(self.names)
-
-    def apply(self, state, phi):
-        """Modify ``state`` in place (structural effects)."""
-
-    def structural_jacobian(self, ctx, state, phi, c, y):
-        """dy/dphi for crossing ``c`` (S, K, n) of a structural effect."""
-        raise NotImplementedError
-
-    def output(self, ctx, state, phi, c, y):
-        """Return (y', dy'/dphi (S, K, n), multiplier (scalar, applied to earlier Jacobians))."""
-        return y, None, 1.0
+__all__ = ["EFFECTS", "CaseSprings", "State", "make_effect"]
 
 
 def _span_reference(ctx, support):
@@ -89,6 +55,8 @@ class SupportRotationalSpring(Effect):
 
     name = "support_rotational_spring"
     structural = True
+    in_case = True
+    frees = ("rotational",)
 
     def configure(self, ctx):
         # fixity f = k / (k + 4 EI / L): a pin is taken as f = 0.05, a clamp as 0.95
@@ -110,6 +78,8 @@ class VerticalSupportSpring(Effect):
 
     name = "vertical_support_spring"
     structural = True
+    in_case = True
+    frees = ("vertical",)
 
     def configure(self, ctx):
         # f = k / (k + 48 EI / L^3), support against mid-span stiffness: rigid is taken as f = 0.98
@@ -148,6 +118,11 @@ class SensorOffset(Effect):
 
     name = "sensor_offset"
 
+    def applicable(self, crossings):
+        if all(c.n_loads < 2 for c in crossings):
+            return "with one sample per crossing an offset per crossing is the reading itself"
+        return None
+
     def configure(self, ctx):
         s, n_c = ctx.n_sensors, ctx.n_crossings
         self.names = [f"offset_{name}_{label}" for label in ctx.labels for name in ctx.sensor_names]
@@ -168,6 +143,11 @@ class ThermalDrift(Effect):
     """Offset plus a linear drift along the crossing, per sensor and crossing."""
 
     name = "thermal_drift"
+
+    def applicable(self, crossings):
+        if all(c.n_loads < 3 for c in crossings):
+            return "a drift along a crossing needs several samples per crossing"
+        return None
 
     def configure(self, ctx):
         s, n_c = ctx.n_sensors, ctx.n_crossings
@@ -206,6 +186,9 @@ class PositionOffset(Effect):
     def apply(self, state, phi):
         state.positions = [x + phi[c] + phi[-1] * x for c, x in enumerate(state.positions)]
 
+    def positions_needed(self, state, c):
+        return [state.positions[c] + _H, state.positions[c] - _H]
+
     def structural_jacobian(self, ctx, state, phi, c, y):
         x = state.positions[c]
         up = ctx.lines(state, c, positions=x + _H).predictions
@@ -223,6 +206,7 @@ class AxleLoads(Effect):
 
     name = "axle_loads"
     structural = True
+    in_case = True
 
     def configure(self, ctx):
         n = ctx.case.vehicle.n_axles
@@ -246,6 +230,7 @@ class SensorPosition(Effect):
 
     name = "sensor_position"
     structural = True
+    in_case = True
 
     def configure(self, ctx):
         self.names = [f"shift_{name}" for name in ctx.sensor_names]
@@ -273,6 +258,11 @@ class DynamicAmplification(Effect):
 
     name = "dynamic_amplification"
 
+    def applicable(self, crossings):
+        if all(c.n_loads < 8 for c in crossings):
+            return "every crossing is a static load step (no vehicle in motion)"
+        return None
+
     def configure(self, ctx):
         self.names = [f"amplification_{label}" for label in ctx.labels]
         self.mean = np.zeros(ctx.n_crossings)
@@ -286,7 +276,8 @@ class DynamicAmplification(Effect):
 
 
 EFFECTS = {cls.name: cls for cls in (SupportRotationalSpring, VerticalSupportSpring, SensorOffset, ThermalDrift,
-                                      PositionOffset, AxleLoads, SensorPosition, DynamicAmplification)}
+                                      PositionOffset, AxleLoads, SensorPosition, DynamicAmplification,
+                                      SensorGain, LoadDependentStiffness)}
 
 
 def make_effect(name):

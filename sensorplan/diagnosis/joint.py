@@ -1,13 +1,18 @@
 """The base model extended by candidate effects, as a problem for the inversion engine.
 
-Parameters: log EI per element of the case's mesh, then one block per
-effect.  Prior: the GMRF on log EI (rough part scaled by tau) and the
-effects' own independent Gaussian priors (fixed part).  Springs of the
-configuration stay fixed unless an effect frees them.  ``masks`` select
-which rows (load positions) of each crossing enter the likelihood, so the
-same problem serves fitting and held-out prediction.
+Parameters: log EI per element of the case's mesh, the elastic springs of
+the case (log stiffness, as ``invert`` estimates them by default; only the
+kinds no effect frees), then one block per effect.  Prior: the GMRF on log
+EI (rough part scaled by tau), the spring prior of ``GMRFPrior`` and the
+effects' own independent Gaussian priors (fixed part).  ``masks`` select
+which rows (load positions) of each crossing enter the likelihood.
+
+:meth:`JointProblem.rows` gives the whitened residuals and Jacobian row by
+row (with the crossing and load index of each row), from which the
+held-out folds are scored by exact rank updates of the linearised problem.
 """
 
+from dataclasses import replace
 
 import numpy as np
 
@@ -16,7 +21,7 @@ from ..inference.laplace import Linearisation, WhitenedData
 from ..model.forward import influence_lines
 from ..model.loads import Vehicle
 from ..model.sensors import SensorLayout
-from .effects import State
+from .effects import CaseSprings, State
 
 __all__ = []
 
@@ -24,22 +29,28 @@ __all__ = []
 class JointProblem(WhitenedData):
     """The case's model extended by ``effects``, fitted jointly with log EI (rows in ``masks``)."""
 
-    def __init__(self, case, crossings, effects, prior, *, masks=None):
+    def __init__(self, case, crossings, effects, prior, *, masks=None, estimate_springs=True):
         super().__init__(case, crossings, masks=masks)
+        self.prior = prior
         self.n_sensors = self.sensors.n_sensors
         self.sensor_names = self.sensors.names
         self.n_crossings = len(crossings)
         self.labels = crossings.labels
         peak = np.array([max(float(np.max(np.abs(c.values[i]))) for c in crossings) for i in range(self.n_sensors)])
         self.offset_scale = np.maximum(0.2 * peak, 3.0 * self.noise.std)
+        effects = list(effects)
+        if estimate_springs:
+            freed = {k for e in effects for k in getattr(e, "frees", ())}
+            springs = CaseSprings(freed)
+            if springs.configure(self).n_params:
+                effects.insert(0, springs)
         self.effects = [e.configure(self) for e in effects]
         self.n_elements = case.mesh.n_elements
-        sizes = [e.n_params for e in self.effects]
         self.slices = []
         start = self.n_elements
-        for n in sizes:
-            self.slices.append(slice(start, start + n))
-            start += n
+        for e in self.effects:
+            self.slices.append(slice(start, start + e.n_params))
+            start += e.n_params
         self.n_params = start
         self.theta0 = np.concatenate([np.log(case.ei)] + [e.mean for e in self.effects])
         self.param_names = [f"log_ei_{j}" for j in range(self.n_elements)] + [
@@ -52,6 +63,14 @@ class JointProblem(WhitenedData):
         self._ei = None
         self._cache = {}
         self._last = None
+        self.n_evaluations = 0
+
+    def block(self, name):
+        """The effect object and parameter slice of effect ``name``."""
+        for e, sl in zip(self.effects, self.slices):
+            if e.name == name:
+                return e, sl
+        raise KeyError(name)
 
     # -- context used by the effects -----------------------------------------------------
     def load_factor(self, c):
@@ -60,99 +79,160 @@ class JointProblem(WhitenedData):
     def lines(self, state, c, *, positions=None, sensor_positions=None):
         x = state.positions[c] if positions is None else positions
         r = state.sensor_positions if sensor_positions is None else sensor_positions
-        key = (x.tobytes(), r.tobytes(), state.bridge, state.axle_factors.tobytes())
+        scale = float(state.ei_log_scale[c])
+        key = (x.tobytes(), r.tobytes(), state.bridge, state.axle_factors.tobytes(), scale)
         if key not in self._cache:
             sensors = SensorLayout(r, self.sensors.kinds, self.sensors.names)
             vehicle = Vehicle(self.case.vehicle.axle_offsets,
                               tuple(np.asarray(self.case.vehicle.axle_loads) * state.axle_factors))
-            self._cache[key] = influence_lines(state.bridge, self.case.mesh, self._ei, sensors, vehicle, x)
+            self._cache[key] = influence_lines(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors,
+                                               vehicle, x)
         return self._cache[key]
 
+    def prefetch(self, state, jacobian):
+        """Influence lines of every crossing (and the shifted positions effects ask for) in one solve.
+
+        One forward solve over all load positions at once instead of one per
+        crossing: the factorisation of the bridge is shared, which is most of
+        the cost when the crossings' positions differ (position effects).
+        """
+        groups = {}
+        for c in range(self.n_crossings):
+            wanted = [state.positions[c]]
+            if jacobian:
+                for e in self.effects:
+                    wanted += e.positions_needed(state, c)
+            scale = float(state.ei_log_scale[c])
+            for x in wanted:
+                key = (x.tobytes(), state.sensor_positions.tobytes(), state.bridge, state.axle_factors.tobytes(), scale)
+                if key not in self._cache:
+                    groups.setdefault(scale, {})[key] = x
+        for scale, items in groups.items():
+            if len(items) < 2:
+                continue
+            xs = list(items.values())
+            sensors = SensorLayout(state.sensor_positions, self.sensors.kinds, self.sensors.names)
+            vehicle = Vehicle(self.case.vehicle.axle_offsets,
+                              tuple(np.asarray(self.case.vehicle.axle_loads) * state.axle_factors))
+            lines = influence_lines(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors, vehicle,
+                                    np.concatenate(xs))
+            start = 0
+            for key, x in items.items():
+                sl = slice(start, start + x.size)
+                start += x.size
+                self._cache[key] = replace(lines, positions=x, predictions=lines.predictions[:, sl],
+                                           kernel=lines.kernel[:, sl], spring_kernel=lines.spring_kernel[:, sl])
+
     def axle_lines(self, state, c, axle):
-        """Response to axle ``axle`` alone (with its current load)."""
+        """Response to axle ``axle`` alone (with its current load), cached like :meth:`lines`."""
         x = state.positions[c] - self.case.vehicle.axle_offsets[axle]
         load = self.case.vehicle.axle_loads[axle] * state.axle_factors[axle]
-        sensors = SensorLayout(state.sensor_positions, self.sensors.kinds, self.sensors.names)
-        return influence_lines(state.bridge, self.case.mesh, self._ei, sensors, Vehicle.point_load(load),
-                               x).predictions
+        scale = float(state.ei_log_scale[c])
+        key = ("axle", x.tobytes(), state.sensor_positions.tobytes(), state.bridge, float(load), scale)
+        if key not in self._cache:
+            sensors = SensorLayout(state.sensor_positions, self.sensors.kinds, self.sensors.names)
+            self._cache[key] = influence_lines(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors,
+                                               Vehicle.point_load(load), x).predictions
+        return self._cache[key]
 
     # -- evaluation ------------------------------------------------------------------------
-    def predict(self, theta):
-        """Unwhitened predictions and Jacobians per crossing: list of (y (S,K), J (S,K,P))."""
+    def initial_state(self):
+        """The case's model state before any effect acts."""
+        return State(self.case.bridge, self.sensors.positions.copy(), [c.positions.copy() for c in self.crossings],
+                     np.ones(self.case.vehicle.n_axles), np.zeros(self.n_crossings))
+
+    def predict(self, theta, *, jacobian=True):
+        """Unwhitened predictions and Jacobians per crossing: list of (y (S,K), J (S,K,P) or None)."""
         self._ei = np.exp(theta[:self.n_elements])
         self._cache = {}
-        state = State(self.case.bridge, self.sensors.positions.copy(),
-                      [c.positions.copy() for c in self.crossings], np.ones(self.case.vehicle.n_axles))
+        self.n_evaluations += 1
+        state = self.initial_state()
         for e, sl in zip(self.effects, self.slices):
             if e.structural:
                 e.apply(state, theta[sl])
+        self.prefetch(state, jacobian)
         out = []
         for c in range(self.n_crossings):
             lines = self.lines(state, c)
             lf = self.load_factor(c)
             y = lines.predictions * lf[None, :]
-            jac = np.zeros(y.shape + (self.n_params,))
-            jac[:, :, :self.n_elements] = lines.jacobian("log_ei") * lf[None, :, None]
-            for e, sl in zip(self.effects, self.slices):
-                if e.structural:
-                    jac[:, :, sl] = e.structural_jacobian(self, state, theta[sl], c, y)
+            jac = None
+            if jacobian:
+                jac = np.zeros(y.shape + (self.n_params,))
+                jac[:, :, :self.n_elements] = lines.jacobian("log_ei") * lf[None, :, None]
+                for e, sl in zip(self.effects, self.slices):
+                    if e.structural:
+                        jac[:, :, sl] = e.structural_jacobian(self, state, theta[sl], c, y)
             for e, sl in zip(self.effects, self.slices):
                 if not e.structural:
                     y, block, mult = e.output(self, state, theta[sl], c, y)
-                    if mult != 1.0:
-                        jac *= mult
-                    jac[:, :, sl] += block
+                    if jac is not None:
+                        jac *= np.reshape(mult, (-1, 1, 1)) if np.ndim(mult) else mult
+                        jac[:, :, sl] += block
             out.append((y, jac))
         return out
 
-    def evaluate(self, theta, *, jacobian=True):
-        key = theta.tobytes()
-        if self._last is not None and self._last[0] == key:
-            return self._last[1]
+    def _safe_predict(self, theta, jacobian):
         if not np.all(np.isfinite(theta)) or np.any(np.abs(theta[:self.n_elements]) > 60):
             return None
         try:
-            preds = self.predict(theta)
+            return self.predict(theta, jacobian=jacobian)
         except ConfigError:  # an effect drove the model out of its domain (e.g. unstable springs)
             return None
+
+    def evaluate(self, theta, *, jacobian=True):
+        key = theta.tobytes()
+        if self._last is not None and self._last[0] == key and (self._last[1].jtj is not None or not jacobian):
+            return self._last[1]
+        preds = self._safe_predict(theta, jacobian)
+        if preds is None:
+            return None
         rr = 0.0
-        jtj = np.zeros((self.n_params, self.n_params))
-        jtr = np.zeros(self.n_params)
+        jtj = np.zeros((self.n_params, self.n_params)) if jacobian else None
+        jtr = np.zeros(self.n_params) if jacobian else None
+        shared = {}  # crossings with the same rows and Jacobian share J^T J (the base model, output-free effects)
         for c, (y, jac) in enumerate(preds):
             m = self.masks[c]
             if not m.any():
                 continue
             x = self.crossings[c].positions[m]
             r = (self.white_data[c] - self.noise.whiten(y[:, m], x)).ravel()
-            wj = self.noise.whiten(jac[:, m], x).reshape(-1, self.n_params)
             rr += float(r @ r)
-            jtj += wj.T @ wj
-            jtr += wj.T @ r
+            if jacobian:
+                key = x.tobytes() + m.tobytes()
+                if key in shared and np.array_equal(shared[key][0], jac):
+                    _, wj, block = shared[key]
+                else:
+                    wj = self.noise.whiten(jac[:, m], x).reshape(-1, self.n_params)
+                    block = wj.T @ wj
+                    shared[key] = (jac, wj, block)
+                jtj += block
+                jtr += wj.T @ r
         out = Linearisation(rr, jtj, jtr)
         self._last = (key, out)
         return out
 
-    def heldout(self, theta, covariance, alpha, masks):
-        """Log predictive density and squared residuals of the rows in ``masks``."""
+    def rows(self, theta):
+        """Whitened residuals (N,), Jacobian (N, P), and the crossing, load index and sensor of each row.
+
+        Whitening is along the load positions of each sensor in each crossing
+        (AR(1): a row depends on its predecessor); the whitened rows are
+        independent standard normals under the model, so any partition of them
+        is a valid split into training and held-out data.
+        """
         preds = self.predict(theta)
-        logp, sq, count = 0.0, 0.0, 0
+        res, jacs, cross, load, sensor = [], [], [], [], []
         for c, (y, jac) in enumerate(preds):
-            m = masks[c]
-            if not m.any():
-                continue
-            x = self.crossings[c].positions[m]
-            data = self.crossings[c].values[:, m]
-            r = (self.noise.whiten(data, x) - self.noise.whiten(y[:, m], x)).ravel()
-            wj = self.noise.whiten(jac[:, m], x).reshape(-1, self.n_params)
-            cov = alpha**2 * np.eye(r.size) + wj @ covariance @ wj.T
-            chol = np.linalg.cholesky(cov)
-            z = np.linalg.solve(chol, r)
-            logp += float(-0.5 * z @ z - np.sum(np.log(np.diag(chol))) - 0.5 * r.size * np.log(2 * np.pi))
-            logp -= float(self.noise.log_det_gamma(x) * self.n_sensors / 2 + m.sum() * np.sum(np.log(self.noise.std)))
-            sq += float(np.sum((data - y[:, m]) ** 2))
-            count += data.size
-        return logp, sq, count
+            x = self.crossings[c].positions
+            s, k = y.shape
+            res.append((self.noise.whiten(self.crossings[c].values, x) - self.noise.whiten(y, x)).ravel())
+            jacs.append(self.noise.whiten(jac, x).reshape(-1, self.n_params))
+            cross.append(np.full(s * k, c))
+            load.append(np.tile(np.arange(k), s))
+            sensor.append(np.repeat(np.arange(s), k))
+        return (np.concatenate(res), np.concatenate(jacs), np.concatenate(cross), np.concatenate(load),
+                np.concatenate(sensor))
 
     def residuals(self, theta):
         """Unwhitened residuals per crossing (S, K)."""
-        return [c.values - y for c, (y, _) in zip(self.crossings, self.predict(theta))]
+        return [c.values - y for c, (y, _) in zip(self.crossings, self.predict(theta, jacobian=False))]

@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-__all__ = ["SensorGap", "Gap", "EffectFit", "Confounding", "GapDiagnosis"]
+__all__ = ["Confounding", "EffectFit", "Gap", "GapDiagnosis", "SensorGap"]
 
 
 @dataclass(frozen=True)
@@ -74,6 +74,10 @@ class EffectFit:
     ei_shift : tuple of float
         Relative change of EI per element caused by adding the effect.
     max_ei_shift : float
+    converged : bool
+        False: the refit did not converge; the entry never decides a verdict.
+    findings : tuple of dict
+        The effect in engineering terms (where, value, 95 % interval, unit).
     """
 
     name: str
@@ -84,10 +88,13 @@ class EffectFit:
     parameters: dict
     ei_shift: tuple
     max_ei_shift: float
+    converged: bool = True
+    findings: tuple = ()  # dicts: where, value, low, high (95 %), unit, text
 
     def to_dict(self):
         out = asdict(self)
         out["ei_shift"] = list(self.ei_shift)
+        out["findings"] = [dict(f) for f in self.findings]
         return out
 
 
@@ -118,29 +125,24 @@ class GapDiagnosis:
     ei_base: np.ndarray
     ei_final: np.ndarray
     residual_map: dict = field(default_factory=dict)
+    ei_base_band: tuple = ()  # (low, high) 95 % per element [N m^2]
+    ei_final_band: tuple = ()  # of the selected model refitted with its hyperparameters
+    findings: dict = field(default_factory=dict)  # selected effect -> findings of the final refit
+    alternatives: dict = field(default_factory=dict)  # selected effect -> effects explaining the gap about as well
+    not_offered: dict = field(default_factory=dict)  # effect -> why it cannot act on these data
+    shrinkage: dict = field(default_factory=dict)  # sensor -> kind and residual rms before/after [rad or m]
+    springs: tuple = ()  # findings of the case's elastic springs (estimated as invert does)
+    springs_estimated: bool = False
+    noise_scale: float = float("nan")
+    converged: bool = True
+    heldout_ratio_before: float | None = None  # held-out rms / configured noise
+    heldout_ratio_after: float | None = None
+    corrected_model: dict = field(default_factory=dict)  # final MAP state (SI), for a corrected case
 
     def summary(self):
-        g = self.gap
-        lines = [f"Sim-to-real gap: residual rms {g.rms_residual:.3g}, systematic {g.systematic_rms:.3g}, "
-                 f"noise {g.noise_rms:.3g} (p = {g.p_value:.2g}; "
-                 f"{'significant' if g.significant else 'not significant'})"]
-        if g.worst_positions_m:
-            lines.append("  gap concentrates at load positions [m]: "
-                         + ", ".join(f"{x:.2f}" for x in g.worst_positions_m))
-        lines.append(f"  {'effect':28s} {'log BF':>9s} {'held-out gain':>14s} {'rms after':>11s} "
-                     f"{'held-out rms':>13s} {'max EI shift':>13s}")
-        for e in self.effects:
-            gain = "n/a" if e.heldout_score_gain is None else f"{e.heldout_score_gain:.2f}"
-            hrms = "n/a" if e.heldout_rms_after is None else f"{e.heldout_rms_after:.3g}"
-            lines.append(f"  {e.name:28s} {e.log_bayes_factor:9.2f} {gain:>14s} {e.rms_after:11.3g} "
-                         f"{hrms:>13s} {100 * e.max_ei_shift:12.1f}%")
-        for c in self.confounded:
-            where = "" if c.separating_sensor_m is None else (
-                f"; a sensor at {c.separating_sensor_m:.2f} m would separate them")
-            lines.append(f"  confounded: {c.name} can be mimicked by an EI change "
-                         f"({100 * c.information_kept:.0f} % of its information survives){where}")
-        lines.append(f"  verdict: {self.verdict}")
-        return "\n".join(lines)
+        from .summary import summary_lines
+
+        return "\n".join(summary_lines(self))
 
     def to_dict(self):
         return {
@@ -154,6 +156,19 @@ class GapDiagnosis:
             "ei_edges_m": self.ei_edges.tolist(),
             "ei_base": self.ei_base.tolist(),
             "ei_final": self.ei_final.tolist(),
+            "ei_base_band": [np.asarray(b).tolist() for b in self.ei_base_band],
+            "ei_final_band": [np.asarray(b).tolist() for b in self.ei_final_band],
+            "findings": {k: [dict(f) for f in v] for k, v in self.findings.items()},
+            "alternatives": {k: list(v) for k, v in self.alternatives.items()},
+            "not_offered": dict(self.not_offered),
+            "shrinkage": {k: dict(v) for k, v in self.shrinkage.items()},
+            "springs_estimated": self.springs_estimated,
+            "springs": [dict(f) for f in self.springs],
+            "noise_scale": self.noise_scale,
+            "converged": self.converged,
+            "heldout_ratio_before": self.heldout_ratio_before,
+            "heldout_ratio_after": self.heldout_ratio_after,
+            "corrected_model": dict(self.corrected_model),
         }
 
 

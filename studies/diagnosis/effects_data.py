@@ -15,7 +15,8 @@ from sensorplan.model.crossings import Crossing, Crossings
 from sensorplan.verification.verify import truth_mesh
 
 EFFECT_NAMES = ("support_rotational_spring", "vertical_support_spring", "sensor_offset", "thermal_drift",
-                "position_offset", "axle_loads", "sensor_position", "dynamic_amplification")
+                "position_offset", "axle_loads", "sensor_position", "dynamic_amplification", "sensor_gain",
+                "load_dependent_stiffness")
 
 
 def _fine(case):
@@ -40,6 +41,9 @@ def generate(case, effect, rng, n_crossings=6, *, ei=None, return_noise_rms=Fals
     shifts = np.zeros(n_crossings)
     add = np.zeros((n_crossings, sensors.n_sensors, pos.size))
     mult = np.ones(n_crossings)
+    gain = np.ones(sensors.n_sensors)
+    load_factor = np.ones(n_crossings)
+    ei_factor = np.ones(n_crossings)
     if effect == "support_rotational_spring":
         rot = list(bridge.rotational_springs)
         i = int(rng.integers(0, len(rot)))
@@ -71,6 +75,12 @@ def generate(case, effect, rng, n_crossings=6, *, ei=None, return_noise_rms=Fals
         sensors = sp.SensorLayout(np.clip(moved, 0.0, bridge.length), sensors.kinds, sensors.names, sensors.noise_std)
     elif effect == "dynamic_amplification":
         mult = 1.0 + rng.uniform(0.05, 0.15, n_crossings)
+    elif effect == "sensor_gain":  # one sensor mounted the wrong way round
+        gain[int(rng.integers(0, sensors.n_sensors))] = -1.0
+    elif effect == "load_dependent_stiffness":  # heavier crossings see a softer (cracked) bridge
+        load_factor = np.linspace(0.6, 1.4, n_crossings)
+        total = float(np.sum(vehicle.axle_loads))
+        ei_factor = np.exp(-rng.uniform(0.15, 0.3) * (load_factor - load_factor.mean()) * total / 100e3)
     elif effect == "vibration":  # out of the library: a free vibration along the crossing
         phase = rng.uniform(0, 2 * np.pi, n_crossings)
         wave = np.sin(2 * np.pi * pos[None, :] / 2.3 + phase[:, None])
@@ -81,9 +91,10 @@ def generate(case, effect, rng, n_crossings=6, *, ei=None, return_noise_rms=Fals
     noise = case.noise.sample(pos, rng, n_crossings)
     crossings = []
     for c in range(n_crossings):
-        clean = truth.influence_lines(ei_fine, positions=pos + shifts[c]).predictions
-        values = mult[c] * clean + add[c] + noise[c]
-        crossings.append(Crossing(str(c + 1), pos, values, np.ones(pos.size)))
+        clean = truth.influence_lines(ei_fine * ei_factor[c], positions=pos + shifts[c]).predictions
+        clean = clean * load_factor[c]
+        values = gain[:, None] * (mult[c] * clean + add[c]) + noise[c]
+        crossings.append(Crossing(str(c + 1), pos, values, np.full(pos.size, load_factor[c])))
     out = Crossings(case.sensors.names, tuple(crossings))
     if return_noise_rms:
         return out, float(np.sqrt(np.mean(noise**2)))

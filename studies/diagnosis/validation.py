@@ -46,19 +46,33 @@ Writes ``diagnosis_validation.csv`` (one row per dataset),
 ``diagnosis_confusion.png`` (confusion matrix) and
 ``diagnosis_shrinkage.png`` to ``--out`` (default studies/output).
 
-Run: python studies/diagnosis/validation.py [--quick] [--out DIR] [--workers N]
-The full study takes 15 to 35 minutes on 2 cores (longer when the machine is
-shared); --quick (one bridge, four datasets) under a minute.
+Also scored: local damage (EI 30 % lower over 0.3-0.5 of span 1, generated
+with the effect-free data) must never be blamed on an effect; a spring
+effect on a bridge whose springs are elastic in the case (the three-span
+bearings) counts as right when the verdict names the case's springs as
+differing from their configured values ("case-springs": diagnose estimates
+them as invert does).  Two withheld effects at once: pairs.py.
 
-Last run (2026-11-23, 100 datasets, 34.8 min on a shared 2-core machine):
-top-ranked cause right for 79/80 = 99 % of the single-effect datasets (65/80
-named strictly; the other 14 are effects reported as confounded with an EI
-change: 7 sensor_position, 3 dynamic_amplification, 2 support springs, 2
-axle loads), wrong once (three-span, AR(1) noise, dynamic amplification
-named as axle loads: two global load scalings); false alarms 0/10; held-out
-rms after the true effect within 20 % of the noise floor in 80/80 (median
-1.005, max 1.053 x noise); the out-of-library vibration reported as
-unexplained in 10/10.
+Run: python studies/diagnosis/validation.py [--quick] [--out DIR] [--workers N]
+The full study (130 datasets) takes about 20 minutes on 2 shared cores;
+--quick (one bridge, four datasets) under a minute.
+
+Last run (2026-11-24, 130 datasets, the fast diagnosis of issue 18, before
+the swap pass that only acts when two or more effects are selected; 2
+workers on a machine with load ~10): top-ranked cause right for 99/100 =
+99 % of the single-effect datasets (70/100 named strictly, 26 via the
+EI-confounded rule: 8 axle_loads, 7 sensor_position, 6 rotational springs,
+5 dynamic_amplification; 3 three-span vertical springs via case-springs),
+wrong once (two-span, load_dependent_stiffness named as
+dynamic_amplification, log BF 4.8 against 3.9); sensor_gain 10/10 and
+load_dependent_stiffness 9/10 named; false alarms 0/10; local damage blamed
+on an effect 0/10 (once the verdict notes that the case's bearings differ);
+held-out rms after the true effect within 20 % of the noise floor in
+100/100 (median 1.005, max 1.052 x noise); the out-of-library vibration
+unexplained with no cause named in 10/10.  CPU per dataset: median 1.4 s,
+max 16.9 s (three-span, white noise, a sign-flipped sensor; the only two
+datasets above 7 s).  Previous algorithm (2026-11-23, 100 datasets): 34.8
+min, 99 % right.
 """
 
 import os
@@ -93,14 +107,16 @@ assert tuple(EFFECTS) == EFFECT_NAMES, "the study's effects must be the library'
 LIBRARY = tuple(EFFECTS)
 OUT_OF_LIBRARY = "vibration"
 NONE = "none"                            # label of the effect-free datasets
-ALL_EFFECTS = LIBRARY + (NONE, OUT_OF_LIBRARY)
+LOCAL_DAMAGE = "local_damage"            # EI 30 % lower over a fifth of span 1: part of the model, never an effect
+ALL_EFFECTS = LIBRARY + (NONE, OUT_OF_LIBRARY, LOCAL_DAMAGE)
 N_CROSSINGS = 6
 
 # predicted labels besides the library's effects
 CONFOUNDED = "EI-confounded"             # no cause, not unexplained, true effect listed as confounded
 UNEXPLAINED = "unexplained"              # no cause, significant gap left
+CASE_SPRINGS = "case-springs"            # no cause; the case's elastic springs, estimated as in invert, differ
 ADEQUATE = "none"                        # no cause, no significant gap (true effect not flagged)
-PREDICTED = LIBRARY + (CONFOUNDED, ADEQUATE, UNEXPLAINED)
+PREDICTED = LIBRARY + (CONFOUNDED, CASE_SPRINGS, ADEQUATE, UNEXPLAINED)
 
 TARGET_ACCURACY = 0.90
 TARGET_FALSE_ALARM = 0.10
@@ -144,9 +160,14 @@ def run_one(bridge, effect, seed):
     """Generate one dataset, diagnose it and return a flat record (runs in a worker)."""
     t0, c0 = time.perf_counter(), time.process_time()
     case = make_case(bridge)
-    true = None if effect == NONE else effect
+    true = None if effect in (NONE, LOCAL_DAMAGE) else effect
+    ei = None
+    if effect == LOCAL_DAMAGE:
+        span = case.bridge.spans[0]
+        ei0 = float(np.median(case.ei))
+        ei = lambda x: np.where((x > 0.3 * span) & (x < 0.5 * span), 0.7 * ei0, ei0)  # noqa: E731
     try:
-        data, noise_rms = generate(case, true, seed_sequence(bridge, effect, seed), N_CROSSINGS,
+        data, noise_rms = generate(case, true, seed_sequence(bridge, effect, seed), N_CROSSINGS, ei=ei,
                                    return_noise_rms=True)
         d = diagnose(case, data)
     except Exception as exc:  # keep the study going; the record says what failed
@@ -176,6 +197,10 @@ def run_one(bridge, effect, seed):
         "min_heldout_rms": min((e.heldout_rms_after for e in d.effects
                                 if e.heldout_rms_after is not None), default=math.nan),
         "verdict": d.verdict,
+        "springs_differ": any(f.get("differs") for f in d.springs),
+        "findings": " | ".join(f["text"] for fs in d.findings.values() for f in fs),
+        "alternatives": ";".join(f"{k}~{'/'.join(v)}" for k, v in d.alternatives.items() if v),
+        "heldout_ratio_after": d.heldout_ratio_after,
         "log_bfs": ";".join(f"{e.name}={e.log_bayes_factor:.2f}" for e in d.effects),
         "heldout_gains": ";".join(f"{e.name}={e.heldout_score_gain:.2f}" for e in d.effects
                                   if e.heldout_score_gain is not None),
@@ -206,11 +231,16 @@ def predicted_label(rec):
         return UNEXPLAINED
     if rec["effect"] in rec["confounded"].split(";"):
         return CONFOUNDED
+    if rec.get("springs_differ") in (True, "True"):
+        return CASE_SPRINGS
     return ADEQUATE
 
 
 def is_right(rec):
-    return rec["predicted"] == rec["effect"] or rec["predicted"] == CONFOUNDED
+    # a spring effect on a case whose springs are elastic is estimated as in invert and named there
+    springs = rec["effect"] in ("support_rotational_spring", "vertical_support_spring") and (
+        rec["predicted"] == CASE_SPRINGS)
+    return rec["predicted"] == rec["effect"] or rec["predicted"] == CONFOUNDED or springs
 
 
 COLUMNS = ("bridge", "effect", "seed", "predicted", "right", "causes", "confounded", "unexplained",
@@ -218,7 +248,8 @@ COLUMNS = ("bridge", "effect", "seed", "predicted", "right", "causes", "confound
            "true_log_bf", "true_heldout_gain", "true_rms_after", "true_heldout_rms", "noise_floor",
            "true_max_ei_shift", "true_information_kept", "base_rms", "min_heldout_rms",
            "systematic_rms_before", "systematic_rms_after", "p_value_before", "p_value_after", "verdict",
-           "log_bfs", "heldout_gains", "seconds", "cpu_seconds", "error")
+           "log_bfs", "heldout_gains", "springs_differ", "findings", "alternatives", "heldout_ratio_after",
+           "seconds", "cpu_seconds", "error")
 
 
 def write_csv(records, path):
@@ -400,6 +431,17 @@ def report(records, bridges, effects, elapsed):
                                 f"{fmt_pct(int(inside.sum()), held.size)} within 20 % of the noise floor "
                                 f"(max ratio {held.max():.3f}; target: all)")
 
+    # 3b. local damage: part of the model (EI), never an effect
+    dmg = [r for r in ok if r["effect"] == LOCAL_DAMAGE]
+    if dmg:
+        blamed = [r for r in dmg if r["causes"]]
+        print(f"\nLocal damage (EI 30 % lower over 0.3-0.5 of span 1) blamed on an effect: "
+              f"{fmt_pct(len(blamed), len(dmg))}")
+        for r in blamed:
+            print(f"    blamed: {r['bridge']} seed {r['seed']}: {r['verdict']}")
+        results["local_damage"] = (len(blamed) / len(dmg), not blamed,
+                                   f"{fmt_pct(len(blamed), len(dmg))} blamed on an effect (target: none)")
+
     # 4. out of library
     if vib:
         print(f"\nOut-of-library effect ({OUT_OF_LIBRARY}):")
@@ -420,7 +462,8 @@ def report(records, bridges, effects, elapsed):
 
     print("\nAcceptance targets")
     names = {"accuracy": "top-ranked cause right >= 90 %", "false_alarm": "false alarms <= 10 %",
-             "shrinkage": "held-out rms within 20 % of noise floor", "out_of_library": "out-of-library unexplained"}
+             "shrinkage": "held-out rms within 20 % of noise floor", "out_of_library": "out-of-library unexplained",
+             "local_damage": "local damage never blamed on an effect"}
     for key, (_, met, text) in results.items():
         print(f"  [{'met' if met else 'NOT MET':7s}] {names[key]:42s} {text}")
     return results, m, rows

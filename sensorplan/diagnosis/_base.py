@@ -1,0 +1,63 @@
+"""Base of the candidate effects: the model state and the effect protocol.
+
+Owns: the Effect protocol.  May import: the foundations.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = []
+
+_H = 1e-4  # position step of the central differences [m]
+
+
+@dataclass
+class State:
+    bridge: object
+    sensor_positions: np.ndarray
+    positions: list
+    axle_factors: np.ndarray
+    ei_log_scale: np.ndarray  # log EI factor per crossing (load-dependent stiffness)
+
+
+class Effect:
+    """Base class: a named block of parameters with a Gaussian prior."""
+
+    name = ""
+    structural = False  # changes the forward model (else only the outputs)
+    in_case = False  # a property of the case (springs, sensor positions, axle loads), written by --write-case
+    frees: tuple = ()  # spring kinds whose stiffness the effect sets (the case's springs of that kind step aside)
+
+    def applicable(self, crossings):
+        """Reason the effect cannot act on these data (None: it can)."""
+        return
+
+    def positions_needed(self, state, c):
+        """Load positions of crossing ``c`` whose lines the Jacobian needs besides the current ones."""
+        return []
+
+    def initial(self, ctx, predictions):
+        """Start values from the base model's ``predictions`` per crossing (None: the prior mean)."""
+        return
+
+    def configure(self, ctx):
+        """Set ``names``, ``mean``, ``std`` for the context; return self."""
+        raise NotImplementedError
+
+    @property
+    def n_params(self):
+        return len(self.names)
+
+    def apply(self, state, phi):
+        """Modify ``state`` in place (structural effects)."""
+
+    def structural_jacobian(self, ctx, state, phi, c, y):
+        """dy/dphi for crossing ``c`` (S, K, n) of a structural effect."""
+        raise NotImplementedError
+
+    def output(self, ctx, state, phi, c, y):
+        """Return (y', dy'/dphi (S, K, n), multiplier (scalar, applied to earlier Jacobians))."""
+        return y, None, 1.0
+
+
