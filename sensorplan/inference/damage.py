@@ -32,7 +32,11 @@ solve with H_k for all zones); no forward evaluation is needed.
 
 The posterior averages the components: the undamaged ones with prior mass
 1 - p and the zones with p / H each (p = ``prior_damage``, H zones), weighted
-by their evidence.
+by their evidence.  A zone whose step the data determine no better than
+``min_information`` times the prior does (p_s < min_information / sigma^2)
+adds nothing the smooth posterior does not already allow there (its bands
+are the prior's), so its prior mass stays with the undamaged component and
+``damage_probability`` counts only the zones the data see.
 
 Owns: damage hypotheses in the EI posterior.  May import: model, detection and the foundations.
 """
@@ -121,6 +125,9 @@ def damage_hypotheses(weights, thetas, covariances, taus, noise_scales, theta0, 
         Prior probability that some zone is damaged.
     loss_log_std : float
         Std of the half-normal prior of the loss's step in log EI.
+    min_information : float
+        A zone enters when the data make the precision of its step at least
+        this multiple of the prior's.
     keep, max_components :
         Components are kept, largest weight first, up to this share of the
         total weight and at most this many.

@@ -21,8 +21,39 @@ standard errors).
 
 Run:  python studies/verification/detector_estimates.py [--per-config N] [--seed S]
 
-Last run: see the table at the end of this docstring (filled in by hand from
-the output).
+Last run (``--per-config 3``, seed 7, commit "detection/scan: centre = the
+most probable window"; 128 datasets; binomial standard errors, the counts
+in brackets; "centre" and "loss covered" over the detected cases):
+
+    group                               n          detected   centre <= 1.5 m      loss covered
+    simply-supported                   54 0.981±0.018 ( 54) 0.981±0.019 ( 53) 0.943±0.032 ( 53)
+    openlab-like                       24 0.792±0.083 ( 24) 0.842±0.084 ( 19) 1.000±0.000 ( 19)
+    three-span                         50 0.880±0.046 ( 50) 0.864±0.052 ( 44) 0.955±0.031 ( 44)
+    length 1 m                         38 0.868±0.055 ( 38) 0.879±0.057 ( 33) 1.000±0.000 ( 33)
+    length 2 m                         45 0.867±0.051 ( 45) 0.897±0.049 ( 39) 0.974±0.025 ( 39)
+    length 3 m                         45 0.978±0.022 ( 45) 0.955±0.031 ( 44) 0.909±0.043 ( 44)
+    loss 20 %                          38 0.842±0.059 ( 38) 0.906±0.052 ( 32) 0.969±0.031 ( 32)
+    loss 30 %                          45 0.933±0.037 ( 45) 0.881±0.050 ( 42) 1.000±0.000 ( 42)
+    loss 40 %                          45 0.933±0.037 ( 45) 0.952±0.033 ( 42) 0.905±0.045 ( 42)
+    all                               128 0.906±0.026 (128) 0.914±0.026 (116) 0.957±0.019 (116)
+
+Reading it: detection 0.91 (target 0.9) and loss-interval coverage 0.96
+(target 0.8) hold overall; the centre is within 1.5 m in 0.91 of the
+detections, not in all.  The misses are not noise in the estimate: in each
+of the 10 cases the projected signatures of the true zone and of a zone
+6-10 m away are nearly collinear after the smooth nuisance is projected off
+(with three or four sensors), the data favour the wrong one or split
+between them, and the 95 % centre interval spans both.  Detection is lowest
+on openlab-like (0.79): a known-location power of 0.95 (d = 3.29) is only
+Phi(3.29 - 3.0) = 0.6 against the scan's threshold of about 3.0, the price
+of not knowing where the loss is; most selected centres are far above 0.95.
+With the same priors but the estimates on the scan's coarser zones (edges
+on a quarter-length grid, lengths by sqrt(2)), a partial run with the same
+seed covered the true loss in 38 of 45 detections (0.84): when the data are
+strong, a zone that does not match the true edges gives a sharp but biased
+loss.  (The previous estimator, a half-normal prior on r and every zone the
+same prior mass, so that short lengths carried most of it, covered
+0.75-1.00 per row of detection_vs_limit.py.)
 """
 
 import argparse

@@ -10,6 +10,17 @@ its own seed for the data and for the detector's threshold simulation
 at the nominal false-alarm rate 0.05, with its binomial standard error.
 
 Run:  python studies/verification/false_alarm.py [--replicates N] [--seed S]
+
+Last run (--replicates 150, seed 5, commit "detector_estimates: results of
+128 datasets", 708 s on a loaded 2-core machine):
+
+    white                  false-alarm rate 0.053 +- 0.018
+    AR(1)                  false-alarm rate 0.073 +- 0.021
+    EI variation           false-alarm rate 0.067 +- 0.020
+    AR(1) + EI variation   false-alarm rate 0.067 +- 0.020
+
+All within +-0.03 of the nominal 0.05 (the acceptance band), the largest
+1.1 standard errors above it.
 """
 
 import argparse
