@@ -4,8 +4,12 @@ import sys
 from pathlib import Path
 
 from ._common import (
+    MAX_INVERSION_ELEMENTS,
     add_case_arguments,
     add_out_arguments,
+    integer,
+    SEED,
+    real,
     load_case,
     stage_figure,
     stage_json,
@@ -22,13 +26,13 @@ EPILOG = """example:
 def add_arguments(p):
     add_case_arguments(p)
     p.add_argument("--data", type=Path, required=True, help="crossings CSV (crossing,position_m,<sensors>)")
-    p.add_argument("--elements", type=int, help="number of elements of the inversion mesh")
-    p.add_argument("--false-alarm", type=float, default=0.05,
+    p.add_argument("--elements", type=integer(1, MAX_INVERSION_ELEMENTS), help="number of elements of the inversion mesh")
+    p.add_argument("--false-alarm", type=real(0.0, 0.5, what="a false-alarm rate", low_open=True, high_open=True), default=0.05,
                    help="false-alarm rate of the damage detector on undamaged bridges (default 0.05)")
     p.add_argument("--nuisance", choices=["smooth", "levels"], default="smooth",
                    help="what an undamaged bridge may do: a smooth EI trend per span (default) or one EI "
                         "factor per span (plus the elastic springs either way)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the detector's threshold simulation (default 0)")
+    p.add_argument("--seed", type=SEED, default=0, help="seed of the detector's threshold simulation (default 0)")
     add_out_arguments(p, json_default="posterior.json")
 
 
@@ -36,7 +40,7 @@ def run(args, out, files):
     import warnings
 
     from .. import plotting
-    from .._errors import SensorplanWarning
+    from .._errors import SensorplanError, SensorplanWarning
     from ..inference.inversion import invert
     from ..io.csvio import read_crossings
     from ..model.structure import Mesh
@@ -44,6 +48,9 @@ def run(args, out, files):
     case = load_case(args)
     data = read_crossings(args.data, case.sensors)
     if args.elements is not None:
+        if args.elements < case.bridge.n_spans:
+            raise SensorplanError(f"--elements {args.elements} is fewer than the {case.bridge.n_spans} spans; give "
+                                  f"at least one element per span.")
         case = case.with_mesh(Mesh.uniform(case.bridge, args.elements))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SensorplanWarning)

@@ -1,8 +1,13 @@
 """``sensorplan verify``: score layouts by Bayesian inversion of synthetic damage."""
 
 from ._common import (
+    MAX_SCENARIOS,
+    NOISE_STD,
+    SEED,
     add_case_arguments,
     add_out_arguments,
+    check_layouts,
+    integer,
     kind_and_noise,
     load_case,
     parse_positions,
@@ -22,9 +27,9 @@ def add_verify_arguments(p, *, with_flag):
     if with_flag:
         p.add_argument("--verify", action="store_true",
                        help="verify the layout and the baselines by inversion of synthetic damage")
-    p.add_argument("--scenarios", type=int, default=8, help="damage locations scanned (default 8)")
-    p.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
-    p.add_argument("--verify-crossings", type=int, default=10,
+    p.add_argument("--scenarios", type=integer(1, MAX_SCENARIOS), default=8, help="damage locations scanned (default 8)")
+    p.add_argument("--workers", type=integer(1, 64), default=1, help="worker processes (default 1)")
+    p.add_argument("--verify-crossings", type=integer(1, 1000), default=10,
                    help="crossings simulated per scenario (default 10)")
 
 
@@ -34,9 +39,9 @@ def add_arguments(p):
                    help="sensor positions in m, e.g. 3.5,8,12 (repeat for several layouts)")
     p.add_argument("--kind", choices=["rotation", "deflection"],
                    help="sensor kind (default: the kind of the case's sensors)")
-    p.add_argument("--noise-std", type=float,
+    p.add_argument("--noise-std", type=NOISE_STD,
                    help="noise std of the new sensors in SI units (rad or m); default: the case's sensors'")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=SEED, default=0, help="random seed (default 0)")
     add_out_arguments(p, json_default="verification.json")
     add_verify_arguments(p, with_flag=False)
 
@@ -58,8 +63,7 @@ def run_verification(args, case, layouts, names, files, *, json_path):
 def run(args, out, files):
     case = load_case(args)
     args.kind, args.noise_std = kind_and_noise(args, case)
-    for layout in args.layout:
-        case.bridge.check_on_bridge(layout, "layout", "--layout")
+    check_layouts(case, args.layout, "--layout")
     result, json_path, figure = run_verification(args, case, args.layout, None, files,
                                                  json_path=args.json or args.out / "verification.json")
     out(result.summary())

@@ -12,7 +12,7 @@ from importlib import resources
 from pathlib import Path
 
 from .._errors import ConfigError
-from ..model.case import Case
+from ..model.case import NOISE_STD_RANGE, Case
 from ..model.loads import LoadSweep, Vehicle
 from ..model.noise import NoiseModel
 from ..model.sensors import SensorLayout
@@ -187,13 +187,19 @@ def _sensors(s, bridge):
 
 
 def _check_noise_units(layout, key):
-    """Reject noise levels that only make sense in another unit (a unit slip)."""
+    """Reject noise levels that only make sense in another unit (a unit slip) or for no instrument."""
     for name, kind, std in zip(layout.names, layout.kinds, layout.noise_std):
-        if kind == "rotation" and std > 1e-3:
+        low, high = NOISE_STD_RANGE[kind]
+        if kind == "rotation" and std > high:
             raise ConfigError(
                 f"The '{key}' of sensor {name} is {std:g} rad, far above any tiltmeter noise. "
                 "Give it in rad, or use 'noise_std_mm_per_m' / 'noise_std_urad'.")
-        if kind == "deflection" and std > 5e-3:
+        if kind == "deflection" and std > high:
             raise ConfigError(
                 f"The '{key}' of sensor {name} is {std:g} m, far above any deflection noise. "
                 "Give it in m, or use 'noise_std_mm'.")
+        if std < low:
+            unit = "rad" if kind == "rotation" else "m"
+            raise ConfigError(
+                f"The '{key}' of sensor {name} is {std:g} {unit}, below any {kind} sensor's noise (at least "
+                f"{low:g} {unit}); give the noise of the instrument (noise-free data are not a model).")

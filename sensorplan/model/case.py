@@ -10,7 +10,14 @@ from .noise import NoiseModel
 from .sensors import SensorLayout
 from .structure import Bridge, Mesh
 
-__all__ = ["Case"]
+__all__ = ["Case", "NOISE_STD_RANGE"]
+
+# Physical range of a sensor's noise std [rad or m]: below it the Fisher
+# information overflows the algebra (and no instrument is that quiet), above
+# it the value is a unit slip (mm/m or micro-radians given as rad, mm as m).
+NOISE_STD_RANGE = {"rotation": (1e-10, 1e-3), "deflection": (1e-9, 5e-3)}
+NOISE_STD_HINT = {"rotation": "Give it in rad (1 mm/m = 1e-3 rad, 1 micro-radian = 1e-6 rad).",
+                  "deflection": "Give it in m (1 mm = 1e-3 m)."}
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,9 +97,10 @@ class Case:
 
         unit = "rad" if kind == "rotation" else "m"
         if noise_std is not None:
-            if not (np.isfinite(noise_std) and noise_std > 0):
-                raise ConfigError(f"The 'noise_std' of new {kind} sensors must be a positive number in {unit}. "
-                                  f"Got {noise_std!r} instead.")
+            low, high = NOISE_STD_RANGE[kind]
+            if not (np.isfinite(noise_std) and low <= noise_std <= high):
+                raise ConfigError(f"The 'noise_std' (--noise-std) of new {kind} sensors must be from {low:g} to "
+                                  f"{high:g} {unit}; got {noise_std!r}. {NOISE_STD_HINT[kind]}")
             return float(noise_std)
         same = ([s for k, s in zip(self.sensors.kinds, self.noise.std) if k == kind]
                 if self.noise is not None else [])
