@@ -32,7 +32,18 @@ def load_case(args):
     from ..io.config import example_case
     from ..io.config import load_case as load
 
-    return load(args.config) if args.config is not None else example_case(args.example)
+    case = load(args.config) if args.config is not None else example_case(args.example)
+    if args.command != "simulate" and getattr(args, "elements", None) is None:
+        check_elements(case, args.command)
+    return case
+
+
+def check_elements(case, command):
+    """Analyses use dense n_elements x n_elements algebra: at most MAX_INVERSION_ELEMENTS elements."""
+    if case.n_elements > MAX_INVERSION_ELEMENTS:
+        raise ConfigError(f"the case has {case.n_elements} elements; {command} handles at most "
+                          f"{MAX_INVERSION_ELEMENTS} (dense algebra on n_elements^2 matrices): lower 'elements' or "
+                          "raise 'element_length' in [bridge]" + (", or give --elements." if command == "invert" else "."))
 
 
 def _number(text, what):

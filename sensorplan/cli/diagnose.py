@@ -28,10 +28,12 @@ def add_arguments(p):
 def run(args, out, files):
     from .. import plotting
     from ..diagnosis.diagnose import diagnose
+    from ..inference.screening import check_not_noise_free
     from ..io.csvio import read_crossings
 
     case = load_case(args)
     data = read_crossings(args.data, case.sensors)
+    check_not_noise_free(case, data, source=str(args.data))
     result = diagnose(case, data, progress=progress(args, "diagnose", "effects") if len(data) * 8 >= 20 else None,
                       check_scale=str(args.data))
     supports = case.bridge.support_positions

@@ -26,11 +26,15 @@ def add_arguments(p):
 
 def run(args, out, files):
     from ..analysis import analyse
+    from ..inference.screening import check_case_data_scale, check_not_noise_free
     from ..io.csvio import read_crossings
     from ..report import render_report
 
     case = load_case(args)
     data = read_crossings(args.data, case.sensors) if args.data is not None else None
+    if data is not None:
+        check_case_data_scale(case, data, source=str(args.data))
+        check_not_noise_free(case, data, source=str(args.data), what="diagnose in the report")
     progress = None if args.quiet else (lambda msg: print(f"sensorplan report: {msg}", file=sys.stderr, flush=True))
     analysis = analyse(case, data=data, count=args.count, criterion=args.criterion, n_scenarios=args.scenarios,
                        seed=args.seed, progress=progress)

@@ -17,6 +17,7 @@ from ..model.loads import LoadSweep, Vehicle
 from ..model.noise import NoiseModel
 from ..model.sensors import SensorLayout
 from ..model.structure import Bridge, Mesh
+from . import plausibility
 
 __all__ = ["load_case", "case_from_dict", "example_case", "EXAMPLES"]
 
@@ -45,7 +46,7 @@ def load_case(path: "str | os.PathLike[str]") -> Case:
     """
     path = Path(path)
     try:
-        text = path.read_bytes().decode("utf-8")
+        text = path.read_bytes().decode("utf-8-sig")  # a byte-order mark (Windows editors) is dropped
     except FileNotFoundError:
         raise ConfigError(f"{path}: file not found. Give the path of a TOML case file.") from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -110,6 +111,7 @@ def case_from_dict(data, *, source="config", name="case"):
     try:
         b = _section(data, "bridge", source)
         bridge = Bridge(b["spans"], _inf(b.get("rotational_springs")), _inf(b.get("vertical_springs")))
+        plausibility.check_bridge(bridge)
         if "elements" in b and "element_length" in b:
             raise ConfigError("give either 'elements' or 'element_length', not both.")
         if "element_length" in b:
@@ -120,6 +122,7 @@ def case_from_dict(data, *, source="config", name="case"):
         section = "vehicle"
         v = _section(data, "vehicle", source)
         vehicle = Vehicle(v["axle_offsets"], v["axle_loads"])
+        plausibility.check_vehicle(vehicle)
         section = "sensors"
         s = _section(data, "sensors", source)
         sensors = _sensors(s, bridge)
@@ -130,6 +133,7 @@ def case_from_dict(data, *, source="config", name="case"):
             noise = NoiseModel(sensors.noise_std, n.get("correlation_length", 0.0))
         elif "correlation_length" in n:
             raise ConfigError("'correlation_length' needs a noise standard deviation in [sensors].")
+        plausibility.check_noise(noise)
         section = "loads"
         lo = _section(data, "loads", source)
         sweep = None
@@ -141,7 +145,13 @@ def case_from_dict(data, *, source="config", name="case"):
         section = "case"
         name = _section(data, "case", source).get("name", name)
         section = "bridge"
-        return Case(bridge, mesh, ei, vehicle, sensors, noise, sweep, str(name))
+        case = Case(bridge, mesh, ei, vehicle, sensors, noise, sweep, str(name))
+        plausibility.check_ei(case.ei)
+        section = "loads"
+        plausibility.check_sweep(case)
+        section = "vehicle"
+        plausibility.check_case(case)
+        return case
     except ConfigError as exc:
         message = str(exc)
         if message.startswith(source):

@@ -16,6 +16,8 @@ from .._validation import as_float, as_float_array
 
 __all__ = ["NoiseModel"]
 
+MAX_RHO = 1.0 - 1e-9
+
 
 @dataclass(frozen=True, eq=False)
 class NoiseModel:
@@ -57,7 +59,8 @@ class NoiseModel:
         positions = np.asarray(positions, dtype=float)
         if self.correlation_length == 0.0:
             return np.zeros(max(positions.size - 1, 0))
-        return np.exp(-np.diff(positions) / self.correlation_length)
+        # Capped below 1: with a correlation length far beyond the load step, 1 - rho^2 would round to 0.
+        return np.minimum(np.exp(-np.diff(positions) / self.correlation_length), MAX_RHO)
 
     def whiten(self, values, positions, sensor_axis=0):
         """Apply Gamma^{-1/2} / std along the load axis (axis ``sensor_axis + 1``).
