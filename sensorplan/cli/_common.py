@@ -69,6 +69,7 @@ def integer(low, high, what="an integer"):
         return value
 
     parse.__name__ = "integer"
+    parse.bounds = (low, high, False, False)  # read by the robustness tests
     return parse
 
 
@@ -84,6 +85,7 @@ def real(low, high, *, what, low_open=False, high_open=False):
         return value
 
     parse.__name__ = "real"
+    parse.bounds = (low, high, low_open, high_open)  # read by the robustness tests
     return parse
 
 

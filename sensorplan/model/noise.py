@@ -57,7 +57,7 @@ class NoiseModel:
     def rho(self, positions):
         """Lag-one correlations between consecutive positions, shape (n_loads - 1,)."""
         positions = np.asarray(positions, dtype=float)
-        if self.correlation_length == 0.0:
+        if self.correlation_length < 1e-12:  # 0, or so short that exp(-step / length) is 0 (and may overflow)
             return np.zeros(max(positions.size - 1, 0))
         # Capped below 1: with a correlation length far beyond the load step, 1 - rho^2 would round to 0.
         return np.minimum(np.exp(-np.diff(positions) / self.correlation_length), MAX_RHO)
