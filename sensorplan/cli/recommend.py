@@ -8,6 +8,7 @@ from ._common import (
     add_case_arguments,
     add_out_arguments,
     check_grid,
+    check_signal,
     integer,
     kind_and_noise,
     load_case,
@@ -56,6 +57,7 @@ def run(args, out, files):
     args.kind, args.noise_std = kind_and_noise(args, case)
     count = case.sensors.n_sensors if args.count is None else args.count
     check_grid(case, args)
+    check_signal(case, args.kind, args.noise_std, args.crossings)
     result = recommend(case, count, args.criterion,
                        grid=CandidateGrid(spacing=args.spacing, exclude=tuple(args.exclude or ())), kind=args.kind, noise_std=args.noise_std, n_crossings=args.crossings,
                        constraints=Constraints(fixed=tuple(args.fixed or ()), min_spacing=args.min_spacing),
