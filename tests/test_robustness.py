@@ -341,6 +341,16 @@ def test_data_without_information_is_refused(tmp_path, capsys, command, func, fi
     assert files_under(tmp_path) == ["data.csv", "hostile.csv"]
 
 
+@pytest.mark.parametrize("factor", ["1e300", "1e-300"])
+def test_absurd_load_factors_blame_the_load_factor(tmp_path, capsys, factor):
+    path = _noisy_csv(tmp_path)
+    head, rows = _rows(path)
+    data = _rewrite(path, lambda r: r + [factor], header=head + ["load_factor"])
+    rc, _, err = run(["invert", *EXAMPLE, "--data", data, "--out", tmp_path / "out"], capsys)
+    assert_one_line_error(rc, err, "invert", ["load_factor"])
+    assert files_under(tmp_path) == ["data.csv", "hostile.csv"]
+
+
 @pytest.mark.parametrize("sep, label", [(";", "semicolon"), ("\t", "tab")])
 def test_delimited_csv_says_so(tmp_path, capsys, sep, label):
     path = _noisy_csv(tmp_path)

@@ -2,6 +2,7 @@
 
 import argparse
 import json
+import os
 import math
 import sys
 from pathlib import Path
@@ -91,7 +92,7 @@ def real(low, high, *, what, low_open=False, high_open=False):
 
 SEED = integer(0, 2**63 - 1, "a non-negative integer seed")
 NOISE_STD = real(0.0, 1.0, what="a noise std in SI units (rad or m)", low_open=True)
-MAX_POSITIONS = 10_000
+MAX_POSITIONS = 1_000
 
 
 def parse_positions(text):
@@ -124,6 +125,7 @@ def parse_zones(text):
 
 
 MAX_CROSSINGS = 10_000
+MAX_WORKERS = min(16, max(4, os.cpu_count() or 1))  # each worker holds its own copy of the case
 MAX_SCENARIOS = 200
 MAX_INVERSION_ELEMENTS = 400
 MAX_CANDIDATES = 2_000
