@@ -329,6 +329,7 @@ HOSTILE_DATA = [
     ("positions-in-mm", lambda r: [r[0], float(r[1]) * 1000, r[2], r[3]], ["position_m", "mm"]),
     ("vehicle-never-on-the-bridge", lambda r: [r[0], float(r[1]) + 100, r[2], r[3]], ["position_m", "bridge"]),
     ("readings-x1000", lambda r: [r[0], r[1], float(r[2]) * 1000, float(r[3]) * 1000], ["PE1"]),
+    ("readings-x1e-300", lambda r: [r[0], r[1], float(r[2]) * 1e-300, float(r[3]) * 1e-300], ["PE1", "unit slip"]),
 ]
 
 

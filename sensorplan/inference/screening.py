@@ -63,18 +63,24 @@ def check_data_scale(crossings, predictions, names, *, factor=30.0, source="data
     from .._errors import DataError
 
     for i, name in enumerate(names):
-        data_rms = np.sqrt(np.mean(np.concatenate([c.values[i] / c.load_factor for c in crossings]) ** 2))
-        model_rms = np.sqrt(np.mean(np.asarray(predictions[name]) ** 2))
+        data_rms = _rms(np.concatenate([c.values[i] / c.load_factor for c in crossings]))
+        model_rms = _rms(np.asarray(predictions[name]))
         if model_rms == 0.0 or data_rms == 0.0:
             continue
         ratio = data_rms / model_rms
         if ratio > factor or ratio < 1.0 / factor:
-            case_side = ("EI given in N m^2 but the loads in kN" if ratio > factor
-                         else "EI in kN m^2 or axle loads in N where kN were meant")
+            case_side = ("axle loads in kN instead of N, or EI too large" if ratio > factor
+                         else "EI in kN m^2 instead of N m^2, or axle loads too large")
             raise DataError(
                 f"{source}: column '{name}' is {ratio:.3g} times the model's prediction at nominal EI; "
                 "this looks like a unit slip (values must be rad for rotation, m for deflection; or, in the "
                 f"case, {case_side}).")
+
+
+def _rms(values):
+    """Root mean square without underflow (readings of 1e-300 square to 0)."""
+    top = float(np.max(np.abs(values))) if values.size else 0.0
+    return 0.0 if top == 0.0 else top * float(np.sqrt(np.mean((values / top) ** 2)))
 
 
 def check_case_data_scale(case, crossings, *, source="data"):

@@ -149,8 +149,10 @@ def case_from_dict(data, *, source="config", name="case"):
         plausibility.check_ei(case.ei)
         section = "loads"
         plausibility.check_sweep(case)
+        section = "bridge"
+        lines = plausibility.check_case(case)
         section = "vehicle"
-        plausibility.check_case(case)
+        plausibility.check_signal(case, lines)
         return case
     except ConfigError as exc:
         message = str(exc)

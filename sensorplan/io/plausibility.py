@@ -26,7 +26,7 @@ import numpy as np
 
 from .._errors import ConfigError
 
-__all__ = ["BOUNDS", "check_bridge", "check_vehicle", "check_noise", "check_case"]
+__all__ = ["BOUNDS", "check_bridge", "check_vehicle", "check_noise", "check_case", "check_signal"]
 
 BOUNDS = {
     "span": (0.5, 2000.0),
@@ -105,8 +105,13 @@ def check_sweep(case):
 
 
 def check_case(case):
-    """Readings the case predicts: plausible for a bridge in service, and above the noise."""
+    """Readings the case predicts: plausible for a bridge in service (blames EI), and above the noise."""
     lines = case.influence_lines()
+    check_readings(case, lines)
+    return lines
+
+
+def check_readings(case, lines):
     peaks = np.max(np.abs(lines.predictions), axis=1)
     for name, kind, peak in zip(case.sensors.names, case.sensors.kinds, peaks):
         limit, unit = READING_LIMITS[kind]
@@ -115,6 +120,10 @@ def check_case(case):
                 f"the case predicts readings of {peak:g} {unit} at sensor {name}, beyond any bridge in service "
                 f"({limit:g} {unit}): is EI in kN m^2 instead of N m^2, or are the axle loads too large "
                 "(in N, not in kg or 1e3 N)?")
+
+
+def check_signal(case, lines):
+    """Refuse a case whose sensors would read nothing but noise (axle loads in kN, noise in another unit)."""
     if case.noise is None:
         return
     snr = np.sqrt(np.sum(lines.predictions**2, axis=1)) / case.noise.std
