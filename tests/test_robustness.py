@@ -543,3 +543,22 @@ def test_the_example_cases_pass_their_own_bounds():
         case = example_case(name)
         assert tomllib.loads(_example_text(name))["bridge"]["spans"]
         assert case.sweep.n_loads > 0
+
+
+def test_out_inside_an_existing_file_names_the_file(tmp_path, capsys):
+    blocker = tmp_path / "afile"
+    blocker.write_text("x", encoding="utf-8")
+    rc, _, err = run(["informativeness", *EXAMPLE, "--out", blocker / "sub"], capsys)
+    assert_one_line_error(rc, err, "informativeness", [str(blocker), "is a file"])
+    assert files_under(tmp_path) == ["afile"]
+
+
+def test_folders_given_as_files_give_one_line_errors(tmp_path, capsys):
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    for argv, field in ([["simulate", "--config", folder, "--out", tmp_path / "x.csv"], "folder"],
+                        [["invert", *EXAMPLE, "--data", folder, "--out", tmp_path / "o"], "folder"],
+                        [["simulate", *EXAMPLE, "--out", folder], "folder"]):
+        rc, _, err = run(argv, capsys)
+        assert_one_line_error(rc, err, argv[0], [field])
+    assert files_under(tmp_path) == ["folder"]
