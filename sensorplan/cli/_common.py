@@ -44,7 +44,8 @@ def check_elements(case, command):
     if case.n_elements > MAX_INVERSION_ELEMENTS:
         raise ConfigError(f"the case has {case.n_elements} elements; {command} handles at most "
                           f"{MAX_INVERSION_ELEMENTS} (dense algebra on n_elements^2 matrices): lower 'elements' or "
-                          "raise 'element_length' in [bridge]" + (", or give --elements." if command == "invert" else "."))
+                          "raise 'element_length' in [bridge]"
+                          + (", or give --elements." if command == "invert" else "."))
 
 
 def _number(text, what):
@@ -91,6 +92,10 @@ def real(low, high, *, what, low_open=False, high_open=False):
 
 
 SEED = integer(0, 2**63 - 1, "a non-negative integer seed")
+COUNT = integer(1, 1000)
+FALSE_ALARM = real(0.0, 0.5, what="a false-alarm rate", low_open=True, high_open=True)
+LENGTH = real(0.0, 2000.0, what="a length in m", low_open=True)
+DISTANCE = real(0.0, 2000.0, what="a distance in m")
 NOISE_STD = real(0.0, 1.0, what="a noise std in SI units (rad or m)", low_open=True)
 MAX_POSITIONS = 1_000
 
@@ -219,9 +224,10 @@ def check_signal(case, kind, noise_std, n_crossings):
     lines = case.influence_lines(sensors=SensorLayout.candidates(grid, kind))
     snr = float(np.max(np.sqrt(np.sum(lines.predictions**2, axis=1) * n_crossings)) / noise_std)
     if snr < MIN_SNR:
-        raise ConfigError(f"with a noise std of {noise_std:g} and {n_crossings} crossing(s) no {kind} sensor position "
-                          f"sees the vehicle above the noise (best signal-to-noise {snr:.2g}, below {MIN_SNR:g}): every layout would be "
-                          "certified by the prior alone; lower --noise-std or raise --crossings.")
+        raise ConfigError(f"with a noise std of {noise_std:g} and {n_crossings} crossing(s) no {kind} sensor "
+                          f"position sees the vehicle above the noise (best signal-to-noise {snr:.2g}, below "
+                          f"{MIN_SNR:g}): every layout would be certified by the prior alone; lower --noise-std or "
+                          "raise --crossings.")
 
 
 def progress(args, label, unit="scenarios"):

@@ -1,12 +1,14 @@
 """``sensorplan detectability``: where along the bridge a local EI loss can be detected at all."""
 
 from ._common import (
+    FALSE_ALARM,
+    LENGTH,
     MAX_CROSSINGS,
     add_case_arguments,
     add_out_arguments,
+    check_layouts,
     check_length,
     check_step,
-    check_layouts,
     integer,
     load_case,
     parse_positions,
@@ -29,16 +31,19 @@ def add_arguments(p):
                    help="sensor positions in m, e.g. 3.5,8,12 (default: the case's sensors)")
     p.add_argument("--kind", choices=["rotation", "deflection"],
                    help="kind of the --layout sensors (default: the kind of the case's sensors)")
-    p.add_argument("--severity", type=real(0.0, 1.0, what="a fraction of EI", low_open=True, high_open=True), default=0.25,
+    p.add_argument("--severity", type=real(0.0, 1.0, what="a fraction of EI", low_open=True, high_open=True),
+                   default=0.25,
                    help="fraction of EI lost over the damaged zone, in (0, 1) (default 0.25)")
-    p.add_argument("--length", type=real(0.0, 2000.0, what="a length in m", low_open=True), default=2.0, help="length of the damaged zone in m (default 2)")
-    p.add_argument("--false-alarm", type=real(0.0, 0.5, what="a false-alarm rate", low_open=True, high_open=True), default=0.05,
+    p.add_argument("--length", type=LENGTH, default=2.0, help="length of the damaged zone in m (default 2)")
+    p.add_argument("--false-alarm", type=FALSE_ALARM, default=0.05,
                    help="false alarm rate of the detector, in (0, 0.5) (default 0.05)")
-    p.add_argument("--crossings", type=integer(1, MAX_CROSSINGS), default=10, help="number of identical crossings (default 10)")
+    p.add_argument("--crossings", type=integer(1, MAX_CROSSINGS), default=10,
+                   help="number of identical crossings (default 10)")
     p.add_argument("--nuisance", choices=["smooth", "levels"], default="smooth",
                    help="what must not be mistaken for damage, besides elastic springs: a quadratic log-EI "
                         "trend per span (smooth, default) or one EI factor per span (levels)")
-    p.add_argument("--step", type=real(0.0, 2000.0, what="a step in m", low_open=True), default=0.5, help="spacing of the damage centres in m (default 0.5)")
+    p.add_argument("--step", type=LENGTH, default=0.5,
+                   help="spacing of the damage centres in m (default 0.5)")
     add_out_arguments(p, json_default="detectability.json")
 
 

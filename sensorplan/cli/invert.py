@@ -4,12 +4,12 @@ import sys
 from pathlib import Path
 
 from ._common import (
+    FALSE_ALARM,
     MAX_INVERSION_ELEMENTS,
+    SEED,
     add_case_arguments,
     add_out_arguments,
     integer,
-    SEED,
-    real,
     load_case,
     stage_figure,
     stage_json,
@@ -26,8 +26,9 @@ EPILOG = """example:
 def add_arguments(p):
     add_case_arguments(p)
     p.add_argument("--data", type=Path, required=True, help="crossings CSV (crossing,position_m,<sensors>)")
-    p.add_argument("--elements", type=integer(1, MAX_INVERSION_ELEMENTS), help="number of elements of the inversion mesh")
-    p.add_argument("--false-alarm", type=real(0.0, 0.5, what="a false-alarm rate", low_open=True, high_open=True), default=0.05,
+    p.add_argument("--elements", type=integer(1, MAX_INVERSION_ELEMENTS),
+                   help="number of elements of the inversion mesh")
+    p.add_argument("--false-alarm", type=FALSE_ALARM, default=0.05,
                    help="false-alarm rate of the damage detector on undamaged bridges (default 0.05)")
     p.add_argument("--nuisance", choices=["smooth", "levels"], default="smooth",
                    help="what an undamaged bridge may do: a smooth EI trend per span (default) or one EI "

@@ -2,6 +2,9 @@
 
 
 from ._common import (
+    COUNT,
+    DISTANCE,
+    LENGTH,
     MAX_CROSSINGS,
     NOISE_STD,
     SEED,
@@ -14,7 +17,6 @@ from ._common import (
     load_case,
     parse_positions,
     parse_zones,
-    real,
     stage_figure,
     stage_json,
 )
@@ -31,17 +33,18 @@ def add_arguments(p):
     from ..design.criteria import CRITERIA
 
     add_case_arguments(p)
-    p.add_argument("--count", type=integer(1, 1000), help="number of new sensors R (default: as many as the case has)")
+    p.add_argument("--count", type=COUNT, help="number of new sensors R (default: as many as the case has)")
     p.add_argument("--criterion", choices=list(CRITERIA), default="D", help="design criterion (default D)")
-    p.add_argument("--spacing", type=real(0.0, 2000.0, what="a spacing in m", low_open=True), default=0.5, help="candidate grid spacing in m (default 0.5)")
+    p.add_argument("--spacing", type=LENGTH, default=0.5, help="candidate grid spacing in m (default 0.5)")
     p.add_argument("--exclude", type=parse_zones, help="exclusion zones start:stop in m, e.g. 14:16,29:30")
     p.add_argument("--fixed", type=parse_positions, help="existing sensors in m, e.g. 11,19")
-    p.add_argument("--min-spacing", type=real(0.0, 2000.0, what="a distance in m"), default=0.0, help="minimum distance between sensors in m")
+    p.add_argument("--min-spacing", type=DISTANCE, default=0.0, help="minimum distance between sensors in m")
     p.add_argument("--kind", choices=["rotation", "deflection"],
                    help="sensor kind (default: the kind of the case's sensors)")
     p.add_argument("--noise-std", type=NOISE_STD,
                    help="noise std of the new sensors in SI units (rad or m); default: the case's sensors'")
-    p.add_argument("--crossings", type=integer(1, MAX_CROSSINGS), default=1, help="crossings per measurement campaign (default 1)")
+    p.add_argument("--crossings", type=integer(1, MAX_CROSSINGS), default=1,
+                   help="crossings per measurement campaign (default 1)")
     p.add_argument("--springs", action="store_true", help="treat the spring stiffnesses as nuisance parameters")
     p.add_argument("--solver", choices=["auto", "fast", "cvxpy"], default="auto", help="relaxation solver")
     p.add_argument("--seed", type=SEED, default=0, help="seed of the random baseline (default 0)")

@@ -3,7 +3,14 @@
 import sys
 from pathlib import Path
 
-from ._common import MAX_SCENARIOS, SEED, add_case_arguments, integer, load_case
+from ._common import (
+    COUNT,
+    MAX_SCENARIOS,
+    SEED,
+    add_case_arguments,
+    integer,
+    load_case,
+)
 
 NAME = "report"
 HELP = "one self-contained HTML report: model, layout, verification, data"
@@ -17,9 +24,10 @@ def add_arguments(p):
 
     add_case_arguments(p)
     p.add_argument("--data", type=Path, help="measured crossings CSV (adds identified EI and the gap diagnosis)")
-    p.add_argument("--count", type=integer(1, 1000), help="number of sensors to place (default: as many as the case has)")
+    p.add_argument("--count", type=COUNT, help="number of sensors to place (default: as many as the case has)")
     p.add_argument("--criterion", choices=list(CRITERIA), default="D", help="design criterion (default D)")
-    p.add_argument("--scenarios", type=integer(1, MAX_SCENARIOS), default=6, help="damage locations in the verification (default 6)")
+    p.add_argument("--scenarios", type=integer(1, MAX_SCENARIOS), default=6,
+                   help="damage locations in the verification (default 6)")
     p.add_argument("--seed", type=SEED, default=0, help="random seed (default 0)")
     p.add_argument("--out", type=Path, required=True, help="output folder (report.html)")
 

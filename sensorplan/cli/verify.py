@@ -28,7 +28,8 @@ def add_verify_arguments(p, *, with_flag):
     if with_flag:
         p.add_argument("--verify", action="store_true",
                        help="verify the layout and the baselines by inversion of synthetic damage")
-    p.add_argument("--scenarios", type=integer(1, MAX_SCENARIOS), default=8, help="damage locations scanned (default 8)")
+    p.add_argument("--scenarios", type=integer(1, MAX_SCENARIOS), default=8,
+                   help="damage locations scanned (default 8)")
     p.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1, help="worker processes (default 1)")
     p.add_argument("--verify-crossings", type=integer(1, 1000), default=10,
                    help="crossings simulated per scenario (default 10)")
