@@ -242,6 +242,11 @@ def progress(args, label, unit="scenarios"):
     return report
 
 
+def safe_name(name):
+    """``name`` as a file-name part: anything but letters, digits, '.', '-' and '_' becomes '_'."""
+    return "".join(ch if ch.isascii() and (ch.isalnum() or ch in "._-") else "_" for ch in name)
+
+
 def stage_json(files, path, payload):
     return files.write_text(path, json.dumps(payload, indent=2) + "\n")
 

@@ -11,6 +11,7 @@ from ._common import (
     add_out_arguments,
     integer,
     load_case,
+    safe_name,
     stage_figure,
     stage_json,
 )
@@ -62,7 +63,7 @@ def run(args, out, files):
     figures = [stage_figure(files, plotting.plot_ei_posterior(result, supports=case.bridge.support_positions),
                             args.out / "ei_posterior.png")]
     for name in result.sensor_names:
-        figures.append(stage_figure(files, plotting.plot_fit(result, name), args.out / f"fit_{name}.png"))
+        figures.append(stage_figure(files, plotting.plot_fit(result, name), args.out / f"fit_{safe_name(name)}.png"))
     json_path = stage_json(files, args.json or args.out / "posterior.json", result.to_dict())
     out(result.summary())
     out(f"posterior written to {json_path}; figures: " + ", ".join(str(p) for p in figures))

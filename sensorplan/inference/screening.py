@@ -94,17 +94,21 @@ def check_case_data_scale(case, crossings, *, source="data"):
     from .._errors import DataError
 
     _check_positions(case, crossings, source)
-    for i, name in enumerate(crossings.sensor_names):
-        values = np.concatenate([c.values[i] for c in crossings])
-        if np.ptp(values) <= 1e-12 * np.max(np.abs(values)):
-            raise DataError(f"{source}: column '{name}' is constant ({values[0]:g} in every row): a dead or "
-                            "disconnected channel carries no information; remove the column.")
     sensors = case.sensors.subset([case.sensors.names.index(n) for n in crossings.sensor_names])
     predicted = {}
     for c in crossings:
         key = c.positions.tobytes()
         if key not in predicted:
             predicted[key] = case.influence_lines(sensors=sensors, positions=c.positions).predictions
+    for i, name in enumerate(crossings.sensor_names):
+        # A channel is dead when its readings stay constant where the model predicts them to change.
+        values = np.concatenate([c.values[i] for c in crossings])
+        model = np.concatenate([predicted[c.positions.tobytes()][i] * c.load_factor for c in crossings])
+        if (values.size >= 3 and np.ptp(values) <= 1e-12 * np.max(np.abs(values))
+                and np.ptp(model) > 1e-6 * np.max(np.abs(model))):
+            raise DataError(f"{source}: column '{name}' is constant ({values[0]:g} in every row) where the model "
+                            "predicts it to change: a dead or disconnected channel carries no information; remove "
+                            "the column.")
     nominal = predicted[crossings.crossings[0].positions.tobytes()]
     check_data_scale(crossings, dict(zip(crossings.sensor_names, nominal)), crossings.sensor_names,
                      source=source)

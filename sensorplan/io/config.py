@@ -15,7 +15,7 @@ from .._errors import ConfigError
 from ..model.case import NOISE_STD_RANGE, Case
 from ..model.loads import LoadSweep, Vehicle
 from ..model.noise import NoiseModel
-from ..model.sensors import SensorLayout
+from ..model.sensors import SensorLayout, check_file_name
 from ..model.structure import Bridge, Mesh
 from . import plausibility
 
@@ -167,6 +167,8 @@ def _sensors(s, bridge):
         positions = [positions]
     kinds = s.get("kinds")
     layout = SensorLayout(positions, kinds, s.get("names"))
+    for sensor in layout.names:
+        check_file_name(sensor)
     bridge.check_on_bridge(layout.positions, "positions", "SensorLayout")
     given = [k for k in ("noise_std", *_TILT_UNITS, *_DEFLECTION_UNITS) if k in s]
     if len(given) > 1:

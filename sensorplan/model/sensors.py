@@ -19,20 +19,30 @@ _MAX_NAME = 64
 
 
 def _check_name(name):
-    """A sensor name is a CSV column and part of file names (fit_NAME.png): keep it safe for both."""
+    """A sensor name is a CSV column and part of figure names (the CLI replaces unsafe characters there)."""
     problem = None
     if name.lower() in RESERVED_NAMES:
         problem = "is a reserved column of the crossings CSV"
-    elif any(ch in name for ch in '/\\') or name in {".", ".."}:
-        problem = "contains a path separator or is '.' or '..' (it becomes part of a file name)"
+    elif name in {".", ".."}:
+        problem = "is '.' or '..'"
     elif any(not ch.isprintable() for ch in name):
         problem = "contains a control character (newline, tab, ...)"
-    elif any(ch in name for ch in '"\'<>|:*?'):
-        problem = "contains a quote or one of < > | : * ? (not allowed in file names)"
     elif len(name) > _MAX_NAME:
         problem = f"is longer than {_MAX_NAME} characters"
     if problem:
         raise ConfigError(f"The sensor name {name!r} {problem}; rename the sensor in the 'names' of [sensors].")
+
+
+def check_file_name(name):
+    """Refuse a name that would be unsafe as part of a file name (case files: names become figure names)."""
+    if any(ch in name for ch in '/\\'):
+        problem = "contains a path separator"
+    elif any(ch in name for ch in '"\'<>|:*?'):
+        problem = "contains a quote or one of < > | : * ?"
+    else:
+        return
+    raise ConfigError(f"The sensor name {name!r} {problem} (names become parts of file names); rename the sensor "
+                      "in the 'names' of [sensors].")
 
 
 def _as_tuple(values):
