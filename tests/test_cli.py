@@ -208,7 +208,7 @@ def test_recommend_exclusion_and_fixed_options(tmp_path, capsys):
 
 
 def test_recommend_bad_zone_is_a_usage_error(tmp_path, capsys):
-    assert main(["recommend", "--example", "openlab-like", "--exclude", "14-16", "--out", str(tmp_path)]) == 2
+    assert main(["recommend", "--example", "openlab-like", "--exclude", "14-16", "--out", str(tmp_path)]) == 1
     assert "start:stop" in capsys.readouterr().err
 
 

@@ -4,8 +4,9 @@ The CLI parses arguments, calls one public function per command, prints
 its ``summary()`` and writes its files through :class:`OutputFiles` (all
 or nothing).  Each command is a module here with ``NAME``, ``HELP``,
 ``EPILOG``, ``add_arguments(parser)`` and ``run(args, out, files)``.
-Exit codes: 0 success, 1 user error (one line on stderr), 2 usage error.
-Tracebacks are shown only with ``--debug``.
+Exit codes: 0 success, 1 user error or usage error (one line on stderr
+naming the option or the field and the fix).  Tracebacks are shown only
+with ``--debug``.
 
 Owns: argument parsing, console output, exit codes.
 May import: every other layer (it is the top one).
@@ -14,19 +15,42 @@ May import: every other layer (it is the top one).
 import argparse
 import os
 import sys
+import warnings
 
 from .._errors import SensorplanError
-from . import crossings, detectability, diagnose, informativeness, invert, recommend, report, simulate, verify
+from . import (
+    crossings,
+    detectability,
+    diagnose,
+    informativeness,
+    invert,
+    recommend,
+    report,
+    simulate,
+    verify,
+)
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 COMMANDS = (simulate, crossings, informativeness, detectability, invert, recommend, verify, diagnose, report)
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line and exit code 1.
+
+    argparse prints its usage block and exits with 2; the project's rule is
+    one line on stderr naming the option and the fix, exit code 1.
+    """
+
+    def error(self, message):
+        message = " ".join(str(message).split())
+        self.exit(1, f"{self.prog}: error: {message} (see `{self.prog} --help`)\n")
+
+
 def build_parser():
     from .. import __version__
 
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="sensorplan",
         description="Sensor placement and Bayesian EI identification for bridges.")
     parser.add_argument("--version", action="version", version=f"sensorplan {__version__}")
@@ -70,17 +94,44 @@ def main(argv=None):
         lines.append(" ".join(str(p) for p in parts))
 
     try:
-        with OutputFiles() as files:
-            code = args.handler(args, out, files)
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line_warning(args.command)
+            with OutputFiles() as files:
+                code = args.handler(args, out, files)
         if not args.quiet:
             print("\n".join(lines))
         return code
     except (SensorplanError, OSError) as exc:
-        if args.debug:
-            raise
-        message = " ".join(str(exc).split())
-        print(f"sensorplan {args.command}: error: {message}", file=sys.stderr)
-        return 1
+        return _fail(args, _one_line(exc))
+    except MemoryError:
+        return _fail(args, "not enough memory for this problem; use fewer elements (--elements, [bridge] elements), "
+                           "a coarser candidate grid (--spacing), fewer load positions ([loads] step) or fewer "
+                           "crossings/scenarios.")
+    except (ValueError, ArithmeticError, RuntimeError) as exc:
+        # A last line of defence: an input that passed every check but broke a
+        # numerical step.  Still one line, naming what failed.
+        return _fail(args, f"numerical failure ({type(exc).__name__}: {_one_line(exc)}); the case or the options "
+                           "are probably outside the range the model handles (see docs/limitations.md); rerun "
+                           "with --debug for the traceback.")
     except KeyboardInterrupt:
         print("sensorplan: interrupted", file=sys.stderr)
         return 130
+
+
+def _one_line(exc):
+    return " ".join(str(exc).split())
+
+
+def _fail(args, message):
+    if args.debug:
+        raise
+    print(f"sensorplan {args.command}: error: {message}", file=sys.stderr)
+    return 1
+
+
+def _one_line_warning(command):
+    def show(message, category, filename, lineno, file=None, line=None):
+        text = " ".join(str(message).split())
+        print(f"sensorplan {command}: warning: {text}", file=sys.stderr)
+
+    return show

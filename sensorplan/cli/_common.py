@@ -2,8 +2,12 @@
 
 import argparse
 import json
+import math
+import os
 import sys
 from pathlib import Path
+
+from .._errors import ConfigError
 
 __all__ = []
 
@@ -29,17 +33,84 @@ def load_case(args):
     from ..io.config import example_case
     from ..io.config import load_case as load
 
-    return load(args.config) if args.config is not None else example_case(args.example)
+    case = load(args.config) if args.config is not None else example_case(args.example)
+    if args.command != "simulate" and getattr(args, "elements", None) is None:
+        check_elements(case, args.command)
+    return case
+
+
+def check_elements(case, command):
+    """Analyses use dense n_elements x n_elements algebra: at most MAX_INVERSION_ELEMENTS elements."""
+    if case.n_elements > MAX_INVERSION_ELEMENTS:
+        raise ConfigError(f"the case has {case.n_elements} elements; {command} handles at most "
+                          f"{MAX_INVERSION_ELEMENTS} (dense algebra on n_elements^2 matrices): lower 'elements' or "
+                          "raise 'element_length' in [bridge]"
+                          + (", or give --elements." if command == "invert" else "."))
+
+
+def _number(text, what):
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected {what}; got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number ({what}); got {text!r}")
+    return value
+
+
+def integer(low, high, what="an integer"):
+    """An argparse type: an integer in [low, high], with a message naming the range."""
+
+    def parse(text):
+        try:
+            value = int(text.strip())
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what} from {low} to {high}; got {text!r}") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"expected {what} from {low} to {high}; got {text!r}")
+        return value
+
+    parse.__name__ = "integer"
+    parse.bounds = (low, high, False, False)  # read by the robustness tests
+    return parse
+
+
+def real(low, high, *, what, low_open=False, high_open=False):
+    """An argparse type: a finite float in [low, high] (ends open when asked)."""
+    left, right = "(" if low_open else "[", ")" if high_open else "]"
+    interval = f"in {left}{low:g}, {high:g}{right}"
+
+    def parse(text):
+        value = _number(text, f"{what} {interval}")
+        if value < low or value > high or (low_open and value == low) or (high_open and value == high):
+            raise argparse.ArgumentTypeError(f"expected {what} {interval}; got {text!r}")
+        return value
+
+    parse.__name__ = "real"
+    parse.bounds = (low, high, low_open, high_open)  # read by the robustness tests
+    return parse
+
+
+SEED = integer(0, 2**63 - 1, "a non-negative integer seed")
+COUNT = integer(1, 1000)
+FALSE_ALARM = real(0.0, 0.5, what="a false-alarm rate", low_open=True, high_open=True)
+LENGTH = real(0.0, 2000.0, what="a length in m", low_open=True)
+SEVERITY = real(0.0, 1.0, what="a fraction of EI lost", low_open=True, high_open=True)
+DISTANCE = real(0.0, 2000.0, what="a distance in m")
+NOISE_STD = real(0.0, 1.0, what="a noise std in SI units (rad or m)", low_open=True)
+MAX_POSITIONS = 1_000
 
 
 def parse_positions(text):
-    try:
-        values = [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected comma-separated positions in m, e.g. 2.5,5,10; got {text!r}") from None
+    parts = [v for v in text.split(",") if v.strip()]
+    values = [_number(v, "comma-separated positions in m, e.g. 2.5,5,10") for v in parts]
     if not values:
-        raise argparse.ArgumentTypeError("give at least one position in m")
+        raise argparse.ArgumentTypeError("give at least one position in m, e.g. 2.5,5,10")
+    if len(values) > MAX_POSITIONS:
+        raise argparse.ArgumentTypeError(f"give at most {MAX_POSITIONS} positions; got {len(values)}")
+    if len(set(values)) != len(values):
+        dup = next(v for v in values if values.count(v) > 1)
+        raise argparse.ArgumentTypeError(f"position {dup:g} m is given twice; give each position once")
     return values
 
 
@@ -51,14 +122,113 @@ def parse_zones(text):
         except ValueError:
             raise argparse.ArgumentTypeError(
                 f"expected zones as start:stop in m, e.g. 14:16,29:30; got {part!r}") from None
+        if not (math.isfinite(a) and math.isfinite(b)):
+            raise argparse.ArgumentTypeError(f"zone {part!r} must have finite ends in m, e.g. 14:16")
+        if b < a:
+            raise argparse.ArgumentTypeError(f"zone {part!r} ends before it starts; write it as {b:g}:{a:g}")
         zones.append((a, b))
     return zones
+
+
+MAX_CROSSINGS = 10_000
+MAX_WORKERS = min(16, max(4, os.cpu_count() or 1))  # each worker holds its own copy of the case
+MAX_SCENARIOS = 200
+MAX_INVERSION_ELEMENTS = 400
+MAX_CANDIDATES = 2_000
+MAX_CENTRES = 2_000
+MAX_FISHER_BYTES = 2**30
+MIN_SNR = 3.0
+
+
+def check_layouts(case, layouts, option):
+    """Every position of every layout on the bridge; the error names ``option``."""
+    for layout in layouts:
+        case.bridge.check_on_bridge(layout, option.lstrip("-"), option)
+
+
+def _count(length, step):
+    return length / step if step > 0 else math.inf
+
+
+def check_step(case, step, option):
+    """A step along the bridge: at most the bridge length, at most MAX_CENTRES steps."""
+    length = case.bridge.length
+    if step > length:
+        raise ConfigError(f"{option} {step:g} m is longer than the bridge ({length:g} m); give a step below "
+                          f"{length:g} m.")
+    if _count(length, step) > MAX_CENTRES:
+        raise ConfigError(f"{option} {step:g} m gives {_count(length, step):.3g} positions on the "
+                          f"{length:g} m bridge, more than {MAX_CENTRES}; use {option} >= {length / MAX_CENTRES:.3g}.")
+
+
+def check_length(case, length, option):
+    if length > case.bridge.length:
+        raise ConfigError(f"{option} {length:g} m is longer than the bridge ({case.bridge.length:g} m).")
+
+
+def check_grid(case, args):
+    """The recommend options against the bridge: candidate count, zones, --fixed, --min-spacing."""
+    length = case.bridge.length
+    check_step(case, args.spacing, "--spacing")
+    if _count(length, args.spacing) > MAX_CANDIDATES:
+        raise ConfigError(f"--spacing {args.spacing:g} m gives more than {MAX_CANDIDATES} candidates; "
+                          f"use --spacing >= {length / MAX_CANDIDATES:.3g}.")
+    n_params = case.n_elements + (len(case.bridge.spring_parameters) if getattr(args, "springs", False) else 0)
+    needed = (length / args.spacing + 1.0) * n_params**2 * 8.0
+    if needed > MAX_FISHER_BYTES:
+        raise ConfigError(f"--spacing {args.spacing:g} m gives about {length / args.spacing + 1:.0f} candidates whose "
+                          f"Fisher blocks ({n_params} parameters) need {needed / 2**30:.2g} GiB, more than "
+                          f"{MAX_FISHER_BYTES / 2**30:g} GiB; use a larger --spacing or fewer elements.")
+    if args.min_spacing > length:
+        raise ConfigError(f"--min-spacing {args.min_spacing:g} m is longer than the bridge ({length:g} m).")
+    zones = tuple(args.exclude or ())
+    for a, b in zones:
+        if b < 0.0 or a > length:
+            raise ConfigError(f"--exclude zone {a:g}:{b:g} lies off the bridge (0 to {length:g} m).")
+    fixed = list(args.fixed or ())
+    if not fixed:
+        return
+    case.bridge.check_on_bridge(fixed, "fixed", "--fixed")
+    for x in fixed:
+        for a, b in zones:
+            if a <= x <= b:
+                raise ConfigError(f"--fixed sensor at {x:g} m lies inside the --exclude zone {a:g}:{b:g}; an "
+                                  "existing sensor cannot sit in an excluded zone: correct --fixed or --exclude.")
+    ordered = sorted(fixed)
+    for a, b in zip(ordered, ordered[1:]):
+        if b - a < args.min_spacing:
+            raise ConfigError(f"--fixed sensors at {a:g} and {b:g} m are closer than --min-spacing "
+                              f"{args.min_spacing:g} m; lower --min-spacing or correct --fixed.")
 
 
 def kind_and_noise(args, case):
     """The kind of new sensors and their noise std (the case's rule, see Case.noise_std_for)."""
     kind = args.kind or case.default_kind
     return kind, case.noise_std_for(kind, args.noise_std)
+
+
+def check_signal(case, kind, noise_std, n_crossings):
+    """Refuse a design where no sensor position sees the vehicle above the noise.
+
+    The Fisher information a sensor adds about log EI is about the sum of its
+    squared predicted readings over the noise variance (the readings are
+    homogeneous of degree -1 in EI); below 3^2 for the best position over all
+    crossings, the prior dominates and every layout is "certified" trivially
+    (openlab-like at 1e-4 rad: signal-to-noise 2.4, every baseline within
+    0.2 % of the recommended layout).
+    """
+    import numpy as np
+
+    from ..model.sensors import SensorLayout
+
+    grid = np.linspace(0.0, case.bridge.length, 201)
+    lines = case.influence_lines(sensors=SensorLayout.candidates(grid, kind))
+    snr = float(np.max(np.sqrt(np.sum(lines.predictions**2, axis=1) * n_crossings)) / noise_std)
+    if snr < MIN_SNR:
+        raise ConfigError(f"with a noise std of {noise_std:g} and {n_crossings} crossing(s) no {kind} sensor "
+                          f"position sees the vehicle above the noise (best signal-to-noise {snr:.2g}, below "
+                          f"{MIN_SNR:g}): every layout would be certified by the prior alone; lower --noise-std or "
+                          "raise --crossings.")
 
 
 def progress(args, label, unit="scenarios"):
@@ -71,6 +241,11 @@ def progress(args, label, unit="scenarios"):
             print(f"sensorplan {label}: {done}/{total} {unit}", file=sys.stderr, flush=True)
 
     return report
+
+
+def safe_name(name):
+    """``name`` as a file-name part: anything but letters, digits, '.', '-' and '_' becomes '_'."""
+    return "".join(ch if ch.isascii() and (ch.isalnum() or ch in "._-") else "_" for ch in name)
 
 
 def stage_json(files, path, payload):

@@ -39,8 +39,8 @@ def run(args, out, files):
     from ..acquisition import extract_crossings
     from ..io.config import load_logger_format
     from ..io.csvio import format_crossings
-    from ._common import load_case
     from ..io.logger import read_axle_times, read_timeseries
+    from ._common import load_case
 
     case = load_case(args)
     series = read_timeseries(args.timeseries, case.sensors, load_logger_format(args.config))

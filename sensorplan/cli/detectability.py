@@ -1,6 +1,21 @@
 """``sensorplan detectability``: where along the bridge a local EI loss can be detected at all."""
 
-from ._common import add_case_arguments, add_out_arguments, load_case, parse_positions, stage_figure, stage_json
+from ._common import (
+    FALSE_ALARM,
+    LENGTH,
+    MAX_CROSSINGS,
+    add_case_arguments,
+    add_out_arguments,
+    check_layouts,
+    check_length,
+    check_step,
+    integer,
+    load_case,
+    parse_positions,
+    real,
+    stage_figure,
+    stage_json,
+)
 
 NAME = "detectability"
 HELP = "detection power and minimum detectable EI loss along the bridge"
@@ -16,16 +31,19 @@ def add_arguments(p):
                    help="sensor positions in m, e.g. 3.5,8,12 (default: the case's sensors)")
     p.add_argument("--kind", choices=["rotation", "deflection"],
                    help="kind of the --layout sensors (default: the kind of the case's sensors)")
-    p.add_argument("--severity", type=float, default=0.25,
+    p.add_argument("--severity", type=real(0.0, 1.0, what="a fraction of EI", low_open=True, high_open=True),
+                   default=0.25,
                    help="fraction of EI lost over the damaged zone, in (0, 1) (default 0.25)")
-    p.add_argument("--length", type=float, default=2.0, help="length of the damaged zone in m (default 2)")
-    p.add_argument("--false-alarm", type=float, default=0.05,
+    p.add_argument("--length", type=LENGTH, default=2.0, help="length of the damaged zone in m (default 2)")
+    p.add_argument("--false-alarm", type=FALSE_ALARM, default=0.05,
                    help="false alarm rate of the detector, in (0, 0.5) (default 0.05)")
-    p.add_argument("--crossings", type=int, default=10, help="number of identical crossings (default 10)")
+    p.add_argument("--crossings", type=integer(1, MAX_CROSSINGS), default=10,
+                   help="number of identical crossings (default 10)")
     p.add_argument("--nuisance", choices=["smooth", "levels"], default="smooth",
                    help="what must not be mistaken for damage, besides elastic springs: a quadratic log-EI "
                         "trend per span (smooth, default) or one EI factor per span (levels)")
-    p.add_argument("--step", type=float, default=0.5, help="spacing of the damage centres in m (default 0.5)")
+    p.add_argument("--step", type=LENGTH, default=0.5,
+                   help="spacing of the damage centres in m (default 0.5)")
     add_out_arguments(p, json_default="detectability.json")
 
 
@@ -34,6 +52,10 @@ def run(args, out, files):
     from ..detection.detectability import detectability
 
     case = load_case(args)
+    if args.layout is not None:
+        check_layouts(case, [args.layout], "--layout")
+    check_step(case, args.step, "--step")
+    check_length(case, args.length, "--length")
     result = detectability(case, layout=args.layout, kind=args.kind, severity=args.severity, length=args.length,
                            false_alarm=args.false_alarm, n_crossings=args.crossings, nuisance=args.nuisance,
                            step=args.step)

@@ -43,12 +43,14 @@ def run(args, out, files):
     from .. import plotting
     from .._errors import ConfigError
     from ..diagnosis.diagnose import diagnose
+    from ..inference.screening import check_not_noise_free
     from ..io.csvio import read_crossings
 
     if args.workers < 1:
         raise ConfigError(f"The '--workers' option must be a positive integer. Got {args.workers} instead.")
     case = load_case(args)
     data = read_crossings(args.data, case.sensors)
+    check_not_noise_free(case, data, source=str(args.data))
     result = diagnose(case, data, progress=_progress(args), workers=args.workers,
                       estimate_springs=not args.fixed_springs, check_scale=str(args.data))
     supports = case.bridge.support_positions

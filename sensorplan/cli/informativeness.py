@@ -1,6 +1,15 @@
 """``sensorplan informativeness``: Fisher informativeness curves and identifiability."""
 
-from ._common import add_case_arguments, load_case, parse_positions, stage_figure
+from ._common import (
+    MAX_CROSSINGS,
+    NOISE_STD,
+    add_case_arguments,
+    check_layouts,
+    integer,
+    load_case,
+    parse_positions,
+    stage_figure,
+)
 
 NAME = "informativeness"
 HELP = "Fisher informativeness curves and identifiability"
@@ -15,12 +24,12 @@ def add_arguments(p):
     add_case_arguments(p)
     p.add_argument("--positions", type=parse_positions,
                    help="candidate tiltmeter positions in m, e.g. 2.5,5,10 (default: the case's sensors)")
-    p.add_argument("--crossings", type=int, default=1, help="number of crossings (default 1)")
+    p.add_argument("--crossings", type=integer(1, MAX_CROSSINGS), default=1, help="number of crossings (default 1)")
     p.add_argument("--parameterisation", choices=["ei", "log_ei", "compliance"], default="ei",
                    help="parameters of the curves (default ei, as in the paper)")
     p.add_argument("--kind", choices=["rotation", "deflection"],
                    help="kind of the --positions sensors (default: the kind of the case's sensors)")
-    p.add_argument("--noise-std", type=float, help="noise std of the --positions sensors (SI: rad or m)")
+    p.add_argument("--noise-std", type=NOISE_STD, help="noise std of the --positions sensors (SI: rad or m)")
     p.add_argument("--out", type=Path, default=Path("sensorplan-out"), help="output folder")
 
 
@@ -30,6 +39,8 @@ def run(args, out, files):
     from ..model.fisher import informativeness
 
     case = load_case(args)
+    if args.positions is not None:
+        check_layouts(case, [args.positions], "--positions")
     result = informativeness(case, positions=args.positions, kind=args.kind, noise_std=args.noise_std,
                              n_crossings=args.crossings, parameterisation=args.parameterisation)
     blocks, ident = result.blocks, result.identifiability

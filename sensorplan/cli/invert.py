@@ -4,9 +4,14 @@ import sys
 from pathlib import Path
 
 from ._common import (
+    FALSE_ALARM,
+    MAX_INVERSION_ELEMENTS,
+    SEED,
     add_case_arguments,
     add_out_arguments,
+    integer,
     load_case,
+    safe_name,
     stage_figure,
     stage_json,
 )
@@ -22,13 +27,14 @@ EPILOG = """example:
 def add_arguments(p):
     add_case_arguments(p)
     p.add_argument("--data", type=Path, required=True, help="crossings CSV (crossing,position_m,<sensors>)")
-    p.add_argument("--elements", type=int, help="number of elements of the inversion mesh")
-    p.add_argument("--false-alarm", type=float, default=0.05,
+    p.add_argument("--elements", type=integer(1, MAX_INVERSION_ELEMENTS),
+                   help="number of elements of the inversion mesh")
+    p.add_argument("--false-alarm", type=FALSE_ALARM, default=0.05,
                    help="false-alarm rate of the damage detector on undamaged bridges (default 0.05)")
     p.add_argument("--nuisance", choices=["smooth", "levels"], default="smooth",
                    help="what an undamaged bridge may do: a smooth EI trend per span (default) or one EI "
                         "factor per span (plus the elastic springs either way)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the detector's threshold simulation (default 0)")
+    p.add_argument("--seed", type=SEED, default=0, help="seed of the detector's threshold simulation (default 0)")
     add_out_arguments(p, json_default="posterior.json")
 
 
@@ -36,7 +42,7 @@ def run(args, out, files):
     import warnings
 
     from .. import plotting
-    from .._errors import SensorplanWarning
+    from .._errors import SensorplanError, SensorplanWarning
     from ..inference.inversion import invert
     from ..io.csvio import read_crossings
     from ..model.structure import Mesh
@@ -44,6 +50,9 @@ def run(args, out, files):
     case = load_case(args)
     data = read_crossings(args.data, case.sensors)
     if args.elements is not None:
+        if args.elements < case.bridge.n_spans:
+            raise SensorplanError(f"--elements {args.elements} is fewer than the {case.bridge.n_spans} spans; give "
+                                  f"at least one element per span.")
         case = case.with_mesh(Mesh.uniform(case.bridge, args.elements))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SensorplanWarning)
@@ -54,7 +63,7 @@ def run(args, out, files):
     figures = [stage_figure(files, plotting.plot_ei_posterior(result, supports=case.bridge.support_positions),
                             args.out / "ei_posterior.png")]
     for name in result.sensor_names:
-        figures.append(stage_figure(files, plotting.plot_fit(result, name), args.out / f"fit_{name}.png"))
+        figures.append(stage_figure(files, plotting.plot_fit(result, name), args.out / f"fit_{safe_name(name)}.png"))
     json_path = stage_json(files, args.json or args.out / "posterior.json", result.to_dict())
     out(result.summary())
     out(f"posterior written to {json_path}; figures: " + ", ".join(str(p) for p in figures))

@@ -3,8 +3,19 @@
 
 from .._errors import ConfigError
 from ._common import (
+    COUNT,
+    DISTANCE,
+    FALSE_ALARM,
+    LENGTH,
+    MAX_CROSSINGS,
+    NOISE_STD,
+    SEED,
+    SEVERITY,
     add_case_arguments,
     add_out_arguments,
+    check_grid,
+    check_signal,
+    integer,
     kind_and_noise,
     load_case,
     parse_positions,
@@ -27,29 +38,30 @@ def add_arguments(p):
     from ..design.criteria import CRITERIA
 
     add_case_arguments(p)
-    p.add_argument("--count", type=int, help="number of new sensors R (default: as many as the case has)")
+    p.add_argument("--count", type=COUNT, help="number of new sensors R (default: as many as the case has)")
     p.add_argument("--criterion", choices=list(CRITERIA), default="D", help="design criterion (default D)")
-    p.add_argument("--spacing", type=float, default=0.5, help="candidate grid spacing in m (default 0.5)")
+    p.add_argument("--spacing", type=LENGTH, default=0.5, help="candidate grid spacing in m (default 0.5)")
     p.add_argument("--exclude", type=parse_zones, help="exclusion zones start:stop in m, e.g. 14:16,29:30")
     p.add_argument("--fixed", type=parse_positions, help="existing sensors in m, e.g. 11,19")
-    p.add_argument("--min-spacing", type=float, default=0.0, help="minimum distance between sensors in m")
+    p.add_argument("--min-spacing", type=DISTANCE, default=0.0, help="minimum distance between sensors in m")
     p.add_argument("--kind", choices=["rotation", "deflection"],
                    help="sensor kind (default: the kind of the case's sensors)")
-    p.add_argument("--noise-std", type=float,
+    p.add_argument("--noise-std", type=NOISE_STD,
                    help="noise std of the new sensors in SI units (rad or m); default: the case's sensors'")
-    p.add_argument("--crossings", type=int, default=1, help="crossings per measurement campaign (default 1)")
+    p.add_argument("--crossings", type=integer(1, MAX_CROSSINGS), default=1,
+                   help="crossings per measurement campaign (default 1)")
     p.add_argument("--springs", action="store_true", help="treat the spring stiffnesses as nuisance parameters")
     p.add_argument("--solver", choices=["auto", "fast", "cvxpy"], default="auto", help="relaxation solver")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random baseline (default 0)")
+    p.add_argument("--seed", type=SEED, default=0, help="seed of the random baseline (default 0)")
     p.add_argument("--region", type=parse_zones, help="detect: damage centres in start:stop m only; "
                    "A: elements in start:stop m (region of interest)")
     d = p.add_argument_group("detect criterion (worst-case detectability of a local loss)")
-    d.add_argument("--severity", type=float, help="fraction of EI lost over the damaged zone (default 0.25)")
-    d.add_argument("--length", type=float, help="length of the damaged zone in m (default 2)")
+    d.add_argument("--severity", type=SEVERITY, help="fraction of EI lost over the damaged zone (default 0.25)")
+    d.add_argument("--length", type=LENGTH, help="length of the damaged zone in m (default 2)")
     d.add_argument("--nuisance", choices=["smooth", "levels"], help="what must not be mistaken for damage "
                    "(default smooth, as in detectability)")
-    d.add_argument("--step", type=float, help="spacing of the damage centres in m (default 0.5)")
-    d.add_argument("--false-alarm", type=float, help="false-alarm rate of the reported power (default 0.05)")
+    d.add_argument("--step", type=LENGTH, help="spacing of the damage centres in m (default 0.5)")
+    d.add_argument("--false-alarm", type=FALSE_ALARM, help="false-alarm rate of the reported power (default 0.05)")
     add_out_arguments(p, json_default="design.json")
     add_verify_arguments(p, with_flag=True)
 
@@ -61,8 +73,8 @@ def run(args, out, files):
     case = load_case(args)
     args.kind, args.noise_std = kind_and_noise(args, case)
     count = case.sensors.n_sensors if args.count is None else args.count
-    if args.fixed:
-        case.bridge.check_on_bridge(args.fixed, "fixed", "--fixed")
+    check_grid(case, args)
+    check_signal(case, args.kind, args.noise_std, args.crossings)
     result = recommend(case, count, args.criterion, **design_options(args))
     outdir = args.out
     figures = [

@@ -36,6 +36,7 @@ def _inputs(args):
 
 def run(args, out, files):
     from ..analysis import analyse
+    from ..inference.screening import check_case_data_scale, check_not_noise_free
     from ..io.csvio import read_crossings
     from ..report import provenance, render_report
 
@@ -44,6 +45,9 @@ def run(args, out, files):
     if args.fixed:
         case.bridge.check_on_bridge(args.fixed, "fixed", "--fixed")
     data = read_crossings(args.data, case.sensors) if args.data is not None else None
+    if data is not None:
+        check_case_data_scale(case, data, source=str(args.data))
+        check_not_noise_free(case, data, source=str(args.data), what="diagnose in the report")
     progress = None if args.quiet else (lambda msg: print(f"sensorplan report: {msg}", file=sys.stderr, flush=True))
     analysis = analyse(case, data=data, count=args.count, criterion=args.criterion, n_scenarios=args.scenarios,
                        n_crossings=args.verify_crossings, seed=args.seed, progress=progress,

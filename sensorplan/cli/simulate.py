@@ -3,7 +3,7 @@
 from pathlib import Path
 
 from .._errors import SensorplanError
-from ._common import add_case_arguments, load_case
+from ._common import MAX_CROSSINGS, SEED, add_case_arguments, integer, load_case
 
 NAME = "simulate"
 HELP = "write predicted or noisy synthetic crossings (CSV)"
@@ -14,9 +14,9 @@ EPILOG = """example:
 
 def add_arguments(p):
     add_case_arguments(p)
-    p.add_argument("--crossings", type=int, default=1, help="number of crossings (default 1)")
+    p.add_argument("--crossings", type=integer(1, MAX_CROSSINGS), default=1, help="number of crossings (default 1)")
     p.add_argument("--noise", action="store_true", help="add noise from the case's noise model")
-    p.add_argument("--seed", type=int, help="random seed (required with --noise)")
+    p.add_argument("--seed", type=SEED, help="random seed (required with --noise)")
     p.add_argument("--out", type=Path, required=True, help="output CSV file")
 
 

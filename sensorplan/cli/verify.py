@@ -3,12 +3,21 @@
 import argparse
 
 from ._common import (
+    FALSE_ALARM,
+    LENGTH,
+    MAX_SCENARIOS,
+    MAX_WORKERS,
+    NOISE_STD,
+    SEED,
     add_case_arguments,
     add_out_arguments,
+    check_layouts,
+    integer,
     kind_and_noise,
     load_case,
     parse_positions,
     progress,
+    real,
     stage_figure,
     stage_json,
 )
@@ -25,15 +34,16 @@ def add_verify_arguments(p, *, with_flag):
     if with_flag:
         p.add_argument("--verify", action="store_true",
                        help="verify the layout and the baselines by inversion of synthetic damage")
-    p.add_argument("--scenarios", type=int, default=8, help="damage locations scanned (default 8)")
-    p.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
+    p.add_argument("--scenarios", type=integer(1, MAX_SCENARIOS), default=8,
+                   help="damage locations scanned (default 8)")
+    p.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1, help="worker processes (default 1)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run the scenarios on a Dask cluster: a scheduler address such as tcp://127.0.0.1:8786, "
                         "or 'local' for a local cluster of --workers processes (needs the dask extra); "
                         "results are identical to --workers 1")
-    p.add_argument("--scheduler-timeout", type=float, default=10.0, metavar="S",
-                   help="seconds to wait for the Dask scheduler to answer (default 10)")
-    p.add_argument("--verify-crossings", type=int, default=10,
+    p.add_argument("--scheduler-timeout", type=real(0.0, 3600.0, what="a time in s", low_open=True), default=10.0,
+                   metavar="S", help="seconds to wait for the Dask scheduler to answer (default 10)")
+    p.add_argument("--verify-crossings", type=integer(1, 1000), default=10,
                    help="crossings simulated per scenario (default 10)")
 
 
@@ -45,6 +55,9 @@ def parse_severities(text):
             f"expected comma-separated fractions of EI lost, e.g. 0.1,0.25; got {text!r}") from None
     if not values:
         raise argparse.ArgumentTypeError("give at least one severity, e.g. 0.25")
+    bad = [v for v in values if not 0.0 < v < 1.0]
+    if bad:
+        raise argparse.ArgumentTypeError(f"expected fractions of EI lost in (0, 1), e.g. 0.1,0.25; got {bad[0]!r}")
     return values
 
 
@@ -54,14 +67,14 @@ def add_arguments(p):
                    help="sensor positions in m, e.g. 3.5,8,12 (repeat for several layouts)")
     p.add_argument("--kind", choices=["rotation", "deflection"],
                    help="sensor kind (default: the kind of the case's sensors)")
-    p.add_argument("--noise-std", type=float,
+    p.add_argument("--noise-std", type=NOISE_STD,
                    help="noise std of the new sensors in SI units (rad or m); default: the case's sensors'")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=SEED, default=0, help="random seed (default 0)")
     p.add_argument("--severity", type=parse_severities, default=[0.25],
                    help="fraction(s) of EI lost by the local damage, in (0, 1), e.g. 0.1,0.25: one verification "
                         "per severity (default 0.25)")
-    p.add_argument("--length", type=float, default=2.0, help="length of the local damage in m (default 2)")
-    p.add_argument("--false-alarm", type=float, default=0.05,
+    p.add_argument("--length", type=LENGTH, default=2.0, help="length of the local damage in m (default 2)")
+    p.add_argument("--false-alarm", type=FALSE_ALARM, default=0.05,
                    help="false alarm rate of the detector, in (0, 0.5) (default 0.05)")
     p.add_argument("--nuisance", choices=["smooth", "levels"], default="smooth",
                    help="what the detector must not mistake for damage: a quadratic log-EI trend per span "
@@ -118,8 +131,7 @@ def run_verifications(args, case, layouts, names, files, *, json_path):
 def run(args, out, files):
     case = load_case(args)
     args.kind, args.noise_std = kind_and_noise(args, case)
-    for layout in args.layout:
-        case.bridge.check_on_bridge(layout, "layout", "--layout")
+    check_layouts(case, args.layout, "--layout")
     results, json_path, figures = run_verifications(args, case, args.layout, None, files,
                                                     json_path=args.json or args.out / "verification.json")
     for result in results:

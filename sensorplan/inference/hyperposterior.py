@@ -42,7 +42,7 @@ import scipy.linalg
 import scipy.optimize
 
 from .._errors import DataError
-from .laplace import solve_map
+from .laplace import LOG_NOISE_FLOOR, solve_map
 from .mixture import GaussianMixture
 
 __all__ = ["IntegratedFit", "integrate_problem", "LOG_TAU_BOUNDS", "BOUND_MASS"]
@@ -119,8 +119,8 @@ class _Slice:
             _, d1, d2 = self.log_posterior_v(v)
             step = -d1 / d2 if d2 < 0.0 else math.copysign(0.5, d1)
             step = max(-1.0, min(1.0, step))
-            v += step
-            if abs(step) < 1e-12:
+            v = max(v + step, LOG_NOISE_FLOOR)
+            if abs(step) < 1e-12 or v == LOG_NOISE_FLOOR:
                 break
         return v
 

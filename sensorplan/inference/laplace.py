@@ -23,6 +23,10 @@ from ..model.noise import NoiseModel
 
 __all__ = ["Linearisation", "WhitenedData", "Fit", "fit_problem", "solve_map", "log_evidence"]
 
+# Floor of log alpha (estimated / configured noise): noise-free data (as `simulate` without --noise writes them)
+# would drive alpha to 0 and the evidence to a division by zero; the floor keeps the estimate at 1e-3 of the
+# configured noise and the fit is flagged (noise scale outside NOISE_SCALE_RANGE in inference/checks.py).
+LOG_NOISE_FLOOR = math.log(1e-3)
 DEFAULT_STD = {"rotation": 1e-6, "deflection": 1e-4}
 
 
@@ -146,7 +150,7 @@ def _maximise_linear_evidence(lin, theta, theta0, rough, fixed, alpha, tau, m):
         try:
             ch = scipy.linalg.cho_factor(h)
             cq = scipy.linalg.cho_factor(q)
-        except np.linalg.LinAlgError:
+        except (np.linalg.LinAlgError, ValueError):  # not positive definite, or overflowed to inf
             return 1e300, np.zeros(2)
         x = scipy.linalg.cho_solve(ch, jty / a**2 + q @ theta0)
         rr = yy - 2 * x @ jty + x @ jtj @ x
@@ -163,7 +167,7 @@ def _maximise_linear_evidence(lin, theta, theta0, rough, fixed, alpha, tau, m):
 
     start = np.array([math.log(alpha), math.log(tau)])
     best = scipy.optimize.minimize(negative, start, jac=True, method="L-BFGS-B",
-                                   bounds=[(start[0] - 30, start[0] + 30), (math.log(1e-8), math.log(1e14))],
+                                   bounds=[(max(start[0] - 30, LOG_NOISE_FLOOR), start[0] + 30), (math.log(1e-8), math.log(1e14))],
                                    options={"ftol": 1e-13, "gtol": 1e-7, "maxiter": 500})
     x = best.x if negative(best.x)[0] <= negative(start)[0] else start
     return math.exp(x[0]), math.exp(x[1])

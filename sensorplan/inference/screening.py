@@ -2,7 +2,7 @@
 
 import numpy as np
 
-__all__ = ["screen_crossings", "check_case_data_scale"]
+__all__ = ["screen_crossings", "check_case_data_scale", "check_not_noise_free"]
 
 
 def screen_crossings(crossings, *, min_correlation=0.5, rms_factor=2.5):
@@ -57,25 +57,113 @@ def check_data_scale(crossings, predictions, names, *, factor=30.0, source="data
 
     ``predictions`` maps sensor name to predicted readings at nominal EI.
     A ratio beyond ``factor`` either way looks like a unit slip (mm/m or
-    micro-radians given as rad, mm given as m).
+    micro-radians given as rad, mm given as m) in the data or in the case
+    (EI in kN m^2 or axle loads in kN make the predictions 1000 times off).
     """
     from .._errors import DataError
 
     for i, name in enumerate(names):
-        data_rms = np.sqrt(np.mean(np.concatenate([c.values[i] / c.load_factor for c in crossings]) ** 2))
-        model_rms = np.sqrt(np.mean(np.asarray(predictions[name]) ** 2))
+        data_rms = _rms(np.concatenate([c.values[i] / c.load_factor for c in crossings]))
+        model_rms = _rms(np.asarray(predictions[name]))
         if model_rms == 0.0 or data_rms == 0.0:
             continue
         ratio = data_rms / model_rms
         if ratio > factor or ratio < 1.0 / factor:
+            case_side = ("axle loads in kN instead of N, or EI too large" if ratio > factor
+                         else "EI in kN m^2 instead of N m^2, or axle loads too large")
             raise DataError(
                 f"{source}: column '{name}' is {ratio:.3g} times the model's prediction at nominal EI; "
-                "this looks like a unit slip (values must be rad for rotation, m for deflection).")
+                "this looks like a unit slip (values must be rad for rotation, m for deflection; or, in the "
+                f"case, {case_side}).")
+
+
+def _rms(values):
+    """Root mean square without underflow (readings of 1e-300 square to 0)."""
+    top = float(np.max(np.abs(values))) if values.size else 0.0
+    return 0.0 if top == 0.0 else top * float(np.sqrt(np.mean((values / top) ** 2)))
 
 
 def check_case_data_scale(case, crossings, *, source="data"):
-    """:func:`check_data_scale` of ``crossings`` against ``case`` at nominal EI."""
+    """Refuse data that carry no information about the case, before anything is fitted.
+
+    In order: positions that never put an axle on the bridge (or look like
+    cm or mm), a dead (constant) channel, a unit slip (:func:`check_data_scale`);
+    a sensor whose readings are anti-correlated with the model (a tiltmeter
+    mounted the other way round) is warned about.
+    """
+    from .._errors import DataError
+
+    _check_positions(case, crossings, source)
     sensors = case.sensors.subset([case.sensors.names.index(n) for n in crossings.sensor_names])
-    nominal = case.influence_lines(sensors=sensors, positions=crossings.crossings[0].positions)
-    check_data_scale(crossings, dict(zip(crossings.sensor_names, nominal.predictions)), crossings.sensor_names,
+    predicted = {}
+    for c in crossings:
+        key = c.positions.tobytes()
+        if key not in predicted:
+            predicted[key] = case.influence_lines(sensors=sensors, positions=c.positions).predictions
+    for i, name in enumerate(crossings.sensor_names):
+        # A channel is dead when its readings stay constant where the model predicts them to change.
+        values = np.concatenate([c.values[i] for c in crossings])
+        model = np.concatenate([predicted[c.positions.tobytes()][i] * c.load_factor for c in crossings])
+        if (values.size >= 3 and np.ptp(values) <= 1e-12 * np.max(np.abs(values))
+                and np.ptp(model) > 1e-6 * np.max(np.abs(model))):
+            raise DataError(f"{source}: column '{name}' is constant ({values[0]:g} in every row) where the model "
+                            "predicts it to change: a dead or disconnected channel carries no information; remove "
+                            "the column.")
+    nominal = predicted[crossings.crossings[0].positions.tobytes()]
+    check_data_scale(crossings, dict(zip(crossings.sensor_names, nominal)), crossings.sensor_names,
                      source=source)
+    _check_signs(crossings, predicted, source)
+
+
+def _check_positions(case, crossings, source):
+    from .._errors import DataError
+
+    length, reach = case.bridge.length, case.vehicle.length
+    top = max(float(c.positions[-1]) for c in crossings)
+    if top > 10.0 * (length + reach) + 1.0:
+        raise DataError(f"{source}: column 'position_m' reaches {top:g} on a {length:g} m bridge; positions in "
+                        "cm or mm? Convert position_m to m.")
+    for c in crossings:
+        axles = case.vehicle.axle_positions(c.positions)
+        if not np.any((axles >= 0.0) & (axles <= length)):
+            raise DataError(
+                f"{source}: crossing '{c.label}' never puts an axle on the bridge (position_m from "
+                f"{c.positions[0]:g} to {c.positions[-1]:g} m; the bridge runs from 0 to {length:g} m and the "
+                f"front axle leads the rear by {reach:g} m); check the unit and the origin of position_m.")
+
+
+def _check_signs(crossings, predicted, source):
+    import warnings
+
+    from .._errors import SensorplanWarning
+
+    for i, name in enumerate(crossings.sensor_names):
+        data = np.concatenate([c.values[i] / c.load_factor for c in crossings])
+        model = np.concatenate([predicted[c.positions.tobytes()][i] for c in crossings])
+        if np.std(data) == 0.0 or np.std(model) == 0.0:
+            continue
+        rho = float(np.corrcoef(data, model)[0, 1])
+        if rho < -0.5:
+            warnings.warn(
+                f"{source}: column '{name}' is anti-correlated with the model's prediction at nominal EI "
+                f"(correlation {rho:.2f}): the sensor is probably mounted the other way round (sign flip), or its "
+                "position or kind is wrong; if it is mounted reversed, multiply the column by -1. The fit below "
+                "will not be trusted.", SensorplanWarning, stacklevel=3)
+
+
+def check_not_noise_free(case, crossings, *, source="data", what="diagnose"):
+    """Refuse data that equal the nominal prediction to within 1e-3 of the noise (no gap to explain)."""
+    from .._errors import DataError
+
+    if case.noise is None:
+        return
+    sensors = case.sensors.subset([case.sensors.names.index(n) for n in crossings.sensor_names])
+    std = case.noise.subset([case.sensors.names.index(n) for n in crossings.sensor_names]).std
+    worst = 0.0
+    for c in crossings:
+        model = case.influence_lines(sensors=sensors, positions=c.positions).predictions * c.load_factor
+        worst = max(worst, float(np.max(np.sqrt(np.mean((c.values - model) ** 2, axis=1)) / std)))
+    if worst < 1e-3:
+        raise DataError(f"{source}: the readings differ from the model's prediction at nominal EI by {worst:.1g} noise "
+                        f"std (rms): noise-free data (as `simulate` writes without --noise) leave nothing to "
+                        f"{what}; simulate with --noise --seed S or give measured data.")

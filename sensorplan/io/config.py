@@ -12,12 +12,13 @@ from importlib import resources
 from pathlib import Path
 
 from .._errors import ConfigError
-from ..model.case import Case
+from ..model.case import NOISE_STD_RANGE, Case
 from ..model.loads import LoadSweep, Vehicle
 from ..model.noise import NoiseModel
-from ..model.sensors import SensorLayout
+from ..model.sensors import SensorLayout, check_file_name
 from ..model.structure import Bridge, Mesh
 from ..model.timeseries import LoggerFormat
+from . import plausibility
 
 __all__ = ["load_case", "case_from_dict", "example_case", "load_logger_format", "EXAMPLES"]
 
@@ -47,7 +48,7 @@ def load_case(path: "str | os.PathLike[str]") -> Case:
     """
     path = Path(path)
     try:
-        text = path.read_bytes().decode("utf-8")
+        text = path.read_bytes().decode("utf-8-sig")  # a byte-order mark (Windows editors) is dropped
     except FileNotFoundError:
         raise ConfigError(f"{path}: file not found. Give the path of a TOML case file.") from None
     except (OSError, UnicodeDecodeError) as exc:
@@ -133,6 +134,7 @@ def case_from_dict(data, *, source="config", name="case"):
     try:
         b = _section(data, "bridge", source)
         bridge = Bridge(b["spans"], _inf(b.get("rotational_springs")), _inf(b.get("vertical_springs")))
+        plausibility.check_bridge(bridge)
         if "elements" in b and "element_length" in b:
             raise ConfigError("give either 'elements' or 'element_length', not both.")
         if "element_length" in b:
@@ -143,6 +145,7 @@ def case_from_dict(data, *, source="config", name="case"):
         section = "vehicle"
         v = _section(data, "vehicle", source)
         vehicle = Vehicle(v["axle_offsets"], v["axle_loads"])
+        plausibility.check_vehicle(vehicle)
         section = "sensors"
         s = _section(data, "sensors", source)
         sensors = _sensors(s, bridge)
@@ -153,6 +156,7 @@ def case_from_dict(data, *, source="config", name="case"):
             noise = NoiseModel(sensors.noise_std, n.get("correlation_length", 0.0))
         elif "correlation_length" in n:
             raise ConfigError("'correlation_length' needs a noise standard deviation in [sensors].")
+        plausibility.check_noise(noise)
         section = "loads"
         lo = _section(data, "loads", source)
         sweep = None
@@ -166,7 +170,15 @@ def case_from_dict(data, *, source="config", name="case"):
         section = "case"
         name = _section(data, "case", source).get("name", name)
         section = "bridge"
-        return Case(bridge, mesh, ei, vehicle, sensors, noise, sweep, str(name))
+        case = Case(bridge, mesh, ei, vehicle, sensors, noise, sweep, str(name))
+        plausibility.check_ei(case.ei)
+        section = "loads"
+        plausibility.check_sweep(case)
+        section = "bridge"
+        lines = plausibility.check_case(case)
+        section = "vehicle"
+        plausibility.check_signal(case, lines)
+        return case
     except ConfigError as exc:
         message = str(exc)
         if message.startswith(source):
@@ -180,6 +192,8 @@ def _sensors(s, bridge):
         positions = [positions]
     kinds = s.get("kinds")
     layout = SensorLayout(positions, kinds, s.get("names"))
+    for sensor in layout.names:
+        check_file_name(sensor)
     bridge.check_on_bridge(layout.positions, "positions", "SensorLayout")
     given = [k for k in ("noise_std", *_TILT_UNITS, *_DEFLECTION_UNITS) if k in s]
     if len(given) > 1:
@@ -212,13 +226,19 @@ def _sensors(s, bridge):
 
 
 def _check_noise_units(layout, key):
-    """Reject noise levels that only make sense in another unit (a unit slip)."""
+    """Reject noise levels that only make sense in another unit (a unit slip) or for no instrument."""
     for name, kind, std in zip(layout.names, layout.kinds, layout.noise_std):
-        if kind == "rotation" and std > 1e-3:
+        low, high = NOISE_STD_RANGE[kind]
+        if kind == "rotation" and std > high:
             raise ConfigError(
                 f"The '{key}' of sensor {name} is {std:g} rad, far above any tiltmeter noise. "
                 "Give it in rad, or use 'noise_std_mm_per_m' / 'noise_std_urad'.")
-        if kind == "deflection" and std > 5e-3:
+        if kind == "deflection" and std > high:
             raise ConfigError(
                 f"The '{key}' of sensor {name} is {std:g} m, far above any deflection noise. "
                 "Give it in m, or use 'noise_std_mm'.")
+        if std < low:
+            unit = "rad" if kind == "rotation" else "m"
+            raise ConfigError(
+                f"The '{key}' of sensor {name} is {std:g} {unit}, below any {kind} sensor's noise (at least "
+                f"{low:g} {unit}); give the noise of the instrument (noise-free data are not a model).")

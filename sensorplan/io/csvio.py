@@ -29,6 +29,7 @@ __all__ = ["read_crossings", "write_crossings", "format_crossings", "write_table
 # 0.02 rad = 20 mm/m, nor deflects it by 1 m): larger values are unit slips.
 _LIMITS = {"rotation": (0.02, "rad", "mm/m or micro-radians given as rad? Convert to rad"),
            "deflection": (1.0, "m", "mm given as m? Convert to m")}
+_LOAD_FACTOR = (1e-2, 1e2)  # a crossing's vehicle is 1/100 to 100 times the case's vehicle
 
 
 def write_crossings(path: "str | os.PathLike[str]", crossings: Crossings) -> None:
@@ -83,6 +84,11 @@ def parse_crossings(text, sensors=None, *, source="data"):
         raise DataError(f"{source}: the file is empty; expected a header "
                         "'crossing,position_m,<sensor names>'.")
     header = [h.strip() for h in rows[0]]
+    for sep, label in ((";", "semicolon"), ("\t", "tab"), ("|", "pipe")):
+        if len(header) == 1 and sep in header[0]:
+            raise DataError(f"{source}: the file is {label}-delimited; sensorplan reads comma-separated values "
+                            "(crossing,position_m,<sensors>): save it as CSV with ',' as the delimiter and '.' as "
+                            "the decimal mark.")
     for required in ("crossing", "position_m"):
         if required not in header:
             raise DataError(f"{source}: missing column '{required}'; the header must start "
@@ -123,6 +129,10 @@ def parse_crossings(text, sensors=None, *, source="data"):
         factor = arr[:, 1 + n_s] if "load_factor" in col else np.ones(pos.size)
         if np.any(factor <= 0.0):
             raise DataError(f"{source}: column 'load_factor' of crossing '{label}' must be positive.")
+        if np.any(factor < _LOAD_FACTOR[0]) or np.any(factor > _LOAD_FACTOR[1]):
+            bad = float(factor[(factor < _LOAD_FACTOR[0]) | (factor > _LOAD_FACTOR[1])][0])
+            raise DataError(f"{source}: column 'load_factor' of crossing '{label}' is {bad:g}; a load factor (vehicle "
+                            f"weight / the case's vehicle) is {_LOAD_FACTOR[0]:g} to {_LOAD_FACTOR[1]:g}.")
         out.append(Crossing(label, pos, arr[:, 1:1 + n_s].T.copy(), factor))
     crossings = Crossings(tuple(sensor_cols), tuple(out))
     if sensors is not None:

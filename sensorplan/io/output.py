@@ -71,7 +71,11 @@ class OutputFiles:
         final = Path(os.path.abspath(path))
         if final.is_dir():
             raise IsADirectoryError(f"Output path {path} is a folder; give a file name.")
-        fd, tmp = tempfile.mkstemp(prefix=".sensorplan-", suffix=suffix, dir=_existing_ancestor(final.parent))
+        folder = _existing_ancestor(final.parent)
+        if not folder.is_dir():
+            raise NotADirectoryError(f"Output folder {folder} is a file, so {path} cannot be written in it; "
+                                     "give a folder (e.g. --out) that is not an existing file.")
+        fd, tmp = tempfile.mkstemp(prefix=".sensorplan-", suffix=suffix, dir=folder)
         os.close(fd)
         self._staged.append((Path(tmp), final))
         return Path(tmp)

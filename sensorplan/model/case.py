@@ -10,7 +10,15 @@ from .noise import NoiseModel
 from .sensors import SensorLayout
 from .structure import Bridge, Mesh
 
-__all__ = ["Case"]
+__all__ = ["Case", "NOISE_STD_RANGE"]
+
+# Physical range of a sensor's noise std [rad or m]: below it the Fisher
+# information overflows the algebra (and no instrument is that quiet), above
+# it the value is a unit slip (mm/m or micro-radians given as rad, mm as m).
+NOISE_STD_RANGE = {"rotation": (1e-10, 1e-3), "deflection": (1e-9, 5e-3)}
+MAX_BYTES = 2 * 2**30  # memory budget of the influence lines of one case
+NOISE_STD_HINT = {"rotation": "Give it in rad (1 mm/m = 1e-3 rad, 1 micro-radian = 1e-6 rad).",
+                  "deflection": "Give it in m (1 mm = 1e-3 m)."}
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,6 +65,24 @@ class Case:
                 f"{self.sensors.n_sensors} sensors.")
         if self.sweep is None:
             object.__setattr__(self, "sweep", LoadSweep.covering(self.bridge, self.vehicle, 0.25))
+        self._check_size()
+
+    def _check_size(self):
+        """Refuse a case whose influence lines would not fit in memory (estimated before allocating).
+
+        The forward model holds about n_sensors + 12 arrays of n_loads x n_elements
+        floats at its peak (measured with the openlab-like case).
+        """
+        from .._errors import ConfigError
+
+        n_loads, n_elements, n_sensors = self.sweep.n_loads, self.mesh.n_elements, self.sensors.n_sensors
+        needed = 8.0 * n_loads * n_elements * (n_sensors + 12)
+        if needed > MAX_BYTES:
+            raise ConfigError(
+                f"The case needs about {needed / 2**30:.3g} GiB for its influence lines ({n_sensors} sensors x "
+                f"{n_loads} load positions x {n_elements} elements), more than {MAX_BYTES / 2**30:g} GiB: use fewer "
+                "elements ([bridge] elements, --elements), fewer load positions (a larger [loads] step) or fewer "
+                "sensors/candidates (a larger --spacing).")
 
     @property
     def n_elements(self):
@@ -90,9 +116,10 @@ class Case:
 
         unit = "rad" if kind == "rotation" else "m"
         if noise_std is not None:
-            if not (np.isfinite(noise_std) and noise_std > 0):
-                raise ConfigError(f"The 'noise_std' of new {kind} sensors must be a positive number in {unit}. "
-                                  f"Got {noise_std!r} instead.")
+            low, high = NOISE_STD_RANGE[kind]
+            if not (np.isfinite(noise_std) and low <= noise_std <= high):
+                raise ConfigError(f"The 'noise_std' (--noise-std) of new {kind} sensors must be from {low:g} to "
+                                  f"{high:g} {unit}; got {noise_std!r}. {NOISE_STD_HINT[kind]}")
             return float(noise_std)
         same = ([s for k, s in zip(self.sensors.kinds, self.noise.std) if k == kind]
                 if self.noise is not None else [])

@@ -101,10 +101,11 @@ class LoadSweep:
         if stop < start:
             raise ConfigError(
                 f"The 'stop' parameter of LoadSweep must be >= start ({start:g}). Got {stop:g} instead.")
-        n = int(np.floor((stop - start) / step + 1e-9)) + 1
+        count = np.floor((stop - start) / step + 1e-9) + 1  # a float: inf for a subnormal step
+        n = int(count) if count <= 1_000_000 else 1_000_001
         if n > 1_000_000:
             raise ConfigError(f"The load sweep from {start:g} to {stop:g} m in steps of {step:g} m has "
-                              f"{n} positions, more than 1000000. Use a larger 'step'.")
+                              f"{count:.3g} positions, more than 1000000. Use a larger 'step'.")
         return cls(start + step * np.arange(n))
 
     @classmethod

@@ -16,6 +16,8 @@ from .._validation import as_float, as_float_array
 
 __all__ = ["NoiseModel"]
 
+MAX_RHO = 1.0 - 1e-9
+
 
 @dataclass(frozen=True, eq=False)
 class NoiseModel:
@@ -55,9 +57,10 @@ class NoiseModel:
     def rho(self, positions):
         """Lag-one correlations between consecutive positions, shape (n_loads - 1,)."""
         positions = np.asarray(positions, dtype=float)
-        if self.correlation_length == 0.0:
+        if self.correlation_length < 1e-12:  # 0, or so short that exp(-step / length) is 0 (and may overflow)
             return np.zeros(max(positions.size - 1, 0))
-        return np.exp(-np.diff(positions) / self.correlation_length)
+        # Capped below 1: with a correlation length far beyond the load step, 1 - rho^2 would round to 0.
+        return np.minimum(np.exp(-np.diff(positions) / self.correlation_length), MAX_RHO)
 
     def whiten(self, values, positions, sensor_axis=0):
         """Apply Gamma^{-1/2} / std along the load axis (axis ``sensor_axis + 1``).

@@ -7,10 +7,42 @@ import numpy as np
 from .._errors import ConfigError
 from .._validation import as_float_array, as_float_tuple
 
-__all__ = ["SensorLayout", "SENSOR_KINDS"]
+__all__ = ["SensorLayout", "SENSOR_KINDS", "RESERVED_NAMES"]
 
 SENSOR_KINDS = ("rotation", "deflection")
 _UNITS = {"rotation": "rad", "deflection": "m"}
+
+
+# Columns of the crossings CSV (and of the time series) that a sensor may not be named after.
+RESERVED_NAMES = ("crossing", "position_m", "load_factor", "time_s")
+_MAX_NAME = 64
+
+
+def _check_name(name):
+    """A sensor name is a CSV column and part of figure names (the CLI replaces unsafe characters there)."""
+    problem = None
+    if name.lower() in RESERVED_NAMES:
+        problem = "is a reserved column of the crossings CSV"
+    elif name in {".", ".."}:
+        problem = "is '.' or '..'"
+    elif any(not ch.isprintable() for ch in name):
+        problem = "contains a control character (newline, tab, ...)"
+    elif len(name) > _MAX_NAME:
+        problem = f"is longer than {_MAX_NAME} characters"
+    if problem:
+        raise ConfigError(f"The sensor name {name!r} {problem}; rename the sensor in the 'names' of [sensors].")
+
+
+def check_file_name(name):
+    """Refuse a name that would be unsafe as part of a file name (case files: names become figure names)."""
+    if any(ch in name for ch in '/\\'):
+        problem = "contains a path separator"
+    elif any(ch in name for ch in '"\'<>|:*?'):
+        problem = "contains a quote or one of < > | : * ?"
+    else:
+        return
+    raise ConfigError(f"The sensor name {name!r} {problem} (names become parts of file names); rename the sensor "
+                      "in the 'names' of [sensors].")
 
 
 def _as_tuple(values):
@@ -70,6 +102,8 @@ class SensorLayout:
             raise ConfigError(
                 f"The 'names' parameter of SensorLayout must list {n} distinct, non-empty names "
                 f"without commas or surrounding spaces. Got {self.names!r} instead.")
+        for name in names:
+            _check_name(name)
         noise = None
         if self.noise_std is not None:
             noise = as_float_tuple(self.noise_std, "noise_std", "SensorLayout", length=n,

@@ -179,9 +179,10 @@ class Bridge:
         positions = np.asarray(positions, dtype=float)
         bad = (positions < 0.0) | (positions > self.length) | ~np.isfinite(positions)
         if np.any(bad):
+            what = owner if owner.startswith("--") else f"The '{name}' parameter of {owner}"
             raise ConfigError(
-                f"The '{name}' parameter of {owner} must lie on the bridge "
-                f"(0 to {self.length:g} m). Got {positions[bad][0]!r} instead.")
+                f"{what} must lie on the bridge (0 to {self.length:g} m). "
+                f"Got {float(positions[bad][0])!r} m instead.")
 
 
 @dataclass(frozen=True, eq=False)
