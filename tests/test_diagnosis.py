@@ -174,15 +174,14 @@ def test_static_load_steps_do_not_offer_dynamic_effects():
 
 
 def test_sign_flipped_sensor_is_named_quickly():
-    import time
-
     case = small_case()
     data = simulate_crossings(case, 4, noise=True, rng=3)
     flipped = sp.Crossings(data.sensor_names, tuple(replace(c, values=c.values * np.array([[1.0], [-1.0]]))
                                                     for c in data.crossings))
-    t0 = time.process_time()
-    d = diagnose(case, flipped)
-    assert time.process_time() - t0 < 15.0
+    # the input screening warns first (anti-correlated channel); the diagnosis then names the effect.
+    # (How fast this is, is measured in studies/benchmarks/bench_diagnose.py, not asserted here.)
+    with pytest.warns(sp.SensorplanWarning, match="PE2.*anti-correlated"):
+        d = diagnose(case, flipped)
     assert d.causes[0] == "sensor_gain"
     texts = [f["text"] for f in d.findings["sensor_gain"]]
     assert len(texts) == 1 and "PE2" in texts[0] and "wrong way round" in texts[0]
