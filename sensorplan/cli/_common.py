@@ -83,3 +83,111 @@ def stage_figure(files, ax_or_fig, path):
 
     plotting.save_figure(ax_or_fig, files.stage(path, suffix=".png"))
     return Path(path)
+
+
+def parse_sensors(text):
+    """Positions in m, each optionally followed by ``:kind`` (e.g. 4,10:deflection,16): [(x, kind or None)]."""
+    out = []
+    for part in (p.strip() for p in text.split(",")):
+        if not part:
+            continue
+        x, _, kind = part.partition(":")
+        try:
+            out.append((float(x), kind.strip() or None))
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected comma-separated positions in m, each optionally with :kind, e.g. 4,10:deflection,16; "
+                f"got {text!r}") from None
+    if not out:
+        raise argparse.ArgumentTypeError("give at least one position in m")
+    return out
+
+
+def _flag_error(flag, message):
+    from .._errors import ConfigError
+
+    return ConfigError(f"{flag}: {message}")
+
+
+def check_kind(kind, flag):
+    from ..model.sensors import SENSOR_KINDS
+
+    if kind not in SENSOR_KINDS:
+        raise _flag_error(flag, f"unknown sensor kind {kind!r}; use {' or '.join(SENSOR_KINDS)}")
+    return kind
+
+
+def parse_kinds(text, flag="--kind"):
+    """Comma-separated sensor kinds, distinct and known (a ConfigError naming ``flag`` otherwise)."""
+    kinds = tuple(check_kind(k.strip(), flag) for k in text.split(",") if k.strip())
+    if not kinds or len(set(kinds)) != len(kinds):
+        raise _flag_error(flag, f"give distinct sensor kinds, e.g. rotation,deflection; got {text!r}")
+    return kinds
+
+
+def parse_per_kind(text, flag, *, allow_plain=True, low_open=True):
+    """``value`` or ``kind=value,...`` (positive, or non-negative with ``low_open=False``); None stays None."""
+    if text is None:
+        return None
+    bound = "positive" if low_open else "non-negative"
+    if "=" not in text and allow_plain:
+        return _number(text, flag, bound, low_open)
+    out = {}
+    for part in text.split(","):
+        kind, sep, value = part.partition("=")
+        if not sep:
+            raise _flag_error(flag, f"expected kind=value pairs, e.g. rotation=1,deflection=3; got {part!r}")
+        out[check_kind(kind.strip(), flag)] = _number(value, flag, bound, low_open)
+    return out
+
+
+def _number(text, flag, bound, low_open):
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise _flag_error(flag, f"expected a number, got {text!r}") from None
+    if not math.isfinite(value) or value < 0 or (low_open and value == 0):
+        raise _flag_error(flag, f"must be {bound}; got {text!r}")
+    return value
+
+
+def parse_counts(text, flag):
+    """Comma-separated whole counts per span, e.g. 1,0,1 (None stays None)."""
+    if text is None:
+        return None
+    try:
+        counts = [int(v) for v in text.split(",")]
+    except ValueError:
+        raise _flag_error(flag, f"expected one whole count per span, e.g. 1,1; got {text!r}") from None
+    if any(c < 0 for c in counts):
+        raise _flag_error(flag, f"counts must be non-negative; got {text!r}")
+    return counts
+
+
+def kinds_and_noise(args, case):
+    """Kinds of new sensors (``--kind``, default the case's) and their noise std per kind (``--noise-std``)."""
+    kinds = parse_kinds(args.kind) if args.kind else (case.default_kind,)
+    noise = parse_per_kind(args.noise_std, "--noise-std")
+    if isinstance(noise, float):
+        if len(kinds) > 1:
+            raise _flag_error("--noise-std", f"give one value per kind, e.g. {kinds[0]}=5e-6,{kinds[1]}=1e-4")
+        noise = {kinds[0]: noise}
+    extra = sorted(set(noise or {}) - set(kinds))
+    if extra:
+        raise _flag_error("--noise-std", f"kind {extra[0]} is not among the kinds of --kind ({','.join(kinds)})")
+    return kinds, {k: _kind_noise(case, k, (noise or {}).get(k), len(kinds) > 1) for k in kinds}
+
+
+def _kind_noise(case, kind, value, several):
+    if value is not None or not several:
+        return case.noise_std_for(kind, value)
+    from .._errors import ConfigError
+
+    try:
+        return case.noise_std_for(kind)
+    except ConfigError:
+        unit = "rad" if kind == "rotation" else "m"
+        raise _flag_error("--noise-std", f"no noise std for the new {kind} sensors (the case has none to take it "
+                                         f"from); give it as {kind}=VALUE in {unit}") from None

@@ -14,7 +14,7 @@ results are identical whatever the number of workers.
 
 import math
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
@@ -41,22 +41,39 @@ __all__ = ["verify_layouts", "detection_limit"]
 @dataclass(frozen=True)
 class _Task:
     case: object
-    layout: tuple
-    kind: str
+    layout: SensorLayout  # positions, kinds and noise std of the sensors
     scenario: Scenario
     seed: object
     n_crossings: int
     false_alarm: float
     nuisance: str
     start: tuple = (1.0, None)  # warm start of (noise scale, tau)
-    noise_std: float | None = None
+
+
+def _as_sensors(case, layout, kind, noise_std):
+    """A layout as sensors with noise: positions [m] are of ``kind``; a SensorLayout keeps its kinds.
+
+    Sensors without a noise std take ``noise_std`` (one value, or a mapping kind -> value) or else
+    :meth:`Case.noise_std_for` of their kind.
+    """
+    if isinstance(layout, SensorLayout):
+        positions, kinds, stds = layout.positions, layout.kinds, layout.noise_std
+    else:
+        positions = np.asarray([float(x) for x in layout])
+        kinds, stds = (kind,) * positions.size, None
+    if stds is None:
+        given = noise_std if isinstance(noise_std, Mapping) else {kind: noise_std}
+        stds = [case.noise_std_for(k, given.get(k)) for k in kinds]
+    names = [f"{x:.6g}" for x in positions]
+    if len(set(names)) != len(names):
+        names = [f"{n}:{k}" for n, k in zip(names, kinds)]
+    return SensorLayout(positions, tuple(kinds), tuple(names), tuple(float(v) for v in stds))
 
 
 @single_threaded
 def _run_task(task, *, posterior=False):
     case = task.case
-    std = case.noise_std_for(task.kind, task.noise_std)  # the median of the case's sensors of that kind
-    sensors = SensorLayout.candidates(list(task.layout), task.kind, noise_std=[std] * len(task.layout))
+    sensors = task.layout
     noise = NoiseModel(sensors.noise_std, case.noise.correlation_length)
     case = replace(case, sensors=sensors, noise=noise)
     fine_mesh = truth_mesh(case)
@@ -94,20 +111,22 @@ def _score(case, post, detection, scenario, truth):
     return out
 
 
-def detection_limit(case, layout, scenarios, *, kind, noise_std, n_crossings, false_alarm, nuisance="smooth"):
+def detection_limit(case, layout, scenarios, *, kind="rotation", noise_std=None, n_crossings, false_alarm,
+                    nuisance="smooth"):
     """Mean over the local scenarios of Phi(d - z_{1 - alpha/m}), m = floor(L / length) zones.
 
     d is the known-location noncentrality of :func:`sensorplan.detectability`
     (exact forward difference, nuisance projected off): the power of the
     optimal test of each scenario's own zone at the Bonferroni level for m
     zones, a conservative stand-in for what a scan over unknown locations can
-    reach.  None without local scenarios.
+    reach.  None without local scenarios.  ``layout`` is positions [m] of
+    ``kind`` sensors or a SensorLayout (see :func:`verify_layouts`).
     """
     local = [s for s in scenarios if s.kind == "local"]
     if not local:
         return None
     length = local[0].stop - local[0].start
-    sensors = SensorLayout.candidates(list(layout), kind, noise_std=[noise_std] * len(layout))
+    sensors = _as_sensors(case, layout, kind, noise_std)
     noise = NoiseModel(sensors.noise_std, case.noise.correlation_length)
     sig = whitened_signatures(case, sensors, noise, [s.centre for s in local], severity=local[0].severity,
                               length=length, nuisance=nuisance)
@@ -117,9 +136,10 @@ def detection_limit(case, layout, scenarios, *, kind, noise_std, n_crossings, fa
 
 
 @single_threaded
-def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float]]", *, names: "Sequence[str] | None" = None,
+def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float] | SensorLayout]", *, names: "Sequence[str] | None" = None,
                    n_locations: int = 8, severity: float = 0.25, length: float = 2.0, n_controls: int | None = None,
-                   n_crossings: int = 10, seed: int = 0, kind: str = "rotation", noise_std: float | None = None,
+                   n_crossings: int = 10, seed: int = 0, kind: str = "rotation",
+                   noise_std: "float | Mapping[str, float] | None" = None,
                    executor: "Executor | None" = None, workers: int = 1, false_alarm: float = 0.05,
                    nuisance: str = "smooth", progress: "Callable[[int, int], None] | None" = None
                    ) -> VerificationResult:
@@ -129,7 +149,9 @@ def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float]]", *, names:
     ----------
     case : Case
         Model, inversion mesh and noise (correlation length, and the noise std of the layouts' sensors).
-    layouts : sequence of sequence of float
+    layouts : sequence of (sequence of float or SensorLayout)
+        Positions [m] of sensors of ``kind``, or a SensorLayout for sensors of
+        several kinds (its noise std if set, else as for ``noise_std``).
     n_locations : int
         Local-damage locations scanned across the bridge.
     severity, length : float
@@ -138,7 +160,7 @@ def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float]]", *, names:
         Undamaged controls (default max(5, n_locations // 2)).
     n_crossings : int
     kind : {"rotation", "deflection"}
-    noise_std : float, optional
+    noise_std : float or mapping kind -> float, optional
         Noise std of the sensors [rad or m] (default: :meth:`Case.noise_std_for`, the median
         of the case's sensors of the same kind).
     seed : int
@@ -157,22 +179,21 @@ def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float]]", *, names:
     """
     if case.noise is None:
         raise ConfigError("Verification needs a noise model: set noise_std in [sensors].")
-    layout_list = [tuple(float(x) for x in layout) for layout in layouts]
+    layout_list = [_as_sensors(case, layout, kind, noise_std) for layout in layouts]
     if not layout_list:
         raise ConfigError("Give at least one layout to verify.")
     for layout in layout_list:
-        case.bridge.check_on_bridge(layout, "layout", "verify")
+        case.bridge.check_on_bridge(layout.positions, "layout", "verify")
     scenarios = make_scenarios(case, n_locations, severity=severity, length=length, n_controls=n_controls)
     seeds = np.random.SeedSequence(seed).spawn(len(scenarios))
-    noise_std = case.noise_std_for(kind, noise_std)
     tasks = []
     for layout in layout_list:
         # warm start: hyperparameters of a pilot inversion (the first scenario,
         # computed here, before dispatch, so results do not depend on workers)
-        pilot = _run_task(_Task(case, layout, kind, scenarios[0], seeds[0], int(n_crossings), false_alarm, nuisance,
-                                noise_std=noise_std), posterior=True)
+        pilot = _run_task(_Task(case, layout, scenarios[0], seeds[0], int(n_crossings), false_alarm, nuisance),
+                          posterior=True)
         start = (pilot.noise_scale, pilot.tau)
-        tasks += [_Task(case, layout, kind, scenario, s, int(n_crossings), false_alarm, nuisance, start, noise_std)
+        tasks += [_Task(case, layout, scenario, s, int(n_crossings), false_alarm, nuisance, start)
                   for scenario, s in zip(scenarios, seeds)]
     results = []
     own = None
@@ -189,10 +210,9 @@ def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float]]", *, names:
         if own is not None:
             own.shutdown()
     n = len(scenarios)
-    scores = tuple(_aggregate(layout, results[k * n:(k + 1) * n],
-                              detection_limit(case, layout, scenarios, kind=kind, noise_std=noise_std,
-                                              n_crossings=int(n_crossings), false_alarm=false_alarm,
-                                              nuisance=nuisance))
+    scores = tuple(_aggregate(layout.positions, results[k * n:(k + 1) * n],
+                              detection_limit(case, layout, scenarios, n_crossings=int(n_crossings),
+                                              false_alarm=false_alarm, nuisance=nuisance), layout.kinds)
                    for k, layout in enumerate(layout_list))
     return VerificationResult(scores, tuple(scenarios), int(n_crossings), int(seed), float(severity),
                               float(length), tuple(names) if names else (), float(false_alarm), nuisance)
