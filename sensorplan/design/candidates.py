@@ -90,18 +90,33 @@ def fixed_layout(case, fixed, kind, noise):
     """Existing sensors as a SensorLayout with their noise (None when there are none).
 
     ``fixed`` is a sequence of positions [m] (sensors of ``kind`` with the
-    noise of new sensors of that kind, ``noise`` dict) or a SensorLayout (its
-    kinds; its noise std, else the case's rule for the kind).
+    noise of new sensors of that kind, ``noise`` dict) or a SensorLayout: its
+    kinds, and its noise std if set, else the case's noise model when it is
+    the case's own layout, else the case's sensors of its kind
+    (:meth:`Case.noise_std_for`; the new sensors' noise if the case has none).
     """
     if fixed is None:
         return None
     if isinstance(fixed, SensorLayout):
-        stds = fixed.noise_std or tuple(noise.get(k) or case.noise_std_for(k) for k in fixed.kinds)
+        if fixed.noise_std is not None:
+            stds = fixed.noise_std
+        elif fixed is case.sensors and case.noise is not None:
+            stds = tuple(case.noise.std)
+        else:
+            stds = tuple(_case_noise(case, k, noise) for k in fixed.kinds)
         return sensor_layout(fixed.positions, fixed.kinds, stds)
     x = np.asarray(list(fixed), dtype=float)
     if x.size == 0:
         return None
     return sensor_layout(x, (kind,) * x.size, (noise[kind],) * x.size)
+
+
+def _case_noise(case, kind, noise):
+    if case.noise is not None and kind in case.sensors.kinds:
+        return case.noise_std_for(kind)
+    if kind in noise:
+        return noise[kind]
+    return case.noise_std_for(kind)  # the error that names the missing noise
 
 
 class CandidateSet:

@@ -71,7 +71,8 @@ class Constraints:
     fixed : sequence of float or SensorLayout
         Existing sensors (their information is in Q_0): positions [m] of
         sensors of the first candidate kind with its noise, or a SensorLayout
-        (its kinds, and its noise std if set).
+        (its kinds; its noise std if set, else the case's noise for the case's
+        own layout, else the median noise of the case's sensors of its kind).
     min_spacing : float
         Minimum distance between sensors [m] (new and existing, whatever their kinds).
     span_min, span_max : sequence of int, optional
