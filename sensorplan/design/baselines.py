@@ -40,7 +40,7 @@ def _snap(problem, targets):
     """Nearest feasible free candidate for each target position, in order."""
     chosen = []
     for t in targets:
-        order = np.argsort(np.abs(problem.positions - t), kind="stable")  # ties: the first kind
+        order = np.argsort(np.abs(problem.positions - t))
         for i in order:
             i = int(i)
             if i not in chosen and problem.partial_ok(chosen + [i]):
