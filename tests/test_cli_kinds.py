@@ -48,6 +48,22 @@ def test_recommend_mixed_kinds_budget_and_existing_sensors(tmp_path, capsys):
     assert f"  cost {cost:g} of a budget of 5" in printed
 
 
+def test_recommend_existing_sensor_of_another_kind_takes_the_given_noise(tmp_path):
+    js = tmp_path / "d.json"
+    assert main(["recommend", "--example", "openlab-like", "--count", "2", "--fixed", "11:deflection,19",
+                 "--noise-std", "deflection=1e-5", "--spacing", "2", "--json", str(js), "--out", str(tmp_path),
+                 "--quiet"]) == 0
+    d = json.loads(js.read_text())
+    assert d["fixed_kind"] == ["deflection", "rotation"] and d["fixed_noise_std"] == [1e-5, 5e-6]
+    case = example_case("openlab-like")
+    fixed = sp.SensorLayout([11.0, 19.0], ["deflection", "rotation"], noise_std=[1e-5, 5e-6])
+    ref = recommend(case, 2, "D", grid=CandidateGrid(spacing=2.0), constraints=Constraints(fixed=fixed))
+    assert d["layout_m"] == list(ref.layout_m) and d["value"] == pytest.approx(ref.value, rel=1e-9)
+    # the existing deflection sensor's information counts: without it the criterion is lower
+    alone = recommend(case, 2, "D", grid=CandidateGrid(spacing=2.0), constraints=Constraints(fixed=(19.0,)))
+    assert d["value"] > alone.value
+
+
 @pytest.mark.parametrize("extra, flag", [
     (["--kind", "rotation,strain"], "--kind"),
     (["--kind", "rotation,rotation"], "--kind"),
@@ -61,6 +77,7 @@ def test_recommend_mixed_kinds_budget_and_existing_sensors(tmp_path, capsys):
     (["--per-span-max", "1,x"], "--per-span-max"),
     (["--per-span-min", "2,1"], "span_min"),  # more than the count
     (["--fixed", "11:strain"], "--fixed"),
+    (["--fixed", "11:deflection"], "--fixed"),  # no noise known for an existing deflection sensor
 ])
 def test_recommend_bad_kind_noise_cost_and_budget_input(tmp_path, capsys, extra, flag):
     argv = ["recommend", "--example", "openlab-like", "--count", "2", "--spacing", "2", *extra,

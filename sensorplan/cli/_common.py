@@ -166,18 +166,23 @@ def parse_counts(text, flag):
     return counts
 
 
-def kinds_and_noise(args, case):
-    """Kinds of new sensors (``--kind``, default the case's) and their noise std per kind (``--noise-std``)."""
+def kinds_and_noise(args, case, extra=()):
+    """Kinds of new sensors (``--kind``, default the case's) and their noise std per kind (``--noise-std``).
+
+    ``--noise-std`` may also name the ``extra`` kinds (e.g. of existing sensors); their values are
+    returned too when given.
+    """
     kinds = parse_kinds(args.kind) if args.kind else (case.default_kind,)
     noise = parse_per_kind(args.noise_std, "--noise-std")
     if isinstance(noise, float):
         if len(kinds) > 1:
             raise _flag_error("--noise-std", f"give one value per kind, e.g. {kinds[0]}=5e-6,{kinds[1]}=1e-4")
         noise = {kinds[0]: noise}
-    extra = sorted(set(noise or {}) - set(kinds))
-    if extra:
-        raise _flag_error("--noise-std", f"kind {extra[0]} is not among the kinds of --kind ({','.join(kinds)})")
-    return kinds, {k: _kind_noise(case, k, (noise or {}).get(k), len(kinds) > 1) for k in kinds}
+    unknown = sorted(set(noise or {}) - set(kinds) - set(extra))
+    if unknown:
+        raise _flag_error("--noise-std", f"kind {unknown[0]} is not among the kinds of --kind ({','.join(kinds)})")
+    out = {k: _kind_noise(case, k, (noise or {}).get(k), len(kinds) > 1) for k in kinds}
+    return kinds, out | {k: case.noise_std_for(k, v) for k, v in (noise or {}).items() if k not in out}
 
 
 def _kind_noise(case, kind, value, several):

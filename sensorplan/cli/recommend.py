@@ -61,7 +61,7 @@ def run(args, out, files):
     from ..verification.ranking import rank_layouts
 
     case = load_case(args)
-    kinds, noise = kinds_and_noise(args, case)
+    kinds, noise = kinds_and_noise(args, case, extra={k for _, k in args.fixed or () if k is not None})
     count = case.sensors.n_sensors if args.count is None else args.count
     costs = parse_per_kind(args.cost, "--cost", allow_plain=False, low_open=False)
     if costs is not None and args.budget is None:
@@ -75,7 +75,7 @@ def run(args, out, files):
                               budget=args.budget)
     result = recommend(case, count, args.criterion,
                        grid=CandidateGrid(spacing=args.spacing, exclude=tuple(args.exclude or ()), kinds=kinds),
-                       noise_std=noise, n_crossings=args.crossings, constraints=constraints,
+                       noise_std={k: noise[k] for k in kinds}, n_crossings=args.crossings, constraints=constraints,
                        springs=args.springs, solver=args.solver, rng=args.seed)
     outdir = args.out
     figures = [
@@ -129,11 +129,20 @@ def _existing(args, case, kind, noise):
         k = kind if k is None else check_kind(k, "--fixed")
         positions.append(x)
         kinds.append(k)
-        stds.append(noise[k] if k in noise else case.noise_std_for(k))
+        stds.append(noise[k] if k in noise else _existing_noise(case, k))
     if not positions:
         return ()
     case.bridge.check_on_bridge(positions, "fixed", "--fixed")
     return SensorLayout(positions, tuple(kinds), tuple(f"F{i + 1}" for i in range(len(positions))), tuple(stds))
+
+
+def _existing_noise(case, kind):
+    try:
+        return case.noise_std_for(kind)
+    except ConfigError:
+        unit = "rad" if kind == "rotation" else "m"
+        raise ConfigError(f"--fixed: the case has no {kind} sensor to take the noise of the existing {kind} "
+                          f"sensors from; give it as --noise-std {kind}=VALUE in {unit}") from None
 
 
 def _sensors(positions, kinds, noise):

@@ -238,6 +238,7 @@ class DesignResult:
             "baselines": {b.name: b.to_dict() for b in self.baselines},
             "fixed_m": list(self.fixed_m),
             "fixed_kind": list(self.fixed_kind),
+            "fixed_noise_std": list(self.fixed_noise_std),
             "kind": self.kind,
             "noise_std": dict(self.noise_std),
             "cost": self.cost,
