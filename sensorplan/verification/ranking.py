@@ -74,11 +74,13 @@ class VerificationRanking:
                          f"  loc. err {_f(e.localisation_error_m, '.2f'):>5s} m  coverage95 {_f(e.coverage95):>5s}"
                          + ("" if e.criterion is None else f"  criterion {e.criterion:.6g}"))
         better = [e for e in self.entries if e.name in self.verifies_better]
+        ref = next(e for e in self.entries if e.name == self.reference)
         if not better:
             lines.append(f"  the {crit} layout ({self.reference}) verifies best.")
         for e in better:
             diff = ("" if e.detection_rate_diff is None else
                     f"; detection rate {e.detection_rate_diff:+.3f} ± {_f(e.detection_rate_diff_se)} (paired s.e.)")
+            diff += f"; detection limit {_f(e.detection_limit)} vs {_f(ref.detection_limit)}"
             lines.append(f"  NOTE: baseline {e.name} verifies better than the {crit} layout "
                          f"(better on {', '.join(e.better_on) or 'ties broken in its favour'}{diff}): "
                          "this criterion's optimum is not the best layout for detection here.")

@@ -72,23 +72,25 @@ def bridge_case(name):
 
 
 def criteria():
-    return [c for c in ("D", "A", "E", "Ds", "detect") if c in CRITERIA]
+    return [c for c in ("D", "A", "E", "Ds", "detect") if c in CRITERIA]  # detect: once it is registered
 
 
 def run(quick=False, seed=1, bridges=None, echo=None):
-    n_locations, n_controls = (2, 2) if quick else (8, 4)
+    n_locations, n_controls = (2, 2) if quick else (12, 4)
     rows = []
     for name, count in BRIDGES.items():
         if bridges is not None and name not in bridges:
             continue
         case = bridge_case(name)
         springs = bool(case.bridge.spring_parameters)
-        layouts, values = {}, {}
+        layouts = {}
         for crit in criteria():
             design = sp.recommend(case, count, crit, springs=springs and crit == "Ds", curve_max=0, n_random=20,
                                   kind="rotation")
             layouts[crit] = design.layout_m
-            values[crit] = design.value
+            if crit == "D":  # the reference everyone would try first
+                even = design.baseline("equally_spaced").layout_m
+        layouts["even"] = even
         result = sp.verify_layouts(case, list(layouts.values()), names=list(layouts), n_locations=n_locations,
                                    n_controls=n_controls, seed=seed)
         ranking = rank_layouts(result, reference=criteria()[0], criterion=criteria()[0])
