@@ -118,6 +118,9 @@ def test_ranking_by_verification_names_a_baseline_that_verifies_better():
     # when the recommended layout is best, the summary says so and the list is empty
     alone = rank_layouts(VerificationResult((rec, tie), (), 10, 0, 0.25, 2.0, ("recommended", "tie")), criterion="A")
     assert alone.verifies_better == () and "the A-optimal layout (recommended) verifies best." in alone.summary()
+    # unnamed layouts are labelled by position, deflection sensors marked in a layout of mixed kinds
+    mixed = _aggregate([2.0, 13.0, 28.5], rec.records, 0.3, ("rotation", "deflection", "rotation"))
+    assert mixed.label == "2, 13:deflection, 28.5" and rec.label == "1, 2"
 
 
 @pytest.mark.slow

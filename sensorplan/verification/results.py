@@ -53,10 +53,10 @@ class LayoutScore:
 
     @property
     def label(self):
-        """Positions [m], each with ``:kind`` when the layout mixes kinds."""
-        if len(set(self.layout_kind)) <= 1:
-            return ", ".join(f"{x:g}" for x in self.layout_m)
-        return ", ".join(f"{x:g}:{k}" for x, k in zip(self.layout_m, self.layout_kind))
+        """Positions [m]; in a layout of mixed kinds the deflection sensors marked ``:deflection``."""
+        kinds = self.layout_kind or ("rotation",) * len(self.layout_m)
+        mixed = len(set(kinds)) > 1
+        return ", ".join(f"{x:g}" + (f":{k}" if mixed and k != "rotation" else "") for x, k in zip(self.layout_m, kinds))
 
     @property
     def detection_ratio(self):
