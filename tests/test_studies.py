@@ -22,7 +22,9 @@ def test_criteria_vs_verification_study_smoke(tmp_path, monkeypatch, capsys):
     script = "studies/design/criteria_vs_verification.py"
     out = tmp_path / "table.txt"
     monkeypatch.setattr(sys, "argv", [script, "--quick", "--out", str(out)])
-    runpy.run_path(script, run_name="__main__")
+    with pytest.raises(SystemExit) as exc:
+        runpy.run_path(script, run_name="__main__")
+    assert exc.value.code == 0
     from sensorplan.design.criteria import CRITERIA
 
     rows = [line.split() for line in out.read_text().splitlines() if line.startswith("simply-supported")]
