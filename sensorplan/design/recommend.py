@@ -15,7 +15,6 @@ from .._errors import ConfigError, SensorplanError, SolverError
 from .._threads import single_threaded
 from ..model.fisher import fisher_blocks
 from ..model.prior import GMRFPrior
-from ..model.sensors import SensorLayout
 from .baselines import baselines as make_baselines
 from .candidates import as_kinds, candidate_set, fixed_layout, kind_costs, kind_noise, sensor_layout
 from .criteria import make_criterion
@@ -219,7 +218,8 @@ def _best_layout(problem, relaxation, starts, greedy_layout=None):
 @single_threaded
 def recommend(case: "Case", count: int, criterion: str = "D", *, grid: CandidateGrid | None = None,
               constraints: Constraints | None = None, kind: "str | Sequence[str]" = "rotation",
-              noise_std: "float | Mapping[str, float] | None" = None, n_crossings: int = 1, prior: GMRFPrior | None = None, springs: bool = False,
+              noise_std: "float | Mapping[str, float] | None" = None, n_crossings: int = 1,
+              prior: GMRFPrior | None = None, springs: bool = False,
               region: tuple[float, float] | None = None, functionals: "np.ndarray | None" = None,
               solver: str = "auto", n_random: int = 100, rng: "int | np.random.Generator" = 0,
               curve_max: int | None = None) -> DesignResult:

@@ -146,8 +146,8 @@ def rank_layouts(verification, *, reference="recommended", criterion=None, value
     for rank, name in enumerate(order, start=1):
         s = scores[name]
         diff, se = _paired(s, ref) if name != reference else (None, None)
-        entries.append(RankedLayout(name, rank, _mean(s.metrics["detection_rate"]),
-                                    None if math.isnan(s.metrics["detection_rate"].se) else s.metrics["detection_rate"].se,
+        det = s.metrics["detection_rate"]
+        entries.append(RankedLayout(name, rank, _mean(det), None if math.isnan(det.se) else det.se,
                                     s.detection_limit, _mean(s.metrics["localisation_error_m"]),
                                     _mean(s.metrics["coverage95"]), None if values is None else values.get(name),
                                     () if name == reference else _better_on(s, ref), diff, se))

@@ -56,7 +56,8 @@ class LayoutScore:
         """Positions [m]; in a layout of mixed kinds the deflection sensors marked ``:deflection``."""
         kinds = self.layout_kind or ("rotation",) * len(self.layout_m)
         mixed = len(set(kinds)) > 1
-        return ", ".join(f"{x:g}" + (f":{k}" if mixed and k != "rotation" else "") for x, k in zip(self.layout_m, kinds))
+        return ", ".join(f"{x:g}" + (f":{k}" if mixed and k != "rotation" else "")
+                         for x, k in zip(self.layout_m, kinds))
 
     @property
     def detection_ratio(self):

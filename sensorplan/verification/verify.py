@@ -136,7 +136,8 @@ def detection_limit(case, layout, scenarios, *, kind="rotation", noise_std=None,
 
 
 @single_threaded
-def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float] | SensorLayout]", *, names: "Sequence[str] | None" = None,
+def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float] | SensorLayout]", *,
+                   names: "Sequence[str] | None" = None,
                    n_locations: int = 8, severity: float = 0.25, length: float = 2.0, n_controls: int | None = None,
                    n_crossings: int = 10, seed: int = 0, kind: str = "rotation",
                    noise_std: "float | Mapping[str, float] | None" = None,
