@@ -198,8 +198,14 @@ def plot_layout(design, *, ax=None, exclude=()):
     width = 0.8 * float(np.min(np.diff(np.unique(design.candidates_m)))) if design.candidates_m.size > 1 else 0.3
     ax.bar(design.candidates_m, 0.5 * design.weights, width=width, bottom=0.05, color="C0", alpha=0.45,
            label="relaxed weight (x0.5)")
-    ax.plot(design.layout_m, np.full(len(design.layout_m), 0.0), "v", color="C3", markersize=11,
-            label="recommended", zorder=5)
+    kinds = design.layout_kind or (design.kind,) * len(design.layout_m)
+    for kind, marker in (("rotation", "v"), ("deflection", "D")):  # one marker per kind when mixed
+        xs = [x for x, k in zip(design.layout_m, kinds) if k == kind or not design.mixed]
+        if xs:
+            ax.plot(xs, np.zeros(len(xs)), marker if design.mixed else "v", color="C3", markersize=11 if
+                    marker == "v" else 8, label=f"recommended {kind}" if design.mixed else "recommended", zorder=5)
+        if not design.mixed:
+            break
     if design.fixed_m:
         ax.plot(design.fixed_m, np.zeros(len(design.fixed_m)), "s", color="k", markersize=8,
                 label="existing", zorder=5)
@@ -213,7 +219,7 @@ def plot_layout(design, *, ax=None, exclude=()):
     ax.set_yticks([])
     ax.set_xlim(x0 - 0.02 * (x1 - x0), x1 + 0.02 * (x1 - x0))
     ax.set_xlabel("position along the bridge x [m]")
-    ax.set_title(f"{design.criterion}-optimal layout of {design.count} {design.kind} sensor(s)")
+    ax.set_title(f"{design.criterion}-optimal layout of {design.count} {design.kind.replace('+', ' or ')} sensor(s)")
     ax.legend(fontsize=7, ncol=4, loc="upper right")
     return ax
 
@@ -257,7 +263,7 @@ def plot_verification(verification, *, axes=None, supports=None):
     """Scan statistic (relative to its threshold) and localisation error versus damage location, per layout."""
     if axes is None:
         _, axes = new_figure((8, 5.6), 2, 1, sharex=True)
-    names = verification.names or [", ".join(f"{x:g}" for x in s.layout_m) for s in verification.layouts]
+    names = verification.names or [s.label for s in verification.layouts]
     for name, score in zip(names, verification.layouts):
         local = [r for r in score.records if r["kind"] == "local"]
         x = [r["centre_m"] for r in local]

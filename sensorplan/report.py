@@ -8,7 +8,7 @@ import base64
 import hashlib
 import html
 import io
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -282,6 +282,7 @@ def render_report(analysis, *, provenance=None):
                      + _table(["layout", "relative RMSE", "localisation error [m]", "detection rate",
                                "false-alarm rate", "95 % coverage", "band width"], vrows)
                      + '<p class="note">mean ± Monte-Carlo standard error.</p>'
+                     + _ranking(verification, design, names)
                      + _figure(axes[0], "Detection and localisation per damage location",
                                "each line is one layout: higher detection probability and lower localisation "
                                "error mean the layout finds a loss at that location.")))
@@ -335,6 +336,23 @@ def render_report(analysis, *, provenance=None):
     return Report(_render(case, sections), tuple(title for title, _ in sections), design, verification,
                   posterior, diagnosis)
 
+
+
+def _ranking(verification, design, names):
+    """The layouts ranked by verification, and a plain note when a baseline verifies better."""
+    from .verification.ranking import rank_layouts
+
+    if "recommended" not in names:
+        return ""
+    values = {"recommended": design.value} | {b.name: b.value for b in design.baselines}
+    ranking = rank_layouts(replace(verification, names=tuple(names)), criterion=design.criterion, values=values)
+    rows = [(str(e.rank), e.name, _fmt(e.detection_rate, 3), _fmt(e.detection_limit, 3),
+             _fmt(e.localisation_error_m, 2), _fmt(e.coverage95, 3), _fmt(e.criterion, 6)) for e in ranking.entries]
+    notes = [line.strip() for line in ranking.summary().splitlines()[len(ranking.entries) + 1:]]
+    return ("<h3>Ranking by verification</h3>"
+            + _table(["rank", "layout", "detection rate", "detection limit", "localisation error [m]",
+                      "95 % coverage", f"{design.criterion} criterion"], rows)
+            + "".join(f'<p class="verdict">{html.escape(n)}</p>' for n in notes))
 
 
 def _render(case, sections):

@@ -140,6 +140,18 @@ def test_report_shows_the_computed_results(built_report):
         shown = np.array([numbers(cell) for cell in row[1:]])
         np.testing.assert_allclose(shown[:, 0], [score.metrics[m].mean for m in metrics], atol=5e-4)
         np.testing.assert_allclose(shown[:, 1], [score.metrics[m].se for m in metrics], atol=5e-4)
+    # the ranking by verification: every verified layout once, by detection rate (then detection limit),
+    # and a plain note for each baseline ranked above the recommended layout
+    rank_rows = [r for r in parsed.rows if len(r) == 7 and r[0].isdigit()]
+    assert [r[0] for r in rank_rows] == [str(k) for k in range(1, len(names) + 1)]
+    assert sorted(r[1] for r in rank_rows) == sorted(names)
+    by_name = dict(zip(names, verification.layouts))
+    keys = [(-by_name[r[1]].metrics["detection_rate"].mean, -by_name[r[1]].detection_limit) for r in rank_rows]
+    assert keys == sorted(keys)
+    above = [r[1] for r in rank_rows[:[r[1] for r in rank_rows].index("recommended")]]
+    for name in above:
+        assert f"NOTE: baseline {name} verifies better than the D-optimal layout" in report.html
+    assert bool(above) != ("the D-optimal layout (recommended) verifies best." in report.html)
     # identified EI: one row per element, mean and 95 % interval
     ci = posterior.credible_interval(0.95)
     for j, (a, b) in enumerate(zip(posterior.edges[:-1], posterior.edges[1:])):

@@ -140,10 +140,15 @@ MAX_FISHER_BYTES = 2**30
 MIN_SNR = 3.0
 
 
+def positions_of(items):
+    """Positions [m] of option values that are positions or (position, kind) pairs (:func:`parse_sensors`)."""
+    return [x[0] if isinstance(x, tuple) else x for x in items]
+
+
 def check_layouts(case, layouts, option):
     """Every position of every layout on the bridge; the error names ``option``."""
     for layout in layouts:
-        case.bridge.check_on_bridge(layout, option.lstrip("-"), option)
+        case.bridge.check_on_bridge(positions_of(layout), option.lstrip("-"), option)
 
 
 def _count(length, step):
@@ -185,7 +190,7 @@ def check_grid(case, args):
     for a, b in zones:
         if b < 0.0 or a > length:
             raise ConfigError(f"--exclude zone {a:g}:{b:g} lies off the bridge (0 to {length:g} m).")
-    fixed = list(args.fixed or ())
+    fixed = positions_of(args.fixed or ())
     if not fixed:
         return
     case.bridge.check_on_bridge(fixed, "fixed", "--fixed")
@@ -207,7 +212,7 @@ def kind_and_noise(args, case):
     return kind, case.noise_std_for(kind, args.noise_std)
 
 
-def check_signal(case, kind, noise_std, n_crossings):
+def check_signal(case, noise, n_crossings):
     """Refuse a design where no sensor position sees the vehicle above the noise.
 
     The Fisher information a sensor adds about log EI is about the sum of its
@@ -222,8 +227,12 @@ def check_signal(case, kind, noise_std, n_crossings):
     from ..model.sensors import SensorLayout
 
     grid = np.linspace(0.0, case.bridge.length, 201)
-    lines = case.influence_lines(sensors=SensorLayout.candidates(grid, kind))
-    snr = float(np.max(np.sqrt(np.sum(lines.predictions**2, axis=1) * n_crossings)) / noise_std)
+    snrs = {}
+    for kind, noise_std in noise.items():  # noise: kind -> noise std of new sensors of that kind
+        lines = case.influence_lines(sensors=SensorLayout.candidates(grid, kind))
+        snrs[kind] = float(np.max(np.sqrt(np.sum(lines.predictions**2, axis=1) * n_crossings)) / noise_std)
+    kind = max(snrs, key=snrs.__getitem__)
+    snr, noise_std = snrs[kind], noise[kind]
     if snr < MIN_SNR:
         raise ConfigError(f"with a noise std of {noise_std:g} and {n_crossings} crossing(s) no {kind} sensor "
                           f"position sees the vehicle above the noise (best signal-to-noise {snr:.2g}, below "
@@ -258,3 +267,116 @@ def stage_figure(files, ax_or_fig, path):
 
     plotting.save_figure(ax_or_fig, files.stage(path, suffix=".png"))
     return Path(path)
+
+
+def parse_sensors(text):
+    """Positions in m, each optionally followed by ``:kind`` (e.g. 4,10:deflection,16): [(x, kind or None)]."""
+    out = []
+    for part in (p.strip() for p in text.split(",")):
+        if not part:
+            continue
+        x, _, kind = part.partition(":")
+        try:
+            out.append((float(x), kind.strip() or None))
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected comma-separated positions in m, each optionally with :kind, e.g. 4,10:deflection,16; "
+                f"got {text!r}") from None
+    if not out:
+        raise argparse.ArgumentTypeError("give at least one position in m")
+    return out
+
+
+def _flag_error(flag, message):
+    from .._errors import ConfigError
+
+    return ConfigError(f"{flag}: {message}")
+
+
+def check_kind(kind, flag):
+    from ..model.sensors import SENSOR_KINDS
+
+    if kind not in SENSOR_KINDS:
+        raise _flag_error(flag, f"unknown sensor kind {kind!r}; use {' or '.join(SENSOR_KINDS)}")
+    return kind
+
+
+def parse_kinds(text, flag="--kind"):
+    """Comma-separated sensor kinds, distinct and known (a ConfigError naming ``flag`` otherwise)."""
+    kinds = tuple(check_kind(k.strip(), flag) for k in text.split(",") if k.strip())
+    if not kinds or len(set(kinds)) != len(kinds):
+        raise _flag_error(flag, f"give distinct sensor kinds, e.g. rotation,deflection; got {text!r}")
+    return kinds
+
+
+def parse_per_kind(text, flag, *, allow_plain=True, low_open=True):
+    """``value`` or ``kind=value,...`` (positive, or non-negative with ``low_open=False``); None stays None."""
+    if text is None:
+        return None
+    bound = "positive" if low_open else "non-negative"
+    if "=" not in text and allow_plain:
+        return _kind_number(text, flag, bound, low_open)
+    out = {}
+    for part in text.split(","):
+        kind, sep, value = part.partition("=")
+        if not sep:
+            raise _flag_error(flag, f"expected kind=value pairs, e.g. rotation=1,deflection=3; got {part!r}")
+        out[check_kind(kind.strip(), flag)] = _kind_number(value, flag, bound, low_open)
+    return out
+
+
+def _kind_number(text, flag, bound, low_open):
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise _flag_error(flag, f"expected a number, got {text!r}") from None
+    if not math.isfinite(value) or value < 0 or (low_open and value == 0):
+        raise _flag_error(flag, f"must be {bound}; got {text!r}")
+    return value
+
+
+def parse_counts(text, flag):
+    """Comma-separated whole counts per span, e.g. 1,0,1 (None stays None)."""
+    if text is None:
+        return None
+    try:
+        counts = [int(v) for v in text.split(",")]
+    except ValueError:
+        raise _flag_error(flag, f"expected one whole count per span, e.g. 1,1; got {text!r}") from None
+    if any(c < 0 for c in counts):
+        raise _flag_error(flag, f"counts must be non-negative; got {text!r}")
+    return counts
+
+
+def kinds_and_noise(args, case, extra=()):
+    """Kinds of new sensors (``--kind``, default the case's) and their noise std per kind (``--noise-std``).
+
+    ``--noise-std`` may also name the ``extra`` kinds (e.g. of existing sensors); their values are
+    returned too when given.
+    """
+    kinds = parse_kinds(args.kind) if args.kind else (case.default_kind,)
+    noise = parse_per_kind(args.noise_std, "--noise-std")
+    if isinstance(noise, float):
+        if len(kinds) > 1:
+            raise _flag_error("--noise-std", f"give one value per kind, e.g. {kinds[0]}=5e-6,{kinds[1]}=1e-4")
+        noise = {kinds[0]: noise}
+    unknown = sorted(set(noise or {}) - set(kinds) - set(extra))
+    if unknown:
+        raise _flag_error("--noise-std", f"kind {unknown[0]} is not among the kinds of --kind ({','.join(kinds)})")
+    out = {k: _kind_noise(case, k, (noise or {}).get(k), len(kinds) > 1) for k in kinds}
+    return kinds, out | {k: case.noise_std_for(k, v) for k, v in (noise or {}).items() if k not in out}
+
+
+def _kind_noise(case, kind, value, several):
+    if value is not None or not several:
+        return case.noise_std_for(kind, value)
+    from .._errors import ConfigError
+
+    try:
+        return case.noise_std_for(kind)
+    except ConfigError:
+        unit = "rad" if kind == "rotation" else "m"
+        raise _flag_error("--noise-std", f"no noise std for the new {kind} sensors (the case has none to take it "
+                                         f"from); give it as {kind}=VALUE in {unit}") from None

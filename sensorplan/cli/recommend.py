@@ -1,6 +1,5 @@
 """``sensorplan recommend``: certified layout, baselines, criterion versus R (and --verify)."""
 
-
 from .._errors import ConfigError
 from ._common import (
     COUNT,
@@ -8,18 +7,21 @@ from ._common import (
     FALSE_ALARM,
     LENGTH,
     MAX_CROSSINGS,
-    NOISE_STD,
     SEED,
     SEVERITY,
     add_case_arguments,
     add_out_arguments,
     check_grid,
+    check_kind,
     check_signal,
     integer,
-    kind_and_noise,
+    kinds_and_noise,
     load_case,
-    parse_positions,
+    parse_counts,
+    parse_per_kind,
+    parse_sensors,
     parse_zones,
+    real,
     stage_figure,
     stage_json,
 )
@@ -42,12 +44,22 @@ def add_arguments(p):
     p.add_argument("--criterion", choices=list(CRITERIA), default="D", help="design criterion (default D)")
     p.add_argument("--spacing", type=LENGTH, default=0.5, help="candidate grid spacing in m (default 0.5)")
     p.add_argument("--exclude", type=parse_zones, help="exclusion zones start:stop in m, e.g. 14:16,29:30")
-    p.add_argument("--fixed", type=parse_positions, help="existing sensors in m, e.g. 11,19")
-    p.add_argument("--min-spacing", type=DISTANCE, default=0.0, help="minimum distance between sensors in m")
-    p.add_argument("--kind", choices=["rotation", "deflection"],
-                   help="sensor kind (default: the kind of the case's sensors)")
-    p.add_argument("--noise-std", type=NOISE_STD,
-                   help="noise std of the new sensors in SI units (rad or m); default: the case's sensors'")
+    p.add_argument("--fixed", type=parse_sensors,
+                   help="existing sensors in m, each optionally with :kind, e.g. 11,19:deflection")
+    p.add_argument("--keep-case-sensors", action="store_true",
+                   help="treat the case's own sensors (their kinds and noise) as existing")
+    p.add_argument("--min-spacing", type=DISTANCE, default=0.0,
+                   help="minimum distance between sensors in m, whatever their kinds")
+    p.add_argument("--kind", help="sensor kind(s) of the new sensors, e.g. rotation or rotation,deflection "
+                                  "(default: the kind of the case's sensors)")
+    p.add_argument("--noise-std", help="noise std of the new sensors in SI units (rad or m), per kind as "
+                                       "rotation=5e-6,deflection=1e-4; default: the case's sensors' of that kind")
+    p.add_argument("--cost", help="cost of a new sensor per kind, e.g. rotation=1,deflection=3 (default 1; "
+                                  "with --budget)")
+    p.add_argument("--budget", type=real(0.0, 1e15, what="a total cost", low_open=True),
+                   help="total cost of the new sensors")
+    p.add_argument("--per-span-min", help="minimum number of new sensors in each span, e.g. 1,1")
+    p.add_argument("--per-span-max", help="maximum number of new sensors in each span, e.g. 3,3")
     p.add_argument("--crossings", type=integer(1, MAX_CROSSINGS), default=1,
                    help="crossings per measurement campaign (default 1)")
     p.add_argument("--springs", action="store_true", help="treat the spring stiffnesses as nuisance parameters")
@@ -69,13 +81,15 @@ def add_arguments(p):
 def run(args, out, files):
     from .. import plotting
     from ..design.recommend import recommend
+    from ..verification.ranking import rank_layouts
 
     case = load_case(args)
-    args.kind, args.noise_std = kind_and_noise(args, case)
+    kinds, noise = kinds_and_noise(args, case, extra={k for _, k in args.fixed or () if k is not None})
     count = case.sensors.n_sensors if args.count is None else args.count
+    options = design_options(args, case)
     check_grid(case, args)
-    check_signal(case, args.kind, args.noise_std, args.crossings)
-    result = recommend(case, count, args.criterion, **design_options(args))
+    check_signal(case, options["noise_std"], args.crossings)
+    result = recommend(case, count, args.criterion, **options)
     outdir = args.out
     figures = [
         stage_figure(files, plotting.plot_layout(result, exclude=args.exclude or ()), outdir / "layout.png"),
@@ -89,15 +103,20 @@ def run(args, out, files):
     verification = None
     if args.verify:
         names = ["recommended"] + [b.name for b in result.baselines if b.feasible]
-        layouts = [result.layout_m] + [b.layout_m for b in result.baselines if b.feasible]
+        layouts = [_sensors(result.layout_m, result.layout_kind, result.noise_std)] + [
+            _sensors(b.layout_m, b.layout_kind, result.noise_std) for b in result.baselines if b.feasible]
         verification, _, vfig = run_verification(args, case, layouts, names, files,
                                                  json_path=outdir / "verification.json")
         payload["verification"] = verification.to_dict()
+        ranking = rank_layouts(verification, criterion=result.criterion,
+                               values={"recommended": result.value} | {b.name: b.value for b in result.baselines})
+        payload.update(ranking.to_dict())
         figures.append(vfig)
     json_path = stage_json(files, args.json or outdir / "design.json", payload)
     out(result.summary())
     if verification is not None:
         out(verification.summary())
+        out(ranking.summary())
     out(f"design written to {json_path}; figures: " + ", ".join(str(p) for p in figures))
     return 0
 
@@ -123,14 +142,23 @@ def _detection_target(args):
     return DetectionTarget(**given)
 
 
-def design_options(args):
-    """The keyword arguments of :func:`sensorplan.design.recommend.recommend` given by the options
-    (``args.kind`` and ``args.noise_std`` resolved by ``kind_and_noise`` first)."""
+def design_options(args, case):
+    """The keyword arguments of :func:`sensorplan.design.recommend.recommend` given by the options."""
     from ..design.recommend import CandidateGrid, Constraints
 
-    return {"grid": CandidateGrid(spacing=args.spacing, exclude=tuple(args.exclude or ())),
-            "constraints": Constraints(fixed=tuple(args.fixed or ()), min_spacing=args.min_spacing),
-            "kind": args.kind, "noise_std": args.noise_std, "n_crossings": args.crossings,
+    kinds, noise = kinds_and_noise(args, case, extra={k for _, k in args.fixed or () if k is not None})
+    costs = parse_per_kind(args.cost, "--cost", allow_plain=False, low_open=False)
+    if costs is not None and args.budget is None:
+        raise ConfigError("--cost: sensor costs only matter with a --budget; give --budget B")
+    if costs is not None and set(costs) - set(kinds):
+        raise ConfigError(f"--cost: kind {sorted(set(costs) - set(kinds))[0]} is not among the kinds of --kind "
+                          f"({','.join(kinds)})")
+    constraints = Constraints(fixed=_existing(args, case, kinds[0], noise), min_spacing=args.min_spacing,
+                              span_min=_spans(args.per_span_min, "--per-span-min", case),
+                              span_max=_spans(args.per_span_max, "--per-span-max", case), costs=costs,
+                              budget=args.budget)
+    return {"grid": CandidateGrid(spacing=args.spacing, exclude=tuple(args.exclude or ()), kinds=kinds),
+            "noise_std": {k: noise[k] for k in kinds}, "constraints": constraints, "n_crossings": args.crossings,
             "springs": args.springs, "solver": args.solver, "rng": args.seed,
             "region": _region(args), "target": _detection_target(args)}
 
@@ -160,3 +188,47 @@ def recommend_argv(args):
         else:
             argv += [flag, repr(value) if isinstance(value, float) else str(value)]
     return argv
+
+
+def _spans(text, flag, case):
+    counts = parse_counts(text, flag)
+    if counts is not None and len(counts) != case.bridge.n_spans:
+        raise ConfigError(f"{flag}: give one count per span ({case.bridge.n_spans}); got {text!r}")
+    return counts
+
+
+def _existing(args, case, kind, noise):
+    """Existing sensors: --fixed (positions with optional :kind) and, with --keep-case-sensors, the case's own."""
+    from ..model.sensors import SensorLayout
+
+    positions, kinds, stds = [], [], []
+    if args.keep_case_sensors:
+        positions += list(case.sensors.positions)
+        kinds += list(case.sensors.kinds)
+        stds += [float(s) for s in case.noise.std] if case.noise is not None else [
+            case.noise_std_for(k) for k in case.sensors.kinds]
+    for x, k in args.fixed or ():
+        k = kind if k is None else check_kind(k, "--fixed")
+        positions.append(x)
+        kinds.append(k)
+        stds.append(noise[k] if k in noise else _existing_noise(case, k))
+    if not positions:
+        return ()
+    case.bridge.check_on_bridge(positions, "fixed", "--fixed")
+    return SensorLayout(positions, tuple(kinds), tuple(f"F{i + 1}" for i in range(len(positions))), tuple(stds))
+
+
+def _existing_noise(case, kind):
+    try:
+        return case.noise_std_for(kind)
+    except ConfigError:
+        unit = "rad" if kind == "rotation" else "m"
+        raise ConfigError(f"--fixed: the case has no {kind} sensor to take the noise of the existing {kind} "
+                          f"sensors from; give it as --noise-std {kind}=VALUE in {unit}") from None
+
+
+def _sensors(positions, kinds, noise):
+    from ..model.sensors import SensorLayout
+
+    return SensorLayout(list(positions), tuple(kinds), tuple(f"S{i + 1}" for i in range(len(positions))),
+                        tuple(noise[k] for k in kinds))

@@ -3,7 +3,7 @@
 import sys
 from pathlib import Path
 
-from ._common import kind_and_noise, load_case, stage_json
+from ._common import load_case, stage_json
 from .recommend import add_arguments as add_recommend_arguments
 from .recommend import design_options, recommend_argv
 
@@ -41,7 +41,6 @@ def run(args, out, files):
     from ..report import provenance, render_report
 
     case = load_case(args)
-    args.kind, args.noise_std = kind_and_noise(args, case)
     if args.fixed:
         case.bridge.check_on_bridge(args.fixed, "fixed", "--fixed")
     data = read_crossings(args.data, case.sensors) if args.data is not None else None
@@ -51,7 +50,7 @@ def run(args, out, files):
     progress = None if args.quiet else (lambda msg: print(f"sensorplan report: {msg}", file=sys.stderr, flush=True))
     analysis = analyse(case, data=data, count=args.count, criterion=args.criterion, n_scenarios=args.scenarios,
                        n_crossings=args.verify_crossings, seed=args.seed, progress=progress,
-                       design_options=design_options(args))
+                       design_options=design_options(args, case))
     argv = recommend_argv(args)
     options = {k: (str(v) if isinstance(v, Path) else v) for k, v in sorted(vars(args).items())
                if k not in ("handler", "quiet", "debug")}

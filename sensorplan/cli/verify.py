@@ -1,21 +1,23 @@
 """``sensorplan verify``: score layouts by Bayesian inversion of synthetic damage."""
 
 import argparse
+from argparse import Namespace
 
+from .._errors import ConfigError
 from ._common import (
     FALSE_ALARM,
     LENGTH,
     MAX_SCENARIOS,
     MAX_WORKERS,
-    NOISE_STD,
     SEED,
     add_case_arguments,
     add_out_arguments,
+    check_kind,
     check_layouts,
     integer,
-    kind_and_noise,
+    kinds_and_noise,
     load_case,
-    parse_positions,
+    parse_sensors,
     progress,
     real,
     stage_figure,
@@ -27,6 +29,7 @@ HELP = "verify layouts by Bayesian inversion of synthetic damage"
 EPILOG = """example:
   sensorplan verify --example openlab-like --layout 11,19 --layout 2,13,28.5 --scenarios 8 --workers 2 --seed 1
   sensorplan verify --example three-span --layout 4,14,20,26,36 --severity 0.1,0.25 --scheduler local --workers 2
+  sensorplan verify --example openlab-like --layout 2,13:deflection,28.5 --noise-std rotation=5e-6,deflection=2e-5
 """
 
 
@@ -63,12 +66,13 @@ def parse_severities(text):
 
 def add_arguments(p):
     add_case_arguments(p)
-    p.add_argument("--layout", type=parse_positions, action="append", required=True,
-                   help="sensor positions in m, e.g. 3.5,8,12 (repeat for several layouts)")
-    p.add_argument("--kind", choices=["rotation", "deflection"],
-                   help="sensor kind (default: the kind of the case's sensors)")
-    p.add_argument("--noise-std", type=NOISE_STD,
-                   help="noise std of the new sensors in SI units (rad or m); default: the case's sensors'")
+    p.add_argument("--layout", type=parse_sensors, action="append", required=True,
+                   help="sensor positions in m, each optionally with :kind, e.g. 3.5,8:deflection,12 "
+                        "(repeat for several layouts)")
+    p.add_argument("--kind", help="kind of the sensors given without :kind (default: the kind of the case's "
+                                  "sensors)")
+    p.add_argument("--noise-std", help="noise std of the sensors in SI units (rad or m), per kind as "
+                                       "rotation=5e-6,deflection=1e-4; default: the case's sensors' of that kind")
     p.add_argument("--seed", type=SEED, default=0, help="random seed (default 0)")
     p.add_argument("--severity", type=parse_severities, default=[0.25],
                    help="fraction(s) of EI lost by the local damage, in (0, 1), e.g. 0.1,0.25: one verification "
@@ -114,7 +118,7 @@ def run_verifications(args, case, layouts, names, files, *, json_path):
         for sev in severities:
             results.append(verify_layouts(case, layouts, names=names, n_locations=args.scenarios,
                                           n_crossings=args.verify_crossings, seed=args.seed, executor=runner,
-                                          kind=args.kind, noise_std=args.noise_std, severity=sev, **options,
+                                          severity=sev, **options,
                                           progress=progress(args, args.command)))
     if len(results) == 1:
         payload = results[0].to_dict()
@@ -129,10 +133,23 @@ def run_verifications(args, case, layouts, names, files, *, json_path):
 
 
 def run(args, out, files):
+    from ..model.sensors import SensorLayout
+
     case = load_case(args)
-    args.kind, args.noise_std = kind_and_noise(args, case)
+    used = {check_kind(k, "--layout") for layout in args.layout for _, k in layout if k is not None}
+    if args.kind and "," in args.kind:
+        raise ConfigError("--kind: give one kind for the positions without :kind; mark the others, e.g. 4:deflection")
+    default = args.kind or case.default_kind
+    kind_arg = ",".join([default] + sorted(used - {default}))
+    kinds, noise = kinds_and_noise(Namespace(kind=kind_arg, noise_std=args.noise_std), case)
+    layouts = []
     check_layouts(case, args.layout, "--layout")
-    results, json_path, figures = run_verifications(args, case, args.layout, None, files,
+    for layout in args.layout:
+        sensor_kinds = tuple(default if k is None else k for _, k in layout)
+        layouts.append(SensorLayout([x for x, _ in layout], sensor_kinds,
+                                    tuple(f"S{i + 1}" for i in range(len(layout))),
+                                    tuple(noise[k] for k in sensor_kinds)))
+    results, json_path, figures = run_verifications(args, case, layouts, None, files,
                                                     json_path=args.json or args.out / "verification.json")
     for result in results:
         out(result.summary())

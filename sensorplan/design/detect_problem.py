@@ -21,7 +21,6 @@ from ..detection.detectability import _check_options
 from ..detection.signatures import SignatureModel, centre_grid, gram_matrices
 from ..model.fisher import fisher_blocks
 from ..model.noise import NoiseModel
-from ..model.sensors import SensorLayout
 from .detect_criterion import RIDGE, DetectCriterion
 
 __all__ = ["DetectionTarget", "detection_information"]
@@ -69,9 +68,9 @@ def _centres(case, target, region):
     return inside, (a, b)
 
 
-def detection_information(case, positions, fixed, *, kind, noise_std, n_crossings, region, target, prior, springs,
-                          functionals):
-    """(blocks, q0, criterion, posterior_of) of the detect criterion for ``positions`` (+ ``fixed``)."""
+def detection_information(case, cands, *, n_crossings, region, target, prior, springs, functionals):
+    """(blocks, q0, criterion, posterior_of) of the detect criterion for the candidates ``cands``
+    (a CandidateSet: positions, kinds and noise of each candidate, plus the existing sensors)."""
     target = DetectionTarget() if target is None else target
     if springs or functionals is not None:
         raise ConfigError("'springs' and 'functionals' apply to the information criteria, not to detect "
@@ -79,16 +78,15 @@ def detection_information(case, positions, fixed, *, kind, noise_std, n_crossing
     severity, length, false_alarm, n_crossings, step = _check_options(
         case, target.severity, target.length, target.false_alarm, n_crossings, target.nuisance, target.step)
     centres, region = _centres(case, target, region)
-    all_pos = np.concatenate([positions, fixed])
-    sensors = SensorLayout.candidates(all_pos, kind, noise_std=[noise_std] * all_pos.size)
+    sensors = cands.layout()
     correlation = 0.0 if case.noise is None else case.noise.correlation_length
-    model = SignatureModel(case, sensors, NoiseModel(np.full(all_pos.size, noise_std), correlation),
+    model = SignatureModel(case, sensors, NoiseModel(np.asarray(sensors.noise_std, dtype=float), correlation),
                            target.nuisance, length)
     grams = gram_matrices(model.damage(centres, severity), model.nuisance) * n_crossings
     # nuisance columns no sensor sees do not change d^2: drop them
     seen = np.concatenate([[True], np.einsum("snn->n", grams[:, 0, 1:, 1:]) > 0.0])
     grams = np.ascontiguousarray(grams[:, :, seen][:, :, :, seen])
-    n_cand = positions.size
+    n_cand = cands.n_candidates
     blocks, q0 = grams[:n_cand], grams[n_cand:].sum(axis=0)
     ridge = RIDGE * np.einsum("snn->sn", blocks[:, 0, 1:, 1:]).mean(axis=0)
     crit = DetectCriterion(centres.size, centres=centres, ridge=ridge, false_alarm=false_alarm,
@@ -98,9 +96,7 @@ def detection_information(case, positions, fixed, *, kind, noise_std, n_crossing
     n_el = case.n_elements
 
     def posterior_of(index):
-        sensors_i = SensorLayout.candidates(np.concatenate([positions[list(index)], fixed]), kind,
-                                            noise_std=[noise_std] * (len(index) + fixed.size))
-        info = fisher_blocks(case, sensors=sensors_i, parameterisation="log_ei", n_crossings=n_crossings)
+        info = fisher_blocks(case, sensors=cands.layout(index), parameterisation="log_ei", n_crossings=n_crossings)
         return prior.precision(n_el, 0) + info.blocks.sum(axis=0)
 
     return blocks, q0, crit, posterior_of

@@ -36,6 +36,9 @@ class DesignProblem:
     min_spacing: float = 0.0
     n_spans: int = 1
     posterior_of: object = None  # index -> posterior precision of log EI, when blocks are not Fisher blocks
+    kinds: tuple | None = None  # (C,) kind of each candidate (None: all of one kind)
+    noise_std: np.ndarray | None = None  # (C,) noise std of each candidate [rad or m]
+    fixed: object = None  # SensorLayout of the existing sensors
 
     def __post_init__(self):
         c = self.positions.size

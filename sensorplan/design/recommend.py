@@ -5,6 +5,7 @@ Owns: option groups (CandidateGrid, Constraints), problem assembly,
 """
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
@@ -14,8 +15,15 @@ from .._errors import ConfigError, SensorplanError, SolverError
 from .._threads import single_threaded
 from ..model.fisher import fisher_blocks
 from ..model.prior import GMRFPrior
-from ..model.sensors import SensorLayout
 from .baselines import baselines as make_baselines
+from .candidates import (
+    as_kinds,
+    candidate_set,
+    fixed_layout,
+    kind_costs,
+    kind_noise,
+    sensor_layout,
+)
 from .criteria import criterion_class, make_criterion
 from .detect_problem import DetectionTarget, detection_information
 from .problem import DesignProblem
@@ -41,11 +49,15 @@ class CandidateGrid:
         Exclusion zones [m] (bearings, joints, anchorages).
     positions : sequence of float, optional
         Explicit candidate positions [m] instead of the grid.
+    kinds : sequence of str, optional
+        Sensor kinds offered at every position (e.g. ``("rotation", "deflection")``);
+        default: the ``kind`` of :func:`recommend`.
     """
 
     spacing: float = 0.5
     exclude: tuple = ()
     positions: tuple | None = None
+    kinds: tuple | None = None
 
     def candidates(self, bridge):
         """Candidate positions [m] on ``bridge``."""
@@ -63,14 +75,18 @@ class Constraints:
 
     Parameters
     ----------
-    fixed : sequence of float
-        Positions of existing sensors [m] (their information is in Q_0).
+    fixed : sequence of float or SensorLayout
+        Existing sensors (their information is in Q_0): positions [m] of
+        sensors of the first candidate kind with its noise, or a SensorLayout
+        (its kinds; its noise std if set, else the case's noise for the case's
+        own layout, else the median noise of the case's sensors of its kind).
     min_spacing : float
-        Minimum distance between sensors [m] (new and existing).
+        Minimum distance between sensors [m] (new and existing, whatever their kinds).
     span_min, span_max : sequence of int, optional
         Minimum / maximum count of new sensors per span.
-    costs : float or sequence of float, optional
-        Cost of a sensor at each candidate (default 1 each).
+    costs : float, sequence of float or mapping, optional
+        Cost of a sensor at each candidate, or per kind as ``{"rotation": 1, "deflection": 3}``
+        (default 1 each); used with ``budget``.
     budget : float, optional
         Total cost of the new sensors.
     """
@@ -117,22 +133,20 @@ def build_problem(case, count, criterion="D", *, grid=None, constraints=None, ki
     grid = CandidateGrid() if grid is None else grid
     constraints = Constraints() if constraints is None else constraints
     bridge = case.bridge
-    positions = grid.candidates(bridge)
-    fixed = np.asarray(list(constraints.fixed), dtype=float)
-    if fixed.size:
-        bridge.check_on_bridge(fixed, "fixed", "recommend")
-        far = np.all(np.abs(positions[:, None] - fixed[None, :]) >= max(constraints.min_spacing, 1e-9), axis=1)
-        positions = positions[far]
-    noise_std = case.noise_std_for(kind, noise_std)
+    kinds = as_kinds(kind if grid.kinds is None else grid.kinds)
+    noise = kind_noise(case, kinds, noise_std)
+    fixed = fixed_layout(case, constraints.fixed, kinds[0], noise)
+    if fixed is not None:
+        bridge.check_on_bridge(fixed.positions, "fixed", "recommend")
+    cands = candidate_set(case, grid.candidates(bridge), kinds, noise, fixed, constraints.min_spacing)
+    positions = cands.positions
     posterior_of = None
     if detection:
         blocks, q0, crit, posterior_of = detection_information(
-            case, positions, fixed, kind=kind, noise_std=noise_std, n_crossings=n_crossings, region=region,
-            target=target, prior=prior, springs=springs, functionals=functionals)
+            case, cands, n_crossings=n_crossings, region=region, target=target, prior=prior, springs=springs,
+            functionals=functionals)
     else:
-        all_pos = np.concatenate([positions, fixed])
-        layout = SensorLayout.candidates(all_pos, kind, noise_std=[noise_std] * all_pos.size)
-        blocks = fisher_blocks(case, sensors=layout, parameterisation="log_ei", springs=springs,
+        blocks = fisher_blocks(case, sensors=cands.layout(), parameterisation="log_ei", springs=springs,
                                n_crossings=n_crossings).blocks
         n_springs = len(case.bridge.spring_parameters) if springs else 0
         q0 = prior.precision(case.n_elements, n_springs) + blocks[positions.size:].sum(axis=0)
@@ -140,14 +154,39 @@ def build_problem(case, count, criterion="D", *, grid=None, constraints=None, ki
                               region=region, functionals=functionals)
     c_arr = None
     if constraints.budget is not None:
-        costs = 1.0 if constraints.costs is None else constraints.costs
-        c_arr = np.broadcast_to(np.asarray(costs, dtype=float), positions.shape).copy()
-    span_min, span_max = constraints.span_min, constraints.span_max
+        c_arr = kind_costs(constraints.costs, cands.kinds, kinds)
+        _check_budget(c_arr, constraints.budget, int(count))
+    span_min, span_max = (_span_counts(v, name, bridge.n_spans, int(count))
+                          for v, name in ((constraints.span_min, "span_min"), (constraints.span_max, "span_max")))
+    if span_min is not None and span_max is not None and np.any(span_min > span_max):
+        raise ConfigError(f"The 'span_min' counts ({span_min.tolist()}) exceed the 'span_max' counts "
+                          f"({span_max.tolist()}) in some span.")
     return DesignProblem(positions, bridge.span_of(positions), np.ascontiguousarray(blocks[:positions.size]),
-                         q0, crit, int(count), c_arr, constraints.budget,
-                         None if span_min is None else np.asarray(span_min, int),
-                         None if span_max is None else np.asarray(span_max, int), float(constraints.min_spacing),
-                         bridge.n_spans, posterior_of)
+                         q0, crit, int(count), c_arr, constraints.budget, span_min, span_max,
+                         float(constraints.min_spacing), bridge.n_spans, posterior_of, cands.kinds, cands.noise_std,
+                         fixed)
+
+
+def _check_budget(costs, budget, count):
+    cheapest = float(np.sort(costs)[:count].sum())
+    if cheapest > budget + 1e-9:
+        raise ConfigError(f"The 'budget' ({budget:g}) is below the cost of the {count} cheapest candidate sensors "
+                          f"({cheapest:g}); raise the budget or lower the count.")
+
+
+def _span_counts(values, name, n_spans, count):
+    """Per-span counts as an int array (None stays None), checked against the spans and the count."""
+    if values is None:
+        return None
+    arr = np.asarray(values, dtype=float).ravel()
+    if arr.size != n_spans or not np.all((arr >= 0) & (arr == np.round(arr))):
+        raise ConfigError(f"The '{name}' parameter must give a non-negative whole count for each of the {n_spans} "
+                          f"span(s). Got {list(np.atleast_1d(values))!r} instead.")
+    if name == "span_min" and arr.sum() > count:
+        raise ConfigError(f"The 'span_min' counts add up to {int(arr.sum())}, more than the {count} new sensors.")
+    if name == "span_max" and arr.sum() < count:
+        raise ConfigError(f"The 'span_max' counts add up to {int(arr.sum())}, fewer than the {count} new sensors.")
+    return arr.astype(int)
 
 
 def _best_layout(problem, relaxation, starts, greedy_layout=None, rng=None):
@@ -202,8 +241,9 @@ def _best_layout(problem, relaxation, starts, greedy_layout=None, rng=None):
 
 @single_threaded
 def recommend(case: "Case", count: int, criterion: str = "D", *, grid: CandidateGrid | None = None,
-              constraints: Constraints | None = None, kind: str = "rotation", noise_std: float | None = None,
-              n_crossings: int = 1, prior: GMRFPrior | None = None, springs: bool = False,
+              constraints: Constraints | None = None, kind: "str | Sequence[str]" = "rotation",
+              noise_std: "float | Mapping[str, float] | None" = None, n_crossings: int = 1,
+              prior: GMRFPrior | None = None, springs: bool = False,
               region: tuple[float, float] | None = None, functionals: "np.ndarray | None" = None,
               solver: str = "auto", n_random: int = 100, rng: "int | np.random.Generator" = 0,
               curve_max: int | None = None, target: DetectionTarget | None = None) -> DesignResult:
@@ -222,9 +262,12 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
         Candidate positions (default: every 0.5 m).
     constraints : Constraints, optional
         Existing sensors, minimum spacing, per-span counts, costs and budget.
-    kind : {"rotation", "deflection"}
-    noise_std : float, optional
-        Noise std of the new sensors [rad or m] (default: :meth:`Case.noise_std_for`).
+    kind : {"rotation", "deflection"} or sequence of them
+        Kind(s) of the new sensors; with several kinds every candidate
+        position is offered once per kind (``grid.kinds`` overrides it).
+    noise_std : float or mapping kind -> float, optional
+        Noise std of the new sensors [rad or m], one per kind when several
+        (default: :meth:`Case.noise_std_for` for each kind).
     n_crossings : int
     prior : GMRFPrior
     springs : bool
@@ -246,7 +289,6 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
     DesignResult
     """
     constraints = Constraints() if constraints is None else constraints
-    noise_std = case.noise_std_for(kind, noise_std)
     problem = build_problem(case, count, criterion, grid=grid, constraints=constraints, kind=kind,
                             noise_std=noise_std, n_crossings=n_crossings, prior=prior, springs=springs,
                             region=region, functionals=functionals, target=target)
@@ -269,11 +311,13 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
             base_out.append(Baseline(name, None, None))
             continue
         b_value = float(problem.value_of(idx))
-        base_out.append(Baseline(name, tuple(sorted(float(x) for x in problem.positions[idx])), b_value,
-                                 float(crit.relative(b_value, value))))
+        b_order = _sorted_index(problem, idx)
+        base_out.append(Baseline(name, tuple(float(problem.positions[i]) for i in b_order), b_value,
+                                 float(crit.relative(b_value, value)), tuple(problem.kinds[i] for i in b_order),
+                                 _cost(problem, b_order)))
     curve = tuple(replace(c, value=float(value)) if c.count == count and not c.failed and sign * c.value < sign * value
                   else c for c in _curve(problem, count, curve_max, solver))
-    order = sorted(layout, key=lambda i: problem.positions[i])
+    order = _sorted_index(problem, layout)
     n_el = case.n_elements
     post_std = {"recommended": _posterior_std(problem, order, n_el)}
     for name, idx in base.items():
@@ -281,8 +325,13 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
             post_std[name] = _posterior_std(problem, idx, n_el)
     details, detail_line = crit.describe(problem.layout_precision(order))
     layout_m = tuple(float(problem.positions[i]) for i in order)
-    sensors = SensorLayout.candidates(list(layout_m), kind, noise_std=[noise_std] * len(layout_m))
+    layout_kind = tuple(problem.kinds[i] for i in order)
+    sensors = sensor_layout(layout_m, layout_kind, problem.noise_std[order])
+    kinds = tuple(dict.fromkeys(problem.kinds))
     stats = dict(relaxation.stats)
+    fixed = problem.fixed
+    fixed_m, fixed_kind, fixed_std = ((), (), ()) if fixed is None else (
+        tuple(float(x) for x in fixed.positions), fixed.kinds, tuple(fixed.noise_std))
     return DesignResult(criterion=crit.name, description=crit.description, maximise=crit.maximise,
                         count=int(count), n_params=crit.n_effective, layout_m=layout_m, value=float(value),
                         bound=float(bound), efficiency=efficiency, method=method, baselines=tuple(base_out),
@@ -290,13 +339,25 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
                                            float(relaxation.relative_gap), float(stats.pop("time_s", 0.0)),
                                            relaxation.method, stats),
                         candidates_m=problem.positions, weights=relaxation.weights,
-                        fixed_m=tuple(float(x) for x in constraints.fixed), curve=curve, kind=kind,
+                        fixed_m=fixed_m, curve=curve, kind="+".join(kinds),
                         layout_index=tuple(order), edges=case.mesh.edges.copy(),
                         supports_m=tuple(float(x) for x in case.bridge.support_positions),
                         posterior_std=post_std, details=details, detail_line=detail_line,
                         params_label=crit.params_label,
                         informativeness=fisher_blocks(case, sensors=sensors, parameterisation="ei",
-                                                      n_crossings=n_crossings))
+                                                      n_crossings=n_crossings),
+                        layout_kind=layout_kind, fixed_kind=fixed_kind, fixed_noise_std=fixed_std,
+                        noise_std={k: float(problem.noise_std[problem.kinds.index(k)]) for k in kinds},
+                        cost=_cost(problem, order), budget=problem.budget)
+
+
+def _sorted_index(problem, index):
+    """Candidate indices by position, then in the order the kinds are offered."""
+    return sorted((int(i) for i in index), key=lambda i: (problem.positions[i], i))
+
+
+def _cost(problem, index):
+    return None if problem.costs is None else float(problem.costs[list(index)].sum())
 
 
 def _posterior_std(problem, index, n_elements):

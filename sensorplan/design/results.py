@@ -18,20 +18,28 @@ def _jsonable(v):
 class Baseline:
     """A baseline layout, its criterion value and its efficiency relative to the recommended layout.
 
-    ``layout_m`` is None when the baseline cannot meet the constraints.
+    ``layout_m`` is None when the baseline cannot meet the constraints;
+    ``layout_kind`` is the kind of each sensor, ``cost`` the layout's total cost (with a budget).
     """
 
     name: str
     layout_m: tuple | None
     value: float | None
     relative: float | None = None
+    layout_kind: tuple = ()
+    cost: float | None = None
 
     @property
     def feasible(self) -> bool:
         return self.layout_m is not None
 
     def to_dict(self):
-        return None if not self.feasible else {"layout_m": list(self.layout_m), "value": self.value}
+        if not self.feasible:
+            return None
+        out = {"layout_m": list(self.layout_m), "layout_kind": list(self.layout_kind), "value": self.value}
+        if self.cost is not None:
+            out["cost"] = self.cost
+        return out
 
 
 @dataclass(frozen=True)
@@ -129,6 +137,14 @@ class DesignResult:
     details, detail_line : dict, str
         Criterion-specific results of the layout (detect: worst centre, d, power) for the JSON and
         the summary; ``params_label`` says what ``n_params`` counts.
+    layout_kind : tuple of str
+        Kind of each recommended sensor (parallel to ``layout_m``).
+    fixed_kind, fixed_noise_std : tuple
+        Kind and noise std [rad or m] of each existing sensor (parallel to ``fixed_m``).
+    noise_std : dict
+        Noise std [rad or m] of new sensors of each candidate kind.
+    cost, budget : float or None
+        Total cost of the recommended sensors and the budget (None without a budget).
     """
 
     criterion: str
@@ -156,6 +172,22 @@ class DesignResult:
     details: dict = field(default_factory=dict)
     detail_line: str = ""
     params_label: str = "parameters"
+    layout_kind: tuple = ()
+    fixed_kind: tuple = ()
+    fixed_noise_std: tuple = ()
+    noise_std: dict = field(default_factory=dict)
+    cost: float | None = None
+    budget: float | None = None
+
+    @property
+    def mixed(self) -> bool:
+        """Whether the candidates or the existing sensors are of more than one kind."""
+        return len(set(self.layout_kind) | set(self.fixed_kind) | set(self.kind.split("+"))) > 1
+
+    def _positions(self, xs, kinds):
+        if not self.mixed:
+            return ", ".join(f"{x:.2f}" for x in xs)
+        return ", ".join(f"{x:.2f} ({k})" for x, k in zip(xs, kinds))
 
     def baseline(self, name):
         """The baseline called ``name``."""
@@ -165,11 +197,14 @@ class DesignResult:
         raise KeyError(name)
 
     def summary(self):
-        lines = [f"Recommended {self.count} {self.kind} sensor(s), {self.criterion}-optimal "
+        kind = self.kind.replace("+", " or ")
+        lines = [f"Recommended {self.count} {kind} sensor(s), {self.criterion}-optimal "
                  f"({self.description}, {self.n_params} {self.params_label})",
-                 "  positions [m]: " + ", ".join(f"{x:.2f}" for x in self.layout_m)]
+                 "  positions [m]: " + self._positions(self.layout_m, self.layout_kind)]
         if self.fixed_m:
-            lines.append("  existing sensors [m]: " + ", ".join(f"{x:.2f}" for x in self.fixed_m))
+            lines.append("  existing sensors [m]: " + self._positions(self.fixed_m, self.fixed_kind))
+        if self.budget is not None:
+            lines.append(f"  cost {self.cost:g} of a budget of {self.budget:g}")
         gap = self.value - self.bound
         lines.append(f"  criterion {self.value:.6g}; relaxation bound {self.bound:.6g}; gap {gap:.3g}; "
                      f"certified efficiency >= {100 * self.efficiency:.2f} %  (method: {self.method})")
@@ -185,7 +220,7 @@ class DesignResult:
                 lines.append(f"  {b.name:28s} {'infeasible':>12s}")
                 continue
             lines.append(f"  {b.name:28s} {b.value:12.6g} {100 * b.relative:9.1f}%  "
-                         + ", ".join(f"{x:.2f}" for x in b.layout_m))
+                         + self._positions(b.layout_m, b.layout_kind))
         failed = [p for p in self.curve if p.failed]
         if failed:
             lines.append("  criterion vs R failed for R = " + ", ".join(f"{p.count} ({p.reason})" for p in failed))
@@ -203,13 +238,19 @@ class DesignResult:
             "count": self.count,
             "n_params": self.n_params,
             "layout_m": list(self.layout_m),
+            "layout_kind": list(self.layout_kind),
             "value": self.value,
             "bound": self.bound,
             "efficiency": self.efficiency,
             "method": self.method,
             "baselines": {b.name: b.to_dict() for b in self.baselines},
             "fixed_m": list(self.fixed_m),
+            "fixed_kind": list(self.fixed_kind),
+            "fixed_noise_std": list(self.fixed_noise_std),
             "kind": self.kind,
+            "noise_std": dict(self.noise_std),
+            "cost": self.cost,
+            "budget": self.budget,
             "solver": self.solver.to_dict(),
             "curve": [p.to_dict() for p in self.curve],
             **self.details,

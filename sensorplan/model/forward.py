@@ -38,7 +38,14 @@ from numpy.typing import ArrayLike
 from .._errors import ConfigError
 from .._threads import single_threaded
 from .._validation import as_float_array
-from .diagrams import RAMP, STEP, Diagrams, element_products, end_value_and_slope, point_actions
+from .diagrams import (
+    RAMP,
+    STEP,
+    Diagrams,
+    element_products,
+    end_value_and_slope,
+    point_actions,
+)
 from .loads import LoadSweep, Vehicle
 from .sensors import SensorLayout
 from .structure import Bridge, Mesh

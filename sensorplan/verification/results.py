@@ -49,6 +49,15 @@ class LayoutScore:
     metrics: dict  # name -> Metric
     records: tuple  # one dict per scenario
     detection_limit: float | None = None  # mean known-location power at the Bonferroni level (local scenarios)
+    layout_kind: tuple = ()  # kind of each sensor (parallel to layout_m)
+
+    @property
+    def label(self):
+        """Positions [m]; in a layout of mixed kinds the deflection sensors marked ``:deflection``."""
+        kinds = self.layout_kind or ("rotation",) * len(self.layout_m)
+        mixed = len(set(kinds)) > 1
+        return ", ".join(f"{x:g}" + (f":{k}" if mixed and k != "rotation" else "")
+                         for x, k in zip(self.layout_m, kinds))
 
     @property
     def detection_ratio(self):
@@ -58,7 +67,7 @@ class LayoutScore:
         return self.metrics["detection_rate"].mean / self.detection_limit
 
     def to_dict(self):
-        out = {"layout_m": list(self.layout_m), "n_scenarios": self.n_scenarios}
+        out = {"layout_m": list(self.layout_m), "layout_kind": list(self.layout_kind), "n_scenarios": self.n_scenarios}
         for name in METRICS + EXTRA_METRICS:  # NaN (no scenario to average) is written as null
             metric = self.metrics[name]
             out[name] = None if math.isnan(metric.mean) else metric.mean
@@ -92,7 +101,7 @@ class VerificationResult:
         lines = [head, f"  {'layout':26s} {'rmse':>12s} {'loc. err [m]':>13s} {'detection':>12s} {'limit':>6s} "
                        f"{'false alarm':>12s} {'coverage95':>12s} {'band width':>12s} {'not conv.':>9s}"]
         for name, score in zip(self.names or [None] * len(self.layouts), self.layouts):
-            label = name or ", ".join(f"{x:g}" for x in score.layout_m)
+            label = name or score.label
             cells = [f"{score.metrics[m].mean:5.3f}±{score.metrics[m].se:5.3f}" for m in METRICS]
             limit = "n/a" if score.detection_limit is None else f"{score.detection_limit:.3f}"
             cells.insert(3, limit)
@@ -121,7 +130,7 @@ class VerificationResult:
 
 
 
-def _aggregate(layout, records, limit=None):
+def _aggregate(layout, records, limit=None, kinds=()):
     """Metrics of one layout over its scenarios (local losses, span softenings, controls)."""
     mean_se = Metric.of
     local = [r for r in records if r["kind"] == "local"]
@@ -143,4 +152,4 @@ def _aggregate(layout, records, limit=None):
         "loss_coverage95": mean_se([r.get("loss_covered") for r in local]),
         "non_converged": mean_se([1.0 - r["converged"] for r in records]),
     }
-    return LayoutScore(tuple(float(x) for x in layout), len(records), metrics, tuple(records), limit)
+    return LayoutScore(tuple(float(x) for x in layout), len(records), metrics, tuple(records), limit, tuple(kinds))

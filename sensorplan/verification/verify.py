@@ -14,7 +14,7 @@ results are identical whatever the number of workers.
 
 import math
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Executor
 from contextlib import nullcontext
 from dataclasses import dataclass, replace
@@ -26,11 +26,11 @@ from scipy import stats
 from .._errors import ConfigError, SensorplanWarning
 from .._executors import executor_for, map_ordered
 from .._threads import single_threaded
+from ..detection.signatures import whitened_signatures
 from ..inference.inversion import invert
 from ..model.noise import NoiseModel
 from ..model.sensors import SensorLayout
 from ..model.simulate import simulate_crossings
-from ..detection.signatures import whitened_signatures
 from .results import VerificationResult, _aggregate
 from .scenarios import Scenario, element_average_ei, make_scenarios, truth_mesh
 
@@ -43,22 +43,39 @@ __all__ = ["verify_layouts", "detection_limit", "plan_verification", "Verificati
 @dataclass(frozen=True)
 class _Task:
     case: object
-    layout: tuple
-    kind: str
+    layout: SensorLayout  # positions, kinds and noise std of the sensors
     scenario: Scenario
     seed: object
     n_crossings: int
     false_alarm: float
     nuisance: str
     start: tuple = (1.0, None)  # warm start of (noise scale, tau)
-    noise_std: float | None = None
+
+
+def _as_sensors(case, layout, kind, noise_std):
+    """A layout as sensors with noise: positions [m] are of ``kind``; a SensorLayout keeps its kinds.
+
+    Sensors without a noise std take ``noise_std`` (one value, or a mapping kind -> value) or else
+    :meth:`Case.noise_std_for` of their kind.
+    """
+    if isinstance(layout, SensorLayout):
+        positions, kinds, stds = layout.positions, layout.kinds, layout.noise_std
+    else:
+        positions = np.asarray([float(x) for x in layout])
+        kinds, stds = (kind,) * positions.size, None
+    if stds is None:
+        given = noise_std if isinstance(noise_std, Mapping) else {kind: noise_std}
+        stds = [case.noise_std_for(k, given.get(k)) for k in kinds]
+    names = [f"{x:.6g}" for x in positions]
+    if len(set(names)) != len(names):
+        names = [f"{n}:{k}" for n, k in zip(names, kinds)]
+    return SensorLayout(positions, tuple(kinds), tuple(names), tuple(float(v) for v in stds))
 
 
 @single_threaded
 def _run_task(task, *, posterior=False):
     case = task.case
-    std = case.noise_std_for(task.kind, task.noise_std)  # the median of the case's sensors of that kind
-    sensors = SensorLayout.candidates(list(task.layout), task.kind, noise_std=[std] * len(task.layout))
+    sensors = task.layout
     noise = NoiseModel(sensors.noise_std, case.noise.correlation_length)
     case = replace(case, sensors=sensors, noise=noise)
     fine_mesh = truth_mesh(case)
@@ -96,20 +113,22 @@ def _score(case, post, detection, scenario, truth):
     return out
 
 
-def detection_limit(case, layout, scenarios, *, kind, noise_std, n_crossings, false_alarm, nuisance="smooth"):
+def detection_limit(case, layout, scenarios, *, kind="rotation", noise_std=None, n_crossings, false_alarm,
+                    nuisance="smooth"):
     """Mean over the local scenarios of Phi(d - z_{1 - alpha/m}), m = floor(L / length) zones.
 
     d is the known-location noncentrality of :func:`sensorplan.detectability`
     (exact forward difference, nuisance projected off): the power of the
     optimal test of each scenario's own zone at the Bonferroni level for m
     zones, a conservative stand-in for what a scan over unknown locations can
-    reach.  None without local scenarios.
+    reach.  None without local scenarios.  ``layout`` is positions [m] of
+    ``kind`` sensors or a SensorLayout (see :func:`verify_layouts`).
     """
     local = [s for s in scenarios if s.kind == "local"]
     if not local:
         return None
     length = local[0].stop - local[0].start
-    sensors = SensorLayout.candidates(list(layout), kind, noise_std=[noise_std] * len(layout))
+    sensors = _as_sensors(case, layout, kind, noise_std)
     noise = NoiseModel(sensors.noise_std, case.noise.correlation_length)
     sig = whitened_signatures(case, sensors, noise, [s.centre for s in local], severity=local[0].severity,
                               length=length, nuisance=nuisance)
@@ -119,9 +138,11 @@ def detection_limit(case, layout, scenarios, *, kind, noise_std, n_crossings, fa
 
 
 @single_threaded
-def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float]]", *, names: "Sequence[str] | None" = None,
+def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float] | SensorLayout]", *,
+                   names: "Sequence[str] | None" = None,
                    n_locations: int = 8, severity: float = 0.25, length: float = 2.0, n_controls: int | None = None,
-                   n_crossings: int = 10, seed: int = 0, kind: str = "rotation", noise_std: float | None = None,
+                   n_crossings: int = 10, seed: int = 0, kind: str = "rotation",
+                   noise_std: "float | Mapping[str, float] | None" = None,
                    executor: "Executor | None" = None, workers: int = 1, false_alarm: float = 0.05,
                    nuisance: str = "smooth", progress: "Callable[[int, int], None] | None" = None,
                    scheduler: str | None = None) -> VerificationResult:
@@ -131,7 +152,9 @@ def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float]]", *, names:
     ----------
     case : Case
         Model, inversion mesh and noise (correlation length, and the noise std of the layouts' sensors).
-    layouts : sequence of sequence of float
+    layouts : sequence of (sequence of float or SensorLayout)
+        Positions [m] of sensors of ``kind``, or a SensorLayout for sensors of
+        several kinds (its noise std if set, else as for ``noise_std``).
     n_locations : int
         Local-damage locations scanned across the bridge.
     severity, length : float
@@ -140,7 +163,7 @@ def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float]]", *, names:
         Undamaged controls (default max(5, n_locations // 2)).
     n_crossings : int
     kind : {"rotation", "deflection"}
-    noise_std : float, optional
+    noise_std : float or mapping kind -> float, optional
         Noise std of the sensors [rad or m] (default: :meth:`Case.noise_std_for`, the median
         of the case's sensors of the same kind).
     seed : int
@@ -181,11 +204,9 @@ class VerificationPlan:
     """
 
     case: object
-    layouts: tuple
+    layouts: tuple  # SensorLayout per layout (positions, kinds, noise std)
     scenarios: tuple
     seeds: tuple
-    kind: str
-    noise_std: float
     n_crossings: int
     false_alarm: float
     nuisance: str
@@ -195,22 +216,21 @@ class VerificationPlan:
 
     def pilots(self):
         """One pilot task per layout (the first scenario): its posterior warm-starts that layout's tasks."""
-        return [_Task(self.case, layout, self.kind, self.scenarios[0], self.seeds[0], self.n_crossings,
-                      self.false_alarm, self.nuisance, noise_std=self.noise_std) for layout in self.layouts]
+        return [_Task(self.case, layout, self.scenarios[0], self.seeds[0], self.n_crossings, self.false_alarm,
+                      self.nuisance) for layout in self.layouts]
 
     def tasks(self, starts):
         """The (layout, scenario) tasks, layout by layout; ``starts`` are the pilots' results."""
-        return [_Task(self.case, layout, self.kind, scenario, s, self.n_crossings, self.false_alarm, self.nuisance,
-                      start, self.noise_std)
+        return [_Task(self.case, layout, scenario, s, self.n_crossings, self.false_alarm, self.nuisance, start)
                 for layout, start in zip(self.layouts, starts) for scenario, s in zip(self.scenarios, self.seeds)]
 
     def result(self, records, names=None):
         """The VerificationResult of the tasks' records (in the order of :meth:`tasks`)."""
         n = len(self.scenarios)
-        scores = tuple(_aggregate(layout, records[k * n:(k + 1) * n],
-                                  detection_limit(self.case, layout, self.scenarios, kind=self.kind,
-                                                  noise_std=self.noise_std, n_crossings=self.n_crossings,
-                                                  false_alarm=self.false_alarm, nuisance=self.nuisance))
+        scores = tuple(_aggregate(layout.positions, records[k * n:(k + 1) * n],
+                                  detection_limit(self.case, layout, self.scenarios, n_crossings=self.n_crossings,
+                                                  false_alarm=self.false_alarm, nuisance=self.nuisance),
+                                  layout.kinds)
                        for k, layout in enumerate(self.layouts))
         return VerificationResult(scores, self.scenarios, self.n_crossings, self.seed, self.severity,
                                   self.length, tuple(names) if names else (), self.false_alarm, self.nuisance)
@@ -221,15 +241,15 @@ def plan_verification(case, layouts, *, n_locations=8, severity=0.25, length=2.0
     """Check the inputs of :func:`verify_layouts` and lay out its work (nothing is computed yet)."""
     if case.noise is None:
         raise ConfigError("Verification needs a noise model: set noise_std in [sensors].")
-    layout_list = tuple(tuple(float(x) for x in layout) for layout in layouts)
+    layout_list = tuple(_as_sensors(case, layout, kind, noise_std) for layout in layouts)
     if not layout_list:
         raise ConfigError("Give at least one layout to verify.")
     for layout in layout_list:
-        case.bridge.check_on_bridge(layout, "layout", "verify")
+        case.bridge.check_on_bridge(layout.positions, "layout", "verify")
     scenarios = make_scenarios(case, n_locations, severity=severity, length=length, n_controls=n_controls)
     seeds = np.random.SeedSequence(seed).spawn(len(scenarios))
-    return VerificationPlan(case, layout_list, tuple(scenarios), tuple(seeds), kind, case.noise_std_for(kind, noise_std),
-                            int(n_crossings), float(false_alarm), nuisance, int(seed), float(severity), float(length))
+    return VerificationPlan(case, layout_list, tuple(scenarios), tuple(seeds), int(n_crossings), float(false_alarm),
+                            nuisance, int(seed), float(severity), float(length))
 
 
 def run_pilot(task):
