@@ -95,8 +95,8 @@ def _valid_argv(command, parser, data, out):
             continue
         option = action.option_strings[0]
         if option == "--out":
-            argv += [option, out / "out.csv" if command == "simulate" else out]
-        elif option == "--data":
+            argv += [option, out / "out.csv" if command in ("simulate", "crossings") else out]
+        elif option in ("--data", "--timeseries"):
             argv += [option, data]
         elif option == "--layout":
             argv += [option, "5,25"]
@@ -118,6 +118,18 @@ def _invalid_values(action):
         return ["", "nan", "inf", "1,1", "a,b", "5;25", "1e400"]
     if kind is _common.parse_zones:
         return ["3", "a:b", "16:14", "nan:1", "1:inf", ""]
+    if kind is _common.parse_sensors:
+        return ["", "nan", "inf", "a,b", "5;25", "1e400", "5:nosuch", "5,5"]
+    if kind is _common.KINDS:
+        return ["", "nosuch", "rotation,rotation", "rotation,"  "nosuch"]
+    if kind is _common.PER_KIND:
+        return ["", "nan", "-1", "0", "abc", "nosuch=1", "rotation=abc", "rotation=-1", "rotation"]
+    if kind is _common.COUNTS:
+        return ["", "a", "-1", "1.5", "1,-1"]
+    if kind is _common.SCHEDULER:
+        return ["", " ", "tcp://a b"]
+    if getattr(kind, "__name__", "") == "parse_severities":
+        return ["", "0", "1", "nan", "abc", "-0.1", "0.2,1.5"]
     if bounds is not None:
         low, high, low_open, high_open = bounds
         is_integer = kind.__name__ == "integer"

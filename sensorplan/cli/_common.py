@@ -271,20 +271,56 @@ def stage_figure(files, ax_or_fig, path):
 
 def parse_sensors(text):
     """Positions in m, each optionally followed by ``:kind`` (e.g. 4,10:deflection,16): [(x, kind or None)]."""
+    from ..model.sensors import SENSOR_KINDS
+
+    usage = f"expected comma-separated positions in m, each optionally with :kind, e.g. 4,10:deflection,16; got {text!r}"
     out = []
     for part in (p.strip() for p in text.split(",")):
         if not part:
             continue
         x, _, kind = part.partition(":")
         try:
-            out.append((float(x), kind.strip() or None))
+            value = float(x)
         except ValueError:
-            raise argparse.ArgumentTypeError(
-                f"expected comma-separated positions in m, each optionally with :kind, e.g. 4,10:deflection,16; "
-                f"got {text!r}") from None
+            raise argparse.ArgumentTypeError(usage) from None
+        if not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"expected finite positions in m; got {text!r}")
+        kind = kind.strip() or None
+        if kind is not None and kind not in SENSOR_KINDS:
+            raise argparse.ArgumentTypeError(f"unknown sensor kind {kind!r} in {text!r}; use "
+                                             f"{' or '.join(SENSOR_KINDS)}")
+        out.append((value, kind))
     if not out:
         raise argparse.ArgumentTypeError("give at least one position in m")
+    if len(out) > MAX_POSITIONS:
+        raise argparse.ArgumentTypeError(f"at most {MAX_POSITIONS} positions; got {len(out)}")
+    if len(set(out)) != len(out):
+        raise argparse.ArgumentTypeError(f"a sensor is given twice in {text!r}")
     return out
+
+
+def _as_argparse_type(check, name):
+    """An argparse type that runs ``check(text)`` (which raises ConfigError naming the flag) and keeps the text."""
+
+    def parse(text):
+        from .._errors import ConfigError
+
+        try:
+            check(text)
+        except ConfigError as exc:
+            raise argparse.ArgumentTypeError(str(exc).split(": ", 1)[-1]) from None
+        return text
+
+    parse.__name__ = name
+    return parse
+
+
+def _check_scheduler(text):
+    from .._errors import ConfigError
+
+    if not text.strip() or any(c.isspace() for c in text):
+        raise ConfigError(f"--scheduler: expected a Dask scheduler address such as tcp://127.0.0.1:8786 or 'local'; "
+                          f"got {text!r}")
 
 
 def _flag_error(flag, message):
@@ -343,6 +379,8 @@ def parse_counts(text, flag):
         return None
     try:
         counts = [int(v) for v in text.split(",")]
+        if not counts:
+            raise ValueError(text)
     except ValueError:
         raise _flag_error(flag, f"expected one whole count per span, e.g. 1,1; got {text!r}") from None
     if any(c < 0 for c in counts):
@@ -380,3 +418,9 @@ def _kind_noise(case, kind, value, several):
         unit = "rad" if kind == "rotation" else "m"
         raise _flag_error("--noise-std", f"no noise std for the new {kind} sensors (the case has none to take it "
                                          f"from); give it as {kind}=VALUE in {unit}") from None
+
+
+KINDS = _as_argparse_type(lambda text: parse_kinds(text), "kinds")
+PER_KIND = _as_argparse_type(lambda text: parse_per_kind(text, "value"), "per_kind")
+COUNTS = _as_argparse_type(lambda text: parse_counts(text, "counts"), "counts")
+SCHEDULER = _as_argparse_type(_check_scheduler, "scheduler")

@@ -2,7 +2,9 @@
 
 from pathlib import Path
 
-from ._common import add_case_arguments, stage_figure, stage_json
+from ._common import add_case_arguments, real, stage_figure, stage_json
+
+SPEED = real(0.0, 200.0, what="a speed in m/s", low_open=True)
 
 NAME = "crossings"
 HELP = "find the crossings in a logger record and write them as a crossings CSV"
@@ -19,14 +21,14 @@ def add_arguments(p):
     add_case_arguments(p)
     p.add_argument("--timeseries", type=Path, required=True, help="logger export CSV: time_s,<sensor names>")
     group = p.add_mutually_exclusive_group()
-    group.add_argument("--speed", type=float, help="known constant speed in m/s (only entry times are fitted)")
+    group.add_argument("--speed", type=SPEED, help="known constant speed in m/s (only entry times are fitted)")
     group.add_argument("--axle-times", type=Path,
                        help="axle-detector CSV: time_s (front axle at x = 0)[,speed_m_s], one row per vehicle")
-    p.add_argument("--min-speed", type=float, default=0.3, help="slowest plausible speed in m/s (default 0.3)")
-    p.add_argument("--max-speed", type=float, default=40.0, help="fastest plausible speed in m/s (default 40)")
-    p.add_argument("--quiet-gap", type=float, default=3.0,
+    p.add_argument("--min-speed", type=SPEED, default=0.3, help="slowest plausible speed in m/s (default 0.3)")
+    p.add_argument("--max-speed", type=SPEED, default=40.0, help="fastest plausible speed in m/s (default 40)")
+    p.add_argument("--quiet-gap", type=real(0.0, 86400.0, what="a time in s", low_open=True), default=3.0,
                    help="minimum quiet time between two vehicles in s (default 3)")
-    p.add_argument("--max-rms", type=float, default=2.0,
+    p.add_argument("--max-rms", type=real(0.0, 1e6, what="a ratio to the noise std", low_open=True), default=2.0,
                    help="largest accepted fit rms in noise std (default 2)")
     p.add_argument("--out", type=Path, required=True, help="crossings CSV to write (crossing,position_m,...)")
     p.add_argument("--json", type=Path, help="events JSON (default: OUT with suffix .json)")

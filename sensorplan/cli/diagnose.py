@@ -4,8 +4,10 @@ import sys
 from pathlib import Path
 
 from ._common import (
+    MAX_WORKERS,
     add_case_arguments,
     add_out_arguments,
+    integer,
     load_case,
     stage_figure,
     stage_json,
@@ -22,7 +24,7 @@ EPILOG = """example:
 def add_arguments(p):
     add_case_arguments(p)
     p.add_argument("--data", type=Path, required=True, help="crossings CSV (crossing,position_m,<sensors>)")
-    p.add_argument("--workers", type=int, default=1, help="processes for screening the candidate effects (default 1)")
+    p.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1, help="processes for screening the candidate effects (default 1)")
     p.add_argument("--fixed-springs", action="store_true",
                    help="hold the case's elastic springs at their configured values (default: estimate them, "
                         "as invert does)")

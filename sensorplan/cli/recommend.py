@@ -2,6 +2,9 @@
 
 from .._errors import ConfigError
 from ._common import (
+    COUNTS,
+    KINDS,
+    PER_KIND,
     COUNT,
     DISTANCE,
     FALSE_ALARM,
@@ -50,16 +53,16 @@ def add_arguments(p):
                    help="treat the case's own sensors (their kinds and noise) as existing")
     p.add_argument("--min-spacing", type=DISTANCE, default=0.0,
                    help="minimum distance between sensors in m, whatever their kinds")
-    p.add_argument("--kind", help="sensor kind(s) of the new sensors, e.g. rotation or rotation,deflection "
+    p.add_argument("--kind", type=KINDS, help="sensor kind(s) of the new sensors, e.g. rotation or rotation,deflection "
                                   "(default: the kind of the case's sensors)")
-    p.add_argument("--noise-std", help="noise std of the new sensors in SI units (rad or m), per kind as "
+    p.add_argument("--noise-std", type=PER_KIND, help="noise std of the new sensors in SI units (rad or m), per kind as "
                                        "rotation=5e-6,deflection=1e-4; default: the case's sensors' of that kind")
-    p.add_argument("--cost", help="cost of a new sensor per kind, e.g. rotation=1,deflection=3 (default 1; "
+    p.add_argument("--cost", type=PER_KIND, help="cost of a new sensor per kind, e.g. rotation=1,deflection=3 (default 1; "
                                   "with --budget)")
     p.add_argument("--budget", type=real(0.0, 1e15, what="a total cost", low_open=True),
                    help="total cost of the new sensors")
-    p.add_argument("--per-span-min", help="minimum number of new sensors in each span, e.g. 1,1")
-    p.add_argument("--per-span-max", help="maximum number of new sensors in each span, e.g. 3,3")
+    p.add_argument("--per-span-min", type=COUNTS, help="minimum number of new sensors in each span, e.g. 1,1")
+    p.add_argument("--per-span-max", type=COUNTS, help="maximum number of new sensors in each span, e.g. 3,3")
     p.add_argument("--crossings", type=integer(1, MAX_CROSSINGS), default=1,
                    help="crossings per measurement campaign (default 1)")
     p.add_argument("--springs", action="store_true", help="treat the spring stiffnesses as nuisance parameters")

@@ -5,6 +5,9 @@ from argparse import Namespace
 
 from .._errors import ConfigError
 from ._common import (
+    KINDS,
+    PER_KIND,
+    SCHEDULER,
     FALSE_ALARM,
     LENGTH,
     MAX_SCENARIOS,
@@ -40,7 +43,7 @@ def add_verify_arguments(p, *, with_flag):
     p.add_argument("--scenarios", type=integer(1, MAX_SCENARIOS), default=8,
                    help="damage locations scanned (default 8)")
     p.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1, help="worker processes (default 1)")
-    p.add_argument("--scheduler", metavar="ADDRESS",
+    p.add_argument("--scheduler", type=SCHEDULER, metavar="ADDRESS",
                    help="run the scenarios on a Dask cluster: a scheduler address such as tcp://127.0.0.1:8786, "
                         "or 'local' for a local cluster of --workers processes (needs the dask extra); "
                         "results are identical to --workers 1")
@@ -69,9 +72,9 @@ def add_arguments(p):
     p.add_argument("--layout", type=parse_sensors, action="append", required=True,
                    help="sensor positions in m, each optionally with :kind, e.g. 3.5,8:deflection,12 "
                         "(repeat for several layouts)")
-    p.add_argument("--kind", help="kind of the sensors given without :kind (default: the kind of the case's "
+    p.add_argument("--kind", type=KINDS, help="kind of the sensors given without :kind (default: the kind of the case's "
                                   "sensors)")
-    p.add_argument("--noise-std", help="noise std of the sensors in SI units (rad or m), per kind as "
+    p.add_argument("--noise-std", type=PER_KIND, help="noise std of the sensors in SI units (rad or m), per kind as "
                                        "rotation=5e-6,deflection=1e-4; default: the case's sensors' of that kind")
     p.add_argument("--seed", type=SEED, default=0, help="random seed (default 0)")
     p.add_argument("--severity", type=parse_severities, default=[0.25],
