@@ -99,27 +99,30 @@ def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None 
     design = recommend(case, count, criterion, **options)
     if progress:
         progress("layout recommended")
-    kind, noise_std = options.get("kind", case.default_kind), options.get("noise_std")
+    from .design.candidates import sensor_layout
+    from .model.noise import NoiseModel
+
+    def layout_of(xs, kinds):  # new sensors with the design's noise std of their kind
+        kinds = tuple(kinds) or (design.kind,) * len(xs)
+        return sensor_layout(xs, kinds, [design.noise_std[k] for k in kinds])
+
     feasible = [b for b in design.baselines if b.feasible]
-    verification = verify_layouts(case, [design.layout_m] + [b.layout_m for b in feasible],
+    verification = verify_layouts(case, [layout_of(design.layout_m, design.layout_kind)]
+                                  + [layout_of(b.layout_m, b.layout_kind) for b in feasible],
                                   names=["recommended"] + [b.name for b in feasible], n_locations=n_scenarios,
-                                  n_crossings=n_crossings, seed=seed, kind=kind, noise_std=noise_std)
+                                  n_crossings=n_crossings, seed=seed)
     if progress:
         progress("layouts verified")
     detect_map = None
     if detect:
         from .detection.detectability import detectability
 
-        from .model.noise import NoiseModel
-
-        installed = sorted(tuple(design.layout_m) + tuple(design.fixed_m))  # new and existing sensors
-        same_kind = [std for k, std in zip(case.sensors.kinds, case.sensors.noise_std or ()) if k == kind]
-        if noise_std is None or (same_kind and noise_std == case.noise_std_for(kind)):
-            detect_map = detectability(case, layout=installed, kind=kind, n_crossings=n_crossings)
-        else:  # new sensors with their own noise (the case's correlation length)
-            noise = NoiseModel(np.full(len(installed), noise_std), case.noise.correlation_length if case.noise else 0.0)
-            detect_map = detectability(case.with_sensors(SensorLayout.candidates(installed, kind), noise),
-                                       n_crossings=n_crossings)
+        # new and existing sensors, each with its own kind and noise (the case's correlation length)
+        installed = sensor_layout(tuple(design.layout_m) + tuple(design.fixed_m),
+                                  tuple(design.layout_kind) + tuple(design.fixed_kind),
+                                  [design.noise_std[k] for k in design.layout_kind] + list(design.fixed_noise_std))
+        noise = NoiseModel(np.asarray(installed.noise_std), case.noise.correlation_length if case.noise else 0.0)
+        detect_map = detectability(case.with_sensors(installed, noise), n_crossings=n_crossings)
         if progress:
             progress("detectability mapped")
     posterior = diagnosis = None

@@ -31,7 +31,7 @@ from hypothesis import strategies as st
 
 import sensorplan
 from sensorplan import ConfigError, DataError, SensorplanWarning, example_case
-from sensorplan.cli import _common, build_parser, main
+from sensorplan.cli import _common, _kinds, build_parser, main
 from sensorplan.inference.screening import check_case_data_scale
 from sensorplan.io.config import case_from_toml
 from sensorplan.io.csvio import parse_crossings
@@ -118,15 +118,15 @@ def _invalid_values(action):
         return ["", "nan", "inf", "1,1", "a,b", "5;25", "1e400"]
     if kind is _common.parse_zones:
         return ["3", "a:b", "16:14", "nan:1", "1:inf", ""]
-    if kind is _common.parse_sensors:
+    if kind is _kinds.parse_sensors:
         return ["", "nan", "inf", "a,b", "5;25", "1e400", "5:nosuch", "5,5"]
-    if kind is _common.KINDS:
+    if kind is _kinds.KINDS:
         return ["", "nosuch", "rotation,rotation", "rotation,"  "nosuch"]
-    if kind is _common.PER_KIND:
+    if kind is _kinds.PER_KIND:
         return ["", "nan", "-1", "0", "abc", "nosuch=1", "rotation=abc", "rotation=-1", "rotation"]
-    if kind is _common.COUNTS:
+    if kind is _kinds.COUNTS:
         return ["", "a", "-1", "1.5", "1,-1"]
-    if kind is _common.SCHEDULER:
+    if kind is _kinds.SCHEDULER:
         return ["", " ", "tcp://a b"]
     if getattr(kind, "__name__", "") == "parse_severities":
         return ["", "0", "1", "nan", "abc", "-0.1", "0.2,1.5"]

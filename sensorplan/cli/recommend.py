@@ -2,9 +2,6 @@
 
 from .._errors import ConfigError
 from ._common import (
-    COUNTS,
-    KINDS,
-    PER_KIND,
     COUNT,
     DISTANCE,
     FALSE_ALARM,
@@ -15,18 +12,23 @@ from ._common import (
     add_case_arguments,
     add_out_arguments,
     check_grid,
-    check_kind,
     check_signal,
     integer,
-    kinds_and_noise,
     load_case,
-    parse_counts,
-    parse_per_kind,
-    parse_sensors,
     parse_zones,
     real,
     stage_figure,
     stage_json,
+)
+from ._kinds import (
+    COUNTS,
+    KINDS,
+    PER_KIND,
+    check_kind,
+    kinds_and_noise,
+    parse_counts,
+    parse_per_kind,
+    parse_sensors,
 )
 from .verify import add_verify_arguments, run_verification
 

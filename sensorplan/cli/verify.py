@@ -5,9 +5,6 @@ from argparse import Namespace
 
 from .._errors import ConfigError
 from ._common import (
-    KINDS,
-    PER_KIND,
-    SCHEDULER,
     FALSE_ALARM,
     LENGTH,
     MAX_SCENARIOS,
@@ -15,16 +12,21 @@ from ._common import (
     SEED,
     add_case_arguments,
     add_out_arguments,
-    check_kind,
     check_layouts,
     integer,
-    kinds_and_noise,
     load_case,
-    parse_sensors,
     progress,
     real,
     stage_figure,
     stage_json,
+)
+from ._kinds import (
+    KINDS,
+    PER_KIND,
+    SCHEDULER,
+    check_kind,
+    kinds_and_noise,
+    parse_sensors,
 )
 
 NAME = "verify"
