@@ -171,6 +171,15 @@ def design_options(args, case):
 _NOT_DESIGN = {"help", "out", "json", "verify", "quiet", "debug", "scenarios", "workers", "verify_crossings"}
 
 
+def _item(x):
+    """One item of a list option as the CLI reads it: a position, a zone a:b or a position with :kind."""
+    if isinstance(x, (list, tuple)):
+        if len(x) == 2 and (x[1] is None or isinstance(x[1], str)):  # (position, kind) of parse_sensors
+            return repr(float(x[0])) + ("" if x[1] is None else f":{x[1]}")
+        return ":".join(repr(float(v)) for v in x)
+    return repr(float(x))
+
+
 def recommend_argv(args):
     """``sensorplan recommend`` arguments that redo the design of ``args`` (every design option explicit)."""
     import argparse
@@ -188,8 +197,7 @@ def recommend_argv(args):
         if value is True:
             argv.append(flag)
         elif isinstance(value, (list, tuple)):
-            argv += [flag, ",".join(":".join(repr(float(v)) for v in x) if isinstance(x, (list, tuple))
-                                    else repr(float(x)) for x in value)]
+            argv += [flag, ",".join(_item(x) for x in value)]
         else:
             argv += [flag, repr(value) if isinstance(value, float) else str(value)]
     return argv

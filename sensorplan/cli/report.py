@@ -3,7 +3,7 @@
 import sys
 from pathlib import Path
 
-from ._common import load_case, stage_json
+from ._common import check_grid, load_case, stage_json
 from .recommend import add_arguments as add_recommend_arguments
 from .recommend import design_options, recommend_argv
 
@@ -41,8 +41,7 @@ def run(args, out, files):
     from ..report import provenance, render_report
 
     case = load_case(args)
-    if args.fixed:
-        case.bridge.check_on_bridge(args.fixed, "fixed", "--fixed")
+    check_grid(case, args)
     data = read_crossings(args.data, case.sensors) if args.data is not None else None
     if data is not None:
         check_case_data_scale(case, data, source=str(args.data))
