@@ -63,14 +63,18 @@ def read_crossings(path: "str | os.PathLike[str]", sensors: "SensorLayout | None
         When given, every sensor column must be one of its names and the
         magnitudes are checked against each sensor's kind.
     """
+    return parse_crossings(read_text(path), sensors, source=str(Path(path)))
+
+
+def read_text(path):
+    """The text of a data file (a UTF-8 byte-order mark dropped); a one-line DataError when it cannot be read."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        return path.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise DataError(f"{path}: file not found.") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise DataError(f"{path}: cannot read the file ({exc}).") from None
-    return parse_crossings(text, sensors, source=str(path))
 
 
 def parse_crossings(text, sensors=None, *, source="data"):

@@ -16,6 +16,7 @@ import numpy as np
 
 from .._errors import DataError
 from ..model.timeseries import LoggerFormat, TimeSeries
+from .csvio import read_text
 
 if TYPE_CHECKING:
     from ..model.sensors import SensorLayout
@@ -25,13 +26,7 @@ __all__ = ["read_timeseries", "read_axle_times"]
 
 def _rows(path):
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise DataError(f"{path}: file not found.") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DataError(f"{path}: cannot read the file ({exc}).") from None
-    reader = csv.reader(io.StringIO(text))
+    reader = csv.reader(io.StringIO(read_text(path)))
     try:
         rows = [r for r in reader if r and any(cell.strip() for cell in r)]
     except csv.Error as exc:
