@@ -139,6 +139,7 @@ class PosteriorResult:
     damage: object = None
     damage_probability: float | None = None
     hyper_nodes: GaussianMixture | None = None
+    sensor_kinds: tuple = ()  # "rotation" / "deflection" per sensor (engineering units in the summary)
 
     def __post_init__(self):
         if self.mixture is None:
@@ -243,7 +244,9 @@ class PosteriorResult:
                  f"hyperparameters {how}",
                  f"  converged: {self.converged} after {self.n_iter} iterations; log evidence "
                  f"{self.log_evidence:.3f}",
-                 "  noise std: " + ", ".join(f"{n}={s:.3g}" for n, s in zip(self.sensor_names, self.noise_std))
+                 "  noise std: " + ", ".join(f"{n}={_engineering(s, k)}" for n, s, k in
+                                             zip(self.sensor_names, self.noise_std,
+                                                 self.sensor_kinds or (None,) * len(self.sensor_names)))
                  + f" (scale {self.noise_scale:.3f} of configured); tau = {self.tau:.4g}"]
         mix = self.hyper_nodes
         if mix.n_components > 1:
@@ -300,3 +303,12 @@ class PosteriorResult:
             "units": {"edges_m": "m", "ei": "N m^2", "springs": "N m/rad (rotational), N/m (vertical)",
                       "noise_std": "rad (rotation) or m (deflection)"},
         }
+
+
+def _engineering(value, kind):
+    """A reading's size in the unit an engineer reads: urad for tilt, mm for deflection (SI without a kind)."""
+    if kind == "rotation":
+        return f"{value * 1e6:.3g} µrad"
+    if kind == "deflection":
+        return f"{value * 1e3:.3g} mm"
+    return f"{value:.3g}"
