@@ -197,3 +197,21 @@ def test_bad_severity_is_one_line(tmp_path, capsys):
     assert main(CLI_SMALL + ["--severity", "0.1,1.5", "--out", str(tmp_path)]) == 1
     assert "severity" in one_error_line(capsys)
     assert not list(tmp_path.iterdir())
+
+
+@needs_dask
+def test_diagnose_on_a_local_cluster_equals_one_process():
+    # issue 18: diagnose accepts --workers/--scheduler like verify; the reference is the screening in
+    # this process (workers=1), the result must not depend on where the effects were screened
+    from dataclasses import replace
+
+    import sensorplan as sp
+    from sensorplan.diagnosis.diagnose import diagnose
+
+    case = example_case("openlab-like")
+    case = replace(case.with_mesh(sp.Mesh.uniform(case.bridge, 8)), sweep=sp.LoadSweep.from_range(0.0, 32.0, 1.0))
+    data = sp.simulate_crossings(case, 4, noise=True, rng=5)
+    effects = ["sensor_offset", "vertical_support_spring"]
+    one = diagnose(case, data, effects=effects, workers=1).to_dict()
+    cluster = diagnose(case, data, effects=effects, workers=2, scheduler="local").to_dict()
+    assert json.dumps(cluster, sort_keys=True, default=str) == json.dumps(one, sort_keys=True, default=str)

@@ -9,9 +9,11 @@ from ._common import (
     add_out_arguments,
     integer,
     load_case,
+    real,
     stage_figure,
     stage_json,
 )
+from ._kinds import SCHEDULER
 
 NAME = "diagnose"
 HELP = "diagnose the sim-to-real gap between the model and crossings (CSV)"
@@ -25,6 +27,11 @@ def add_arguments(p):
     add_case_arguments(p)
     p.add_argument("--data", type=Path, required=True, help="crossings CSV (crossing,position_m,<sensors>)")
     p.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1, help="processes for screening the candidate effects (default 1)")
+    p.add_argument("--scheduler", type=SCHEDULER, metavar="ADDRESS",
+                   help="screen the effects on a Dask cluster: a scheduler address such as tcp://127.0.0.1:8786, "
+                        "or 'local' for a local cluster of --workers processes (needs the dask extra)")
+    p.add_argument("--scheduler-timeout", type=real(0.0, 3600.0, what="a time in s", low_open=True), default=10.0,
+                   metavar="S", help="seconds to wait for the Dask scheduler to answer (default 10)")
     p.add_argument("--fixed-springs", action="store_true",
                    help="hold the case's elastic springs at their configured values (default: estimate them, "
                         "as invert does)")
@@ -53,7 +60,8 @@ def run(args, out, files):
     case = load_case(args)
     data = read_crossings(args.data, case.sensors)
     check_not_noise_free(case, data, source=str(args.data))
-    result = diagnose(case, data, progress=_progress(args), workers=args.workers,
+    result = diagnose(case, data, progress=_progress(args), workers=args.workers, scheduler=args.scheduler,
+                      scheduler_timeout=args.scheduler_timeout,
                       estimate_springs=not args.fixed_springs, check_scale=str(args.data))
     supports = case.bridge.support_positions
     figures = [

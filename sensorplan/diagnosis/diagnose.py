@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._executors import executor_for, map_ordered
 from .._threads import single_threaded
 from ..inference.screening import check_case_data_scale
 from ..model.crossings import Crossings
@@ -124,13 +125,9 @@ def _screen(ctx, name):
     return name, fit, held
 
 
-def _executor(workers):
-    """The pool the screening runs on (None: in this process); one place to plug in another scheduler."""
-    if workers is None or workers <= 1:
-        return None
-    from concurrent.futures import ProcessPoolExecutor
-
-    return ProcessPoolExecutor(max_workers=int(workers))
+def _screen_item(item):
+    """:func:`_screen` of one (context, effect name) pair (what the executor maps)."""
+    return _screen(*item)
 
 
 def _entry(name, fit, held, base, base_held, ei_base):
@@ -156,7 +153,8 @@ def _entry(name, fit, held, base, base_held, ei_base):
 def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | None" = None,
              prior: GMRFPrior | None = None, bf_threshold: float = 3.0, gain_threshold: float = 3.0,
              n_folds: int = 4, max_rounds: int = 3, estimate_springs: bool = True,
-             progress: "Callable[[str], None] | None" = None, workers: int = 1,
+             progress: "Callable[[str], None] | None" = None, workers: int = 1, scheduler: str | None = None,
+             scheduler_timeout: float = 10.0,
              check_scale: bool | str = True) -> GapDiagnosis:
     """Diagnose the gap between ``case`` and measured ``crossings``.
 
@@ -184,6 +182,10 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
         selection round, final refit).
     workers : int
         Processes for the screening of the candidate effects.
+    scheduler, scheduler_timeout : str, float
+        Screen on a Dask cluster instead (the ``dask`` extra): a scheduler
+        address or ``"local"`` (a LocalCluster of ``workers`` processes), as in
+        :func:`sensorplan.verify_layouts`; the result does not depend on it.
     check_scale : bool or str
         Refuse data far larger or smaller than the model predicts (a unit
         slip); a string names the data source in the message.
@@ -221,16 +223,16 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
     n_base = base_problem.n_elements
     ei_base = np.exp(base.theta[:n_base])
     screened = {}
-    pool = _executor(workers)
-    if pool is None:
+    if workers == 1 and scheduler is None:
         for k, name in enumerate(names):
             say(f"effect {k + 1} of {len(names)}: {name}")
             screened[name] = _screen(ctx, name)[1:]
-    else:
-        with pool:
-            for k, (name, fit, held) in enumerate(pool.map(_screen, [ctx] * len(names), names)):
-                say(f"effect {k + 1} of {len(names)}: {name}")
-                screened[name] = (fit, held)
+    else:  # a process pool or a Dask cluster; results in the order of the effects
+        with executor_for(workers, scheduler, timeout=scheduler_timeout, name="--scheduler") as runner:
+            done = map_ordered(runner, _screen_item, [(ctx, name) for name in names], chunksize=1,
+                               progress=lambda k, n: say(f"effect {k} of {n}: {names[k - 1]}"))
+        for name, fit, held in done:
+            screened[name] = (fit, held)
     results = [_entry(n, screened[n][0], screened[n][1], base, base_held, ei_base) for n in names]
     results.sort(key=lambda r: (r.converged, -math.inf if math.isnan(r.log_bayes_factor) else r.log_bayes_factor),
                  reverse=True)
