@@ -76,3 +76,23 @@ def test_bad_false_alarm_rate_is_refused():
     case = two_span()
     with pytest.raises(sp.ConfigError, match="false_alarm"):
         sp.detect_damage(case, sp.simulate_crossings(case, 1), false_alarm=0.7)
+
+
+def test_pruned_zones_carry_negligible_weight():
+    # Reference: the zone posteriors computed on every zone (no pruning); the zones _plausible drops must
+    # have a relative weight below e^-40 there, and the kept ones give the same weights renormalised.
+    from sensorplan.detection.scan import _log_prior, _plausible, _zone_posteriors
+
+    rng = np.random.default_rng(3)
+    starts = rng.uniform(0.0, 28.0, 600)
+    zones = np.column_stack([starts, starts + rng.choice([0.5, 1.0, 2.0], 600)])
+    norms = rng.uniform(0.5, 40.0, 600)
+    norms[17] = 40.0  # a clear loss in zone 17 (r = 0.5, a third of EI lost)
+    proj = rng.normal(0.0, 1.0, 600) * norms + np.where(np.arange(600) == 17, 0.5 * norms**2, 0.0)
+    log_prior = _log_prior(zones)
+    keep = _plausible(proj, norms, 1.3, log_prior, 1.0)
+    weights, _, _ = _zone_posteriors(proj, norms, 1.3, zones, 1.0)
+    assert 0 < keep.sum() < keep.size  # the check is not vacuous
+    assert weights[~keep].max() < math.exp(-40.0) * weights.max()
+    sub, _, _ = _zone_posteriors(proj[keep], norms[keep], 1.3, zones[keep], 1.0, log_prior[keep])
+    np.testing.assert_allclose(sub, weights[keep] / weights[keep].sum(), rtol=1e-12, atol=1e-300)

@@ -27,21 +27,43 @@ def simple(n_elements=8, positions=(4.0, 10.0, 16.0)):
                 sp.SensorLayout(list(positions), noise_std=STD), sweep=sp.LoadSweep.from_range(0.0, L, 0.25))
 
 
-def test_pc_prior_is_normalised_and_tied_to_the_smoothness_std():
-    hyper = HyperPrior().for_prior(GMRFPrior(smoothness_std=0.2))
-    assert hyper.smoothness_scale == 0.2 and hyper.rate == pytest.approx(math.log(2.0) / 0.2)
+@pytest.mark.parametrize("family", ["lognormal", "pc"])
+def test_hyperprior_is_normalised_and_tied_to_the_smoothness_std(family):
+    hyper = HyperPrior(family=family).for_prior(GMRFPrior(smoothness_std=0.2))
+    assert hyper.smoothness_scale == 0.2
     u = np.linspace(-40.0, 80.0, 200001)
     density = np.exp(hyper.log_density_log_tau(u))
     assert np.trapezoid(density, u) == pytest.approx(1.0, abs=1e-8)
-    # median of sigma = smoothness_std: half of the mass at tau > 1 / 0.2^2
-    assert np.trapezoid(density[u > math.log(25.0)], u[u > math.log(25.0)]) == pytest.approx(0.5, abs=1e-4)
-    tail = HyperPrior(smoothness_scale=0.5, smoothness_tail=0.01)
-    sigma = np.exp(-u / 2)
-    assert np.trapezoid(np.exp(tail.log_density_log_tau(u)) * (sigma > 0.5), u) == pytest.approx(0.01, abs=1e-4)
+    # median of sigma = smoothness_std: half of the mass at tau > 1 / 0.2^2 (the cut falls between grid
+    # points 6e-4 apart, where the log-normal density peaks at 0.4: up to 2.4e-4 of truncation)
+    assert np.trapezoid(density[u > math.log(25.0)], u[u > math.log(25.0)]) == pytest.approx(0.5, abs=3e-4)
+    # the draws follow the density (reference: the quadrature above; 20000 draws, 5 binomial se)
+    draws = hyper.sample_smoothness(np.random.default_rng(4), 20000)
+    for q in (0.1, 1.0, 3.0):  # P(sigma > q U) = P(log tau < log(1 / (q U)^2))
+        cut = u < -2.0 * math.log(q * 0.2)
+        expected = np.trapezoid(density * cut, u)
+        assert abs(np.mean(draws > q * 0.2) - expected) < 5 * math.sqrt(expected * (1 - expected) / draws.size)
     v = np.linspace(-10, 10, 20001)
     assert np.trapezoid(np.exp(hyper.log_density_log_noise(v)), v) == pytest.approx(1.0, abs=1e-10)
+
+
+def test_hyperprior_families_and_parameters():
+    pc = HyperPrior(family="pc").for_prior(GMRFPrior(smoothness_std=0.2))
+    assert pc.rate == pytest.approx(math.log(2.0) / 0.2)
+    u = np.linspace(-40.0, 80.0, 200001)
+    tail = HyperPrior(smoothness_scale=0.5, smoothness_tail=0.01, family="pc")
+    sigma = np.exp(-u / 2)
+    assert np.trapezoid(np.exp(tail.log_density_log_tau(u)) * (sigma > 0.5), u) == pytest.approx(0.01, abs=1e-4)
+    # log-normal: log sigma ~ N(log U, s^2), so P(sigma > U e^s) = 1 - Phi(1) (reference: scipy.stats.norm)
+    ln = HyperPrior(smoothness_scale=0.5, smoothness_log_std=0.8)
+    density = np.exp(ln.log_density_log_tau(u))
+    assert np.trapezoid(density * (sigma > 0.5 * math.exp(0.8)), u) == pytest.approx(0.15865525393145707, abs=1e-6)
     with pytest.raises(sp.ConfigError, match="smoothness_tail"):
         HyperPrior(smoothness_tail=1.0)
+    with pytest.raises(sp.ConfigError, match="family"):
+        HyperPrior(family="gamma")
+    with pytest.raises(sp.ConfigError, match="smoothness_log_std"):
+        HyperPrior(smoothness_log_std=0.0)
 
 
 def test_mixture_quantile_solves_the_mixture_cdf():
@@ -78,7 +100,7 @@ def _brute_force(case, data, prior, hyper, u_grid, v_grid):
     """Posterior of the compliances by direct summation over (log tau, log alpha) of exact Gaussians.
 
     Independent of the package: stacked dense kernel, dense Cholesky per grid
-    point, the PC prior and the log-normal written out here.
+    point, the hyperpriors (PC or log-normal on sigma, log-normal on alpha) written out here.
     """
     n = case.n_elements
     lines = case.influence_lines()
@@ -104,8 +126,12 @@ def _brute_force(case, data, prior, hyper, u_grid, v_grid):
         quad = yy / alpha2[:, 0, 0] - np.einsum("ki,ki->k", rhs[..., 0], mean)
         loglik = -0.5 * m * np.log(2 * math.pi * alpha2[:, 0, 0]) - 0.5 * logdet_p + 0.5 * logdet_q - 0.5 * quad
         s_v = hyper.noise_log_std
-        logprior = (math.log(lam / 2) - u / 2 - lam * math.exp(-u / 2)
-                    - 0.5 * (v_grid / s_v) ** 2 - math.log(s_v * math.sqrt(2 * math.pi)))
+        if hyper.family == "pc":  # p(sigma) = lam exp(-lam sigma), sigma = e^{-u/2}, |d sigma / du| = sigma / 2
+            log_tau_prior = math.log(lam / 2) - u / 2 - lam * math.exp(-u / 2)
+        else:  # log sigma = -u/2 ~ N(log U, s^2), |d log sigma / du| = 1/2
+            z = (-u / 2 - math.log(prior.smoothness_std)) / hyper.smoothness_log_std
+            log_tau_prior = -0.5 * z * z - math.log(2 * hyper.smoothness_log_std * math.sqrt(2 * math.pi))
+        logprior = log_tau_prior - 0.5 * (v_grid / s_v) ** 2 - math.log(s_v * math.sqrt(2 * math.pi))
         logw.append(loglik + logprior)
         means.append(v0 + mean)
         variances.append(np.diagonal(np.linalg.inv(precision), axis1=1, axis2=2))
@@ -116,7 +142,8 @@ def _brute_force(case, data, prior, hyper, u_grid, v_grid):
     return weights, np.concatenate(means), np.sqrt(np.concatenate(variances)), log_z - m * math.log(STD)
 
 
-def test_integrated_linear_case_equals_brute_force_integration():
+@pytest.mark.parametrize("family", ["lognormal", "pc"])
+def test_integrated_linear_case_equals_brute_force_integration(family):
     # Compliance parameters of a determinate beam: given (tau, alpha) the posterior is an exact
     # Gaussian, so the mixture must equal the direct numerical integration of those Gaussians over
     # log tau and log alpha under the hyperprior (here only the Laplace step in alpha and the
@@ -124,7 +151,7 @@ def test_integrated_linear_case_equals_brute_force_integration():
     case = simple()
     ei = 1e10 * (1.0 + 0.15 * np.sin(np.linspace(0.0, 3.0, 8)))
     data = simulate_crossings(case, 2, noise=True, rng=5, ei=ei)
-    prior, hyper = GMRFPrior(order=1), HyperPrior()
+    prior, hyper = GMRFPrior(order=1), HyperPrior(family=family)
     res = invert(case, data, prior=prior, parameterisation="compliance", hyperprior=hyper)
     mix = res.mixture
     assert res.hyper_method == "integrated" and mix.n_components >= 8 and not res.tau_at_bound
@@ -237,5 +264,5 @@ def test_tau_mass_at_the_bound_is_flagged():
     case = example_case("simply-supported")
     data = simulate_crossings(case, 2, noise=True, rng=1)
     with pytest.warns(SensorplanWarning, match="reaches the end of its range: the data favour an ever flatter"):
-        res = invert(case, data, hyperprior=HyperPrior(smoothness_scale=1e-9, smoothness_tail=0.5))
+        res = invert(case, data, hyperprior=HyperPrior(smoothness_scale=1e-9, smoothness_tail=0.5, family="pc"))
     assert res.tau_at_bound and res.to_dict()["hyper_posterior"]["at_bound"] is True

@@ -300,8 +300,11 @@ def detect_damage(case, crossings, *, false_alarm=0.05, nuisance="smooth", lengt
     centre = length = centre_ci = loss = loss_ci = None
     if detected:  # the estimates, on a finer family of zones (zone edges are not snapped to a grid)
         fine, n_fine, p_fine = _signatures(case.mesh, _estimate_zones(case.bridge, case.mesh, lengths), gram, c_res)
+        log_prior = _log_prior(fine)
+        keep = _plausible(p_fine, n_fine, alpha, log_prior, max_loss)  # the rest carry < e^-40 of the weight
         centre, length, centre_ci, loss, loss_ci = _estimates(
-            fine, *_zone_posteriors(p_fine, n_fine, alpha, fine, max_loss))
+            fine[keep], *_zone_posteriors(p_fine[keep], n_fine[keep], alpha, fine[keep], max_loss, log_prior[keep]),
+            half=float(np.min(fine[:, 1] - fine[:, 0])))
     moments = np.column_stack([density @ grid, np.sqrt(np.clip(density @ grid**2 - (density @ grid) ** 2, 0, None))])
     return DamageDetection(bool(detected), float(false_alarm), statistic, threshold, p_value, centre, length,
                            centre_ci, loss, loss_ci, zones, scores, weights, moments,
@@ -331,8 +334,17 @@ def _null_maxima(weights, gram, n, rng, chunk=2000):
 _N_GRID = 2000  # midpoints of the grid over the lost fraction
 
 
-def _zone_posteriors(proj, norms, alpha, zones, max_loss):
+def _log_prior(zones):
+    """log prior mass of each zone up to a constant: equal mass per length, even over its centres."""
+    lengths = np.round(zones[:, 1] - zones[:, 0], 9)
+    _, group, counts = np.unique(lengths, return_inverse=True, return_counts=True)
+    return -np.log(counts[group])
+
+
+def _zone_posteriors(proj, norms, alpha, zones, max_loss, log_prior=None):
     """Posterior zone weights and, per zone, the posterior of the lost fraction on a grid (see the docstring).
+
+    ``log_prior`` (default :func:`_log_prior` of ``zones``) is given when ``zones`` is a subset of a family.
 
     Returns (weights (H,), grid (G,), density (H, G)); each row of density sums to 1.
     """
@@ -344,15 +356,36 @@ def _zone_posteriors(proj, norms, alpha, zones, max_loss):
     total = density.sum(axis=1)
     density /= total[:, None]
     log_evidence = peak + np.log(total)  # uniform prior: the grid's mean, up to a constant
-    lengths = np.round(zones[:, 1] - zones[:, 0], 9)
-    _, group, counts = np.unique(lengths, return_inverse=True, return_counts=True)
-    log_post = log_evidence - np.log(counts[group])  # equal mass per length, even over its centres
+    log_post = log_evidence + (_log_prior(zones) if log_prior is None else log_prior)
     weights = np.exp(log_post - log_post.max())
     return weights / weights.sum(), grid, density
 
 
-def _estimates(zones, weights, grid, density):
-    """Centre (most probable window) and its 95 % interval, most probable length, loss (median) and its 95 % interval."""
+def _plausible(proj, norms, alpha, log_prior, max_loss, margin=40.0):
+    """Zones whose posterior weight can be within e^-margin of the largest (a bound, not an estimate).
+
+    A zone's evidence (the grid mean of its likelihood) is at most the likelihood's maximum over the
+    grid's range of r = f / (1 - f), which is closed-form; a zone whose maximum is ``margin`` below
+    the exact evidence of the zone with the largest maximum cannot matter.
+    """
+    grid = max_loss * (np.array([0.5, _N_GRID - 0.5])) / _N_GRID
+    r_lo, r_hi = grid / (1.0 - grid)
+    a, b = proj / alpha**2, norms**2 / alpha**2
+    r_star = np.clip(a / b, r_lo, r_hi)
+    bound = a * r_star - 0.5 * b * r_star**2 + log_prior
+    best = int(np.argmax(bound))
+    r = max_loss * (np.arange(_N_GRID) + 0.5) / _N_GRID
+    r = r / (1.0 - r)
+    log_like = a[best] * r - 0.5 * b[best] * r**2
+    exact = float(log_like.max() + np.log(np.mean(np.exp(log_like - log_like.max()))) + log_prior[best])
+    return bound >= exact - margin
+
+
+def _estimates(zones, weights, grid, density, half=None):
+    """Centre (most probable window) and its 95 % interval, most probable length, loss (median) and its 95 % interval.
+
+    ``half``: half-width of the centre's window (default the shortest zone length).
+    """
     spans = np.round(zones[:, 1] - zones[:, 0], 9)
     by_length = {x: float(weights[spans == x].sum()) for x in np.unique(spans)}
     length = float(max(by_length, key=by_length.get))
@@ -361,7 +394,7 @@ def _estimates(zones, weights, grid, density):
     cdf = np.cumsum(weights[order])
     lo, hi = (float(centres[order][min(np.searchsorted(cdf, p), cdf.size - 1)]) for p in (0.025, 0.975))
     # the centre: the most probable window of +- the shortest length (a median can fall between two modes)
-    sorted_centres, half = centres[order], float(spans.min())
+    sorted_centres, half = centres[order], float(spans.min() if half is None else half)
     mass = (np.interp(sorted_centres + half, sorted_centres, cdf, right=1.0)
             - np.interp(sorted_centres - half, sorted_centres, cdf, left=0.0))
     window = np.abs(sorted_centres - sorted_centres[int(np.argmax(mass))]) <= half

@@ -1,7 +1,7 @@
 """Integration over the hyperparameters: the posterior as a mixture over log tau.
 
 The hyperparameters get a proper prior (:class:`~sensorplan.model.prior.HyperPrior`:
-a PC prior on the smoothness std sigma = tau^{-1/2}, a log-normal prior on
+a log-normal or PC prior on the smoothness std sigma = tau^{-1/2}, a log-normal prior on
 the noise scale alpha) and are integrated out instead of being estimated:
 
     p(theta | y) = int p(theta | y, tau) p(log tau | y) d log tau.

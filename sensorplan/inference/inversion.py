@@ -11,8 +11,8 @@ Q(tau) = tau S + F (GMRF roughness S on log EI plus the fixed proper part F).
   decreases the objective.
 * Laplace covariance H^{-1}, H = J^T J / alpha^2 + Q at the MAP; exact for
   the linear-Gaussian case.
-* Hyperparameters integrated out (default, ``hyper="integrated"``): a PC
-  prior on tau^{-1/2} and a log-normal prior on alpha, alpha by Laplace,
+* Hyperparameters integrated out (default, ``hyper="integrated"``): a
+  log-normal (or PC) prior on tau^{-1/2} and a log-normal prior on alpha, alpha by Laplace,
   log tau by quadrature; the posterior is a Gaussian mixture
   (:mod:`.hyperposterior`).
 * Or point estimates: evidence maximisation (MacKay's fixed-point
@@ -247,8 +247,8 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
         quasi-optimality or GCV).
     hyperprior : HyperPrior, optional
         Prior of tau and the noise scale for ``"integrated"`` (default
-        ``HyperPrior()``: PC prior with median smoothness_std, log-normal
-        noise scale).
+        ``HyperPrior()``: log-normal prior with median smoothness_std and
+        log std 0.5, log-normal noise scale).
     noise_scale, tau : float
         Start values (``fixed``: the values used).  ``tau`` defaults to the prior's.
     screen : bool

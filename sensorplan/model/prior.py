@@ -16,6 +16,7 @@ sigma = tau^{-1/2} and a log-normal prior on the noise scale alpha.
 """
 
 import math
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -95,66 +96,102 @@ class GMRFPrior:
 class HyperPrior:
     """Prior of the hyperparameters tau (prior precision scale) and alpha (noise scale).
 
-    * The smoothness std sigma = tau^{-1/2} (the std of one difference of
-      log EI) has the penalised-complexity (PC) prior of Simpson et al.
-      (2017, Statist. Sci. 32(1), eq. 3.3): an exponential density
-      p(sigma) = lambda exp(-lambda sigma) with P(sigma > ``smoothness_scale``)
-      = ``smoothness_tail``.  It shrinks towards the flat field (sigma = 0,
-      the base model) at a constant rate, so a rough field must be paid for
-      by the data, and its tail in log tau decays like tau^{-1/2}: the flat
-      field is never ruled out, but it carries only the mass the data give it.
-    * log alpha ~ N(0, ``noise_log_std``^2): the configured noise is right
-      within a factor exp(noise_log_std) at one standard deviation.
+    The smoothness std sigma = tau^{-1/2} (the std of one difference of
+    log EI) has one of two priors, both with the scale U (``smoothness_scale``,
+    by default the GMRFPrior's ``smoothness_std``, see :meth:`for_prior`):
+
+    * ``family="lognormal"`` (default): log sigma ~ N(log U, s^2) with
+      s = ``smoothness_log_std``: the configured smoothness is the prior
+      median and right within a factor e^s at one standard deviation.  Its
+      tails in log tau are Gaussian: where the data say little about tau (one
+      crossing, high noise) the mixture over tau is as wide as the stated
+      belief and no wider, and the flat field (tau -> infinity) is ruled out
+      a priori.
+    * ``family="pc"``: the penalised-complexity prior of Simpson et al.
+      (2017, Statist. Sci. 32(1), eq. 3.3), exponential p(sigma) =
+      lambda exp(-lambda sigma) with P(sigma > U) = ``smoothness_tail``.  It
+      shrinks towards the flat field at a constant rate and its tail in
+      log tau decays only like tau^{-1/2}: robust when the configured
+      smoothness is far off, but with weak data its mixture over tau is
+      wider than a truth of the configured smoothness needs (95 % bands
+      covering about 0.98).
+
+    log alpha ~ N(0, ``noise_log_std``^2): the configured noise is right
+    within a factor exp(noise_log_std) at one standard deviation.
 
     Parameters
     ----------
     smoothness_scale : float, optional
-        The scale U of the PC prior; defaults to the GMRFPrior's
-        ``smoothness_std`` (see :meth:`for_prior`).
+        U, the prior median of sigma (lognormal) or the scale of the PC
+        prior; defaults to the GMRFPrior's ``smoothness_std``.
     smoothness_tail : float
-        P(sigma > U); the default 0.5 makes U the prior median of sigma.
+        P(sigma > U) under the PC prior (0.5 makes U the median).
     noise_log_std : float
         Standard deviation of log alpha.
+    family : {"lognormal", "pc"}
+    smoothness_log_std : float
+        Standard deviation of log sigma under the log-normal prior.
     """
 
     smoothness_scale: float | None = None
     smoothness_tail: float = 0.5
     noise_log_std: float = 1.0
+    family: str = "lognormal"
+    smoothness_log_std: float = 0.5
 
     def __post_init__(self):
+        from .._errors import ConfigError
+
         if self.smoothness_scale is not None:
             object.__setattr__(self, "smoothness_scale", as_float(
                 self.smoothness_scale, "smoothness_scale", "HyperPrior", low=0.0, low_open=True))
         tail = as_float(self.smoothness_tail, "smoothness_tail", "HyperPrior", low=0.0, low_open=True)
         if tail >= 1.0:
-            from .._errors import ConfigError
-
             raise ConfigError(f"The 'smoothness_tail' parameter of HyperPrior must be a probability in (0, 1). "
                               f"Got {self.smoothness_tail!r} instead.")
         object.__setattr__(self, "smoothness_tail", tail)
-        object.__setattr__(self, "noise_log_std", as_float(self.noise_log_std, "noise_log_std", "HyperPrior",
-                                                           low=0.0, low_open=True))
+        for name in ("noise_log_std", "smoothness_log_std"):
+            object.__setattr__(self, name, as_float(getattr(self, name), name, "HyperPrior", low=0.0,
+                                                    low_open=True))
+        if self.family not in ("lognormal", "pc"):
+            raise ConfigError(f"The 'family' parameter of HyperPrior must be 'lognormal' or 'pc'. "
+                              f"Got {self.family!r} instead.")
 
     def for_prior(self, prior):
         """This hyperprior with the scale taken from ``prior.smoothness_std`` where not given."""
         if self.smoothness_scale is not None:
             return self
-        return HyperPrior(prior.smoothness_std, self.smoothness_tail, self.noise_log_std)
+        return dataclasses.replace(self, smoothness_scale=prior.smoothness_std)
 
     @property
     def rate(self):
         """lambda = -log(smoothness_tail) / smoothness_scale of the PC prior [1/std]."""
+        return -math.log(self.smoothness_tail) / self._scale()
+
+    def log_density_log_tau(self, log_tau):
+        """log p(log tau): the prior of sigma = exp(-log_tau / 2) with its Jacobian."""
+        log_tau = np.asarray(log_tau, dtype=float)
+        if self.family == "lognormal":  # log sigma = -log tau / 2 is normal; |d log sigma / d log tau| = 1/2
+            s = self.smoothness_log_std
+            z = (-0.5 * log_tau - math.log(self._scale())) / s
+            return -0.5 * z**2 - math.log(2.0 * s * math.sqrt(2.0 * math.pi))
+        lam = self.rate
+        sigma = np.exp(-0.5 * log_tau)
+        return math.log(0.5 * lam) + np.log(sigma) - lam * sigma
+
+    def sample_smoothness(self, rng, size=None):
+        """Draws of the smoothness std sigma from this hyperprior (``rng``: numpy Generator or seed)."""
+        rng = np.random.default_rng(rng)
+        if self.family == "lognormal":
+            return self._scale() * np.exp(self.smoothness_log_std * rng.standard_normal(size))
+        return rng.exponential(1.0 / self.rate, size)
+
+    def _scale(self):
         if self.smoothness_scale is None:
             from .._errors import ConfigError
 
             raise ConfigError("HyperPrior.smoothness_scale is not set; use HyperPrior.for_prior(prior).")
-        return -math.log(self.smoothness_tail) / self.smoothness_scale
-
-    def log_density_log_tau(self, log_tau):
-        """log p(log tau): the PC prior of sigma = exp(-log_tau / 2) with its Jacobian |d sigma / d log tau|."""
-        lam = self.rate
-        sigma = np.exp(-0.5 * np.asarray(log_tau, dtype=float))
-        return math.log(0.5 * lam) + np.log(sigma) - lam * sigma
+        return self.smoothness_scale
 
     def log_density_log_noise(self, log_noise_scale):
         """log p(log alpha), the normal density of log alpha."""

@@ -13,35 +13,36 @@ Run:  python studies/verification/detection_vs_limit.py [--quick] [--out FILE]
       python studies/verification/detection_vs_limit.py --row EXAMPLE LAYOUT SEVERITY [--row ...]
              [--locations N]   (one row with the detector alone, many more locations)
 
-Last full run (commit 55c84db + the layouts above, 16 locations and 8
-controls per layout and severity, seed 1, 226 s on a loaded 2-core machine):
+Last full run (2026-11-25, log-normal hyperprior, the detector of the commit "detection/scan: the
+scan in the element space", 16 locations and 8 controls per layout and severity, seed 1, 565 s on a
+loaded 2-core machine):
 
     example           layout                  loss      detection  limit  ratio false al.  cover95 loss cov loc. err
-    simply-supported  three evenly             10%  0.938±0.062  0.949   0.99     0.000    0.985    0.933     0.32
-    simply-supported  thirds                   10%  0.750±0.112  0.650   1.15     0.000    0.979    0.917     2.38
-    simply-supported  three evenly             20%  1.000±0.000  0.997   1.00     0.000    0.997    0.938     0.26
-    simply-supported  thirds                   20%  1.000±0.000  0.869   1.15     0.000    0.985    0.875     0.39
-    simply-supported  three evenly             30%  1.000±0.000  1.000   1.00     0.000    1.000    0.875     0.23
-    simply-supported  thirds                   30%  1.000±0.000  0.952   1.05     0.000    0.988    0.750     0.28
-    simply-supported  three evenly             40%  1.000±0.000  1.000   1.00     0.000    0.997    0.875     0.20
-    simply-supported  thirds                   40%  1.000±0.000  0.986   1.01     0.000    0.985    0.812     0.23
-    openlab-like      four evenly              10%  0.000±0.000  0.041   0.00     0.125    0.978      nan      nan
-    openlab-like      case's own (11, 19)      10%  0.000±0.000  0.005   0.00     0.125    0.996      nan      nan
-    openlab-like      four evenly              20%  0.125±0.085  0.238   0.53     0.125    0.985    1.000     4.38
-    openlab-like      case's own (11, 19)      20%  0.000±0.000  0.008   0.00     0.125    0.980      nan      nan
-    openlab-like      four evenly              30%  0.562±0.128  0.479   1.17     0.125    0.983    1.000     1.92
-    openlab-like      case's own (11, 19)      30%  0.000±0.000  0.017   0.00     0.125    0.970      nan      nan
-    openlab-like      four evenly              40%  0.688±0.120  0.688   1.00     0.125    0.989    1.000     0.43
+    simply-supported  three evenly             10%  0.938±0.062  0.949   0.99     0.000    0.991    1.000     0.26
+    simply-supported  thirds                   10%  0.750±0.112  0.650   1.15     0.000    0.991    1.000     1.85
+    simply-supported  three evenly             20%  1.000±0.000  0.997   1.00     0.000    0.988    1.000     0.14
+    simply-supported  thirds                   20%  1.000±0.000  0.869   1.15     0.000    0.982    0.938     0.35
+    simply-supported  three evenly             30%  1.000±0.000  1.000   1.00     0.000    0.997    0.812     0.13
+    simply-supported  thirds                   30%  1.000±0.000  0.952   1.05     0.000    0.985    0.812     0.23
+    simply-supported  three evenly             40%  1.000±0.000  1.000   1.00     0.000    1.000    0.812     0.15
+    simply-supported  thirds                   40%  1.000±0.000  0.986   1.01     0.000    0.982    0.812     0.18
+    openlab-like      four evenly              10%  0.000±0.000  0.041   0.00     0.000    0.998      nan      nan
+    openlab-like      case's own (11, 19)      10%  0.000±0.000  0.005   0.00     0.125    1.000      nan      nan
+    openlab-like      four evenly              20%  0.125±0.085  0.238   0.53     0.000    0.991    1.000     0.55
+    openlab-like      case's own (11, 19)      20%  0.000±0.000  0.008   0.00     0.125    0.994      nan      nan
+    openlab-like      four evenly              30%  0.562±0.128  0.479   1.17     0.000    0.985    1.000     1.18
+    openlab-like      case's own (11, 19)      30%  0.000±0.000  0.017   0.00     0.125    0.972      nan      nan
+    openlab-like      four evenly              40%  0.688±0.120  0.688   1.00     0.000    0.991    1.000     0.30
     openlab-like      case's own (11, 19)      40%  0.000±0.000  0.037   0.00     0.125    0.963      nan      nan
-    three-span        six evenly               10%  0.188±0.101  0.101   1.85     0.125    0.961    1.000     3.85
-    three-span        near supports            10%  0.000±0.000  0.022   0.00     0.000    0.942      nan      nan
-    three-span        six evenly               20%  0.562±0.128  0.476   1.18     0.125    0.970    0.889     4.02
-    three-span        near supports            20%  0.250±0.112  0.151   1.65     0.000    0.964    1.000     0.47
-    three-span        six evenly               30%  0.812±0.101  0.792   1.03     0.125    0.980    0.923     2.14
-    three-span        near supports            30%  0.438±0.128  0.449   0.97     0.000    0.982    1.000     0.30
-    three-span        six evenly               40%  0.875±0.085  0.905   0.97     0.125    0.989    0.929     1.37
-    three-span        near supports            40%  0.500±0.129  0.713   0.70     0.000    0.989    1.000     0.30
-    (226 s; detection over local losses; limit = known-location power at the Bonferroni level; cover95 = EI band coverage on damaged scenarios)
+    three-span        six evenly               10%  0.188±0.101  0.101   1.85     0.125    0.986    1.000     3.45
+    three-span        near supports            10%  0.000±0.000  0.022   0.00     0.000    0.986      nan      nan
+    three-span        six evenly               20%  0.500±0.129  0.476   1.05     0.125    0.982    0.875     3.12
+    three-span        near supports            20%  0.250±0.112  0.151   1.65     0.000    0.974    1.000     0.40
+    three-span        six evenly               30%  0.812±0.101  0.792   1.03     0.125    0.986    0.923     2.09
+    three-span        near supports            30%  0.375±0.125  0.449   0.84     0.000    0.976    1.000     0.34
+    three-span        six evenly               40%  0.875±0.085  0.905   0.97     0.125    0.989    0.929     1.73
+    three-span        near supports            40%  0.500±0.129  0.713   0.70     0.000    0.983    1.000     0.24
+    (565 s; detection over local losses; limit = known-location power at the Bonferroni level; cover95 = EI band coverage on damaged scenarios)
 
 Reading it: where the limit is not negligible the detection rate is at
 0.8-1.85 x the limit, within a Monte-Carlo standard error or two of it (the
@@ -50,8 +51,9 @@ two lowest ratios (openlab-like four evenly at 20 %, 0.53; three-span near
 supports at 40 %, 0.70) are 1.3 and 1.6 standard errors from 0.8.  The
 same 8 controls serve every severity (common random numbers), so one false
 alarm in 8 repeats down a layout's rows (0.125 +- 0.125).  Band coverage on
-the damaged scenarios is 0.94-1.00.  The loss interval covers the truth in
-0.75-1.00 of the detected losses: a shorter zone with a deeper loss mimics
+the damaged scenarios is 0.96-1.00 (0.94-1.00 with the earlier PC
+hyperprior; detection, limits and false alarms are unchanged by it).  The
+loss interval covers the truth in 0.81-1.00 of the detected losses: a shorter zone with a deeper loss mimics
 the true one, and the zone weights do not always spread over both.  The
 case's own two tiltmeters on openlab-like see almost nothing of a 2 m loss
 under the smooth nuisance (limit <= 0.04), as its detectability map says.
