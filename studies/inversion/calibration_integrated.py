@@ -53,8 +53,18 @@ and with ``--draw-smoothness`` (the truth's smoothness std drawn from the log-no
 white 0.957 / 0.763, ar1 0.949 / 0.739, low-signal 0.956 / 0.747 (95 % / 75 %), tau at a grid end
 in 0 replicates.  Misspecification (``--truth-smoothness``, 60 replicates, white): a truth three
 times rougher (0.3) is covered 0.822 / 0.557 (PC prior: 0.898 / 0.634), three times smoother (0.03)
-0.999 / 0.929 (PC: 0.997 / 0.861).  A Student-t (3 dof) hyperprior on log sigma was tried too:
-low signal 0.975, rough truth 0.863 -- between the two, and too close to 0.98.
+0.999 / 0.929 (PC: 0.997 / 0.861).  Tried and not kept (code removed; 95 % / 75 %, 200
+replicates unless noted): a Student-t (3 dof) on log sigma: low signal 0.975 (60 replicates),
+rough truth 0.863 -- too close to 0.98; PC below the median joined continuously to the log-normal
+above it: low signal 0.935 / 0.659, white 0.927 / 0.681 (70 % of the mass on the smooth side:
+under-covers); log-normal above and a Cauchy below (joined at the median): low signal
+0.960 / 0.728, white 0.949 / 0.727 but tau at the upper grid end in 9 of 200 white replicates;
+a Student-t (3 dof) below instead of the Cauchy: low signal 0.963 / 0.744, white 0.957 / 0.748,
+ar1 0.962 / 0.753, never at a grid end -- calibrated, and its bands on the undamaged three-span
+example are narrower (-19..+27 % against -25..+38 %), but not by enough to justify a
+two-piece prior.  The price of the log-normal is on bridges much smoother than the configured
+smoothness: the undamaged openlab-like example's 95 % bands are 40 % of EI wide on average
+(PC: 29 %), the three-span's -25..+38 % (PC: -10..+11 %).
 
 With the PC hyperprior (``--hyperprior pc``, the previous default), the damage detector and the local-loss hypotheses in the posterior (``detect=True``, the
 default; each hypothesis a step of log EI over one of the detector's zones with a half-normal prior
