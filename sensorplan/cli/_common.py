@@ -4,10 +4,12 @@ import argparse
 import json
 import math
 import os
+import re
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
-from .._errors import ConfigError
+from .._errors import ConfigError, SensorplanError
 
 __all__ = []
 
@@ -48,13 +50,18 @@ def check_elements(case, command):
                           + (", or give --elements." if command == "invert" else "."))
 
 
-def _number(text, what):
+def number(text, what, error=argparse.ArgumentTypeError):
+    """The one number parser of the options: ``text`` as a finite float, else ``error(message)`` saying ``what``.
+
+    ``error`` is argparse's ArgumentTypeError for option types, or a function
+    building a ConfigError that names the option for values parsed later.
+    """
     try:
         value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected {what}; got {text!r}") from None
+    except (TypeError, ValueError):
+        raise error(f"expected {what}; got {text!r}") from None
     if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"expected a finite number ({what}); got {text!r}")
+        raise error(f"expected a finite number ({what}); got {text!r}")
     return value
 
 
@@ -81,7 +88,7 @@ def real(low, high, *, what, low_open=False, high_open=False):
     interval = f"in {left}{low:g}, {high:g}{right}"
 
     def parse(text):
-        value = _number(text, f"{what} {interval}")
+        value = number(text, f"{what} {interval}")
         if value < low or value > high or (low_open and value == low) or (high_open and value == high):
             raise argparse.ArgumentTypeError(f"expected {what} {interval}; got {text!r}")
         return value
@@ -103,7 +110,7 @@ MAX_POSITIONS = 1_000
 
 def parse_positions(text):
     parts = [v for v in text.split(",") if v.strip()]
-    values = [_number(v, "comma-separated positions in m, e.g. 2.5,5,10") for v in parts]
+    values = [number(v, "comma-separated positions in m, e.g. 2.5,5,10") for v in parts]
     if not values:
         raise argparse.ArgumentTypeError("give at least one position in m, e.g. 2.5,5,10")
     if len(values) > MAX_POSITIONS:
@@ -117,13 +124,11 @@ def parse_positions(text):
 def parse_zones(text):
     zones = []
     for part in text.split(","):
-        try:
-            a, b = (float(v) for v in part.split(":"))
-        except ValueError:
-            raise argparse.ArgumentTypeError(
-                f"expected zones as start:stop in m, e.g. 14:16,29:30; got {part!r}") from None
-        if not (math.isfinite(a) and math.isfinite(b)):
-            raise argparse.ArgumentTypeError(f"zone {part!r} must have finite ends in m, e.g. 14:16")
+        ends = part.split(":")
+        if len(ends) != 2:
+            raise argparse.ArgumentTypeError(f"expected zones as start:stop in m, e.g. 14:16,29:30; got {part!r}")
+        a, b = (number(v, f"zones as start:stop with finite ends in m, e.g. 14:16,29:30 (zone {part!r})")
+                for v in ends)
         if b < a:
             raise argparse.ArgumentTypeError(f"zone {part!r} ends before it starts; write it as {b:g}:{a:g}")
         zones.append((a, b))
@@ -261,3 +266,27 @@ def stage_figure(files, ax_or_fig, path):
 
     plotting.save_figure(ax_or_fig, files.stage(path, suffix=".png"))
     return Path(path)
+
+
+# the parameters of sensorplan.design.recommend as the options of recommend/report name them
+DESIGN_FLAGS = {"count": "--count", "min_spacing": "--min-spacing", "span_min": "--per-span-min",
+                "span_max": "--per-span-max", "budget": "--budget", "costs": "--cost", "fixed": "--fixed",
+                "spacing": "--spacing", "exclude": "--exclude", "noise_std": "--noise-std", "kind": "--kind",
+                "region": "--region", "solver": "--solver"}
+
+
+def rename_parameters(message, names):
+    """``message`` with every quoted parameter name ('min_spacing') replaced by ``names[...]`` (--min-spacing)."""
+    def swap(match):
+        return names.get(match.group(1), match.group(0))
+
+    return re.sub(r"'(\w+)'(?: parameter)?", swap, message)
+
+
+@contextmanager
+def option_names(names=None):
+    """Re-raise a sensorplan error with the parameters it names as the options (``DESIGN_FLAGS``) name them."""
+    try:
+        yield
+    except SensorplanError as exc:
+        raise type(exc)(rename_parameters(str(exc), DESIGN_FLAGS if names is None else names)) from exc
