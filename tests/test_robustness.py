@@ -223,6 +223,11 @@ SEMANTIC = [
     (["recommend", "--count", "2", "--fixed", "5,15,25", "--min-spacing", "10"], ["--fixed", "--min-spacing"]),
     (["recommend", "--count", "2", "--exclude", "0:30"], ["--exclude"]),
     (["report", "--count", "5", "--min-spacing", "10"], ["--count 5", "--min-spacing"]),
+    (["recommend", "--criterion", "A", "--region", "100:200", "--count", "2"], ["--region"]),
+    (["recommend", "--criterion", "detect", "--length", "1e-300", "--count", "2"], ["--length", "1 mm"]),
+    (["verify", "--layout", "5,25", "--length", "1e-300", "--scenarios", "2"], ["--length", "1 mm"]),
+    (["detectability", "--length", "1e-300"], ["--length", "1 mm"]),
+    (["detectability", "--json", "."], ["--json", "folder"]),
     (["verify", "--layout", "5,100"], ["--layout"]),
     (["verify", "--layout", "5,25", "--noise-std", "0.01"], ["--noise-std"]),
     (["informativeness", "--positions", "-1"], ["--positions"]),
@@ -573,6 +578,23 @@ def test_out_inside_an_existing_file_names_the_file(tmp_path, capsys):
     rc, _, err = run(["informativeness", *EXAMPLE, "--out", blocker / "sub"], capsys)
     assert_one_line_error(rc, err, "informativeness", [str(blocker), "is a file"])
     assert files_under(tmp_path) == ["afile"]
+
+
+def test_crossings_speed_range_upside_down_names_both_options(tmp_path, capsys):
+    log = tmp_path / "log.csv"
+    log.write_text("time_s,PE1,PE2\n0,0,0\n0.1,0,0\n", encoding="utf-8")
+    rc, _, err = run(["crossings", *EXAMPLE, "--timeseries", log, "--min-speed", "50", "--max-speed", "1",
+                      "--out", tmp_path / "out" / "x.csv"], capsys)
+    assert_one_line_error(rc, err, "crossings", ["--min-speed 50", "--max-speed 1"])
+    assert files_under(tmp_path) == ["log.csv"]
+
+
+def test_a_vehicle_of_a_million_axles_is_refused_before_any_work():
+    text = _replace("axle_offsets = [0.0, 2.0]", "axle_offsets = [" + ", ".join(["0.0"] * 2000) + "]")(
+        _replace("axle_loads = [24.0e3, 24.0e3]", "axle_loads = [" + ", ".join(["1.0"] * 2000) + "]")(
+            _example_text()))
+    with pytest.raises(ConfigError, match="2000 axles, more than 1000"):
+        case_from_toml(text)
 
 
 def test_folders_given_as_files_give_one_line_errors(tmp_path, capsys):

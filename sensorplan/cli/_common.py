@@ -14,6 +14,24 @@ from .._errors import ConfigError, SensorplanError
 __all__ = []
 
 
+def input_file(text):
+    """An argparse type: the path of an existing file to read (a folder or a missing file is named)."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r} is a folder; give the file to read")
+    if not path.exists():
+        raise argparse.ArgumentTypeError(f"no file {text!r}; check the path")
+    return path
+
+
+def output_file(text):
+    """An argparse type: the path of a file to write (an existing folder is named)."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r} is a folder; give a file name")
+    return path
+
+
 def add_common_arguments(parser):
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
     parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
@@ -22,13 +40,13 @@ def add_common_arguments(parser):
 def add_case_arguments(parser):
     add_common_arguments(parser)
     group = parser.add_mutually_exclusive_group(required=True)
-    group.add_argument("--config", type=Path, help="case file (TOML)")
+    group.add_argument("--config", type=input_file, help="case file (TOML)")
     group.add_argument("--example", help="embedded example: simply-supported, openlab-like, three-span")
 
 
 def add_out_arguments(parser, *, json_default):
     parser.add_argument("--out", type=Path, default=Path("sensorplan-out"), help="output folder for figures")
-    parser.add_argument("--json", type=Path, help=f"JSON file (default OUT/{json_default})")
+    parser.add_argument("--json", type=output_file, help=f"JSON file (default OUT/{json_default})")
 
 
 def load_case(args):
@@ -172,14 +190,22 @@ def check_step(case, step, option):
 
 
 def check_length(case, length, option):
-    if length > case.bridge.length:
-        raise ConfigError(f"{option} {length:g} m is longer than the bridge ({case.bridge.length:g} m).")
+    """A damaged zone's length: from MIN_ZONE_LENGTH (1 mm) to the bridge length."""
+    from .._validation import MIN_ZONE_LENGTH
+
+    if length >= case.bridge.length:
+        raise ConfigError(f"{option} {length:g} m is not shorter than the bridge ({case.bridge.length:g} m).")
+    if length < MIN_ZONE_LENGTH:
+        raise ConfigError(f"{option} {length:g} m is shorter than {1e3 * MIN_ZONE_LENGTH:g} mm, no physical "
+                          f"damaged zone; give {option} in m, e.g. {option} 2.")
 
 
 def check_grid(case, args):
     """The recommend options against the bridge: candidate count, zones, --fixed, --min-spacing."""
     length = case.bridge.length
     check_step(case, args.spacing, "--spacing")
+    if getattr(args, "length", None) is not None:
+        check_length(case, args.length, "--length")
     if _count(length, args.spacing) > MAX_CANDIDATES:
         raise ConfigError(f"--spacing {args.spacing:g} m gives more than {MAX_CANDIDATES} candidates; "
                           f"use --spacing >= {length / MAX_CANDIDATES:.3g}.")
@@ -256,8 +282,20 @@ def safe_name(name):
     return "".join(ch if ch.isascii() and (ch.isalnum() or ch in "._-") else "_" for ch in name)
 
 
+def _finite_json(value):
+    """``value`` with non-finite floats as strict JSON allows: NaN -> null, +-inf -> "inf" / "-inf" (e.g. rigid
+    springs), so that any JSON reader takes the file (Python's json would write NaN and Infinity)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    if isinstance(value, dict):
+        return {k: _finite_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite_json(v) for v in value]
+    return value
+
+
 def stage_json(files, path, payload):
-    return files.write_text(path, json.dumps(payload, indent=2) + "\n")
+    return files.write_text(path, json.dumps(_finite_json(payload), indent=2, allow_nan=False) + "\n")
 
 
 def stage_figure(files, ax_or_fig, path):

@@ -1,7 +1,6 @@
 """``sensorplan invert``: Bayesian identification of EI(x) from crossings (CSV)."""
 
 import sys
-from pathlib import Path
 
 from ._common import (
     FALSE_ALARM,
@@ -9,6 +8,7 @@ from ._common import (
     SEED,
     add_case_arguments,
     add_out_arguments,
+    input_file,
     integer,
     load_case,
     safe_name,
@@ -26,7 +26,7 @@ EPILOG = """example:
 
 def add_arguments(p):
     add_case_arguments(p)
-    p.add_argument("--data", type=Path, required=True, help="crossings CSV (crossing,position_m,<sensors>)")
+    p.add_argument("--data", type=input_file, required=True, help="crossings CSV (crossing,position_m,<sensors>)")
     p.add_argument("--elements", type=integer(1, MAX_INVERSION_ELEMENTS),
                    help="number of elements of the inversion mesh")
     p.add_argument("--false-alarm", type=FALSE_ALARM, default=0.05,

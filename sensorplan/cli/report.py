@@ -3,7 +3,7 @@
 import sys
 from pathlib import Path
 
-from ._common import check_grid, load_case, option_names, stage_json
+from ._common import check_grid, input_file, load_case, option_names, stage_json
 from .recommend import add_arguments as add_recommend_arguments
 from .recommend import design_options, recommend_argv
 
@@ -21,7 +21,7 @@ OUT/design.json (the inputs of the design: rerun `sensorplan recommend` with its
 def add_arguments(p):
     add_recommend_arguments(p)
     p.set_defaults(scenarios=6)
-    p.add_argument("--data", type=Path, help="measured crossings CSV (adds identified EI and the gap diagnosis)")
+    p.add_argument("--data", type=input_file, help="measured crossings CSV (adds identified EI and the gap diagnosis)")
 
 
 def _inputs(args):
