@@ -597,6 +597,47 @@ def test_a_vehicle_of_a_million_axles_is_refused_before_any_work():
         case_from_toml(text)
 
 
+LOGGER_HOSTILE = [
+    ("semicolons", "time_s;PE1;PE2\n" + "".join(f"{0.1 * k:.1f};0;0\n" for k in range(20)), "semicolon"),
+    ("two-rows", "time_s,PE1,PE2\n0,0,0\n0.1,0,0\n", "at least 10 samples"),
+    ("subnormal-steps", "time_s,PE1,PE2\n" + "".join(f"{k * 5e-324!r},0,0\n" for k in range(20)), "time_s"),
+    ("time-1e300", "time_s,PE1,PE2\n" + "".join(f"{k * 1e300!r},0,0\n" for k in range(20)), "time_s"),
+]
+
+
+@pytest.mark.parametrize("text, field", [c[1:] for c in LOGGER_HOSTILE], ids=[c[0] for c in LOGGER_HOSTILE])
+def test_hostile_logger_records_name_the_file_and_the_fault(tmp_path, capsys, text, field):
+    log = tmp_path / "log.csv"
+    log.write_text(text, encoding="utf-8")
+    rc, _, err = run(["crossings", *EXAMPLE, "--timeseries", log, "--out", tmp_path / "out" / "x.csv"], capsys)
+    assert_one_line_error(rc, err, "crossings", [str(log), field])
+    assert files_under(tmp_path) == ["log.csv"]
+
+
+def test_two_outputs_to_one_file_are_refused(tmp_path, capsys):
+    """--json naming a figure's file would overwrite it silently."""
+    rc, _, err = run(["recommend", "--example", "simply-supported", "--count", "2", "--spacing", "2", "--out",
+                      tmp_path / "o", "--json", tmp_path / "o" / "layout.png"], capsys)
+    assert_one_line_error(rc, err, "recommend", ["layout.png", "--json"])
+    assert files_under(tmp_path) == []
+
+
+def test_json_outputs_are_strict_json(tmp_path):
+    """Rigid springs (inf) and undefined values (NaN) are written as JSON any reader takes."""
+    import json
+
+    from sensorplan.io.output import OutputFiles
+
+    with OutputFiles() as files:
+        _common.stage_json(files, tmp_path / "x.json", {"springs": [math.inf, -math.inf, 1.0], "t": math.nan})
+
+    def reject(token):
+        raise ValueError(token)
+
+    assert json.loads((tmp_path / "x.json").read_text("utf-8"), parse_constant=reject) == {
+        "springs": ["inf", "-inf", 1.0], "t": None}
+
+
 def test_folders_given_as_files_give_one_line_errors(tmp_path, capsys):
     folder = tmp_path / "folder"
     folder.mkdir()

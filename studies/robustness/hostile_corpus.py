@@ -458,11 +458,18 @@ def logger_cases(fix):
 
 def atomic_cases():
     c = []
-    # a read-only output folder: nothing may be written, one line naming the folder
-    c.append(Case("atomic/out-read-only", "atomic", ["recommend", *SS, "--count", "2", "--spacing", "2",
-                                                     "--out", "ro/sub"], {"ro/.keep": ""}, "error", ("ro",)))
-    c.append(Case("atomic/json-read-only", "atomic", ["detectability", *EX, "--out", "out", "--json", "ro/d.json"],
-                  {"ro/.keep": ""}, "error", ("ro",)))
+    # the JSON cannot be written after the figures are staged: nothing may be left
+    c.append(Case("atomic/json-under-a-file-after-figures", "atomic", ["recommend", *SS, "--count", "2", "--spacing",
+                                                                      "2", "--out", "out", "--json", "data.csv/d.json"],
+                  {}, "error", ("data.csv",)))
+    c.append(Case("atomic/write-case-under-a-file", "atomic", ["diagnose", *EX, "--data", "data.csv", "--write-case",
+                                                              "data.csv/c.toml", "--out", "out"], {}, "error",
+                  ("data.csv",)))
+    if os.geteuid() != 0:  # root writes into read-only folders
+        c.append(Case("atomic/out-read-only", "atomic", ["recommend", *SS, "--count", "2", "--spacing", "2",
+                                                         "--out", "ro/sub"], {"ro/.keep": ""}, "error", ("ro",)))
+        c.append(Case("atomic/json-read-only", "atomic", ["detectability", *EX, "--out", "out", "--json",
+                                                          "ro/d.json"], {"ro/.keep": ""}, "error", ("ro",)))
     c.append(Case("atomic/json-over-existing-file-ok", "atomic", ["informativeness", *EX, "--out", "out"],
                   {"out/informativeness.json": "old"}, "ok"))
     c.append(Case("atomic/crossings-figure-under-a-file", "atomic",
@@ -470,7 +477,7 @@ def atomic_cases():
                    "--figure", "data.csv/f.png"], {}, "error", ("data.csv",)))
     c.append(Case("blame/json-name-equals-out-file", "blame",
                   ["crossings", "--config", "logcase.toml", "--timeseries", "log.csv", "--out", "out/x.csv",
-                   "--json", "out/x.csv"], {}, "error", ("--json",)))
+                   "--json", "out/x.csv"], {}, "error", ("out/x.csv", "--json")))
     c.append(Case("blame/report-per-span-min-count", "blame", ["report", *EX, "--count", "1", "--per-span-min",
                                                                "1,1", "--out", "out"], {}, "error",
                   ("--per-span-min", "--count")))
