@@ -294,6 +294,21 @@ def _finite_json(value):
     return value
 
 
+def file_names(names):
+    """:func:`safe_name` of each name, made distinct even on case-insensitive file systems ('a b' and 'A_b'
+    both give 'a_b': the second becomes 'A_b-2')."""
+    out, seen = [], set()
+    for name in names:
+        base = candidate = safe_name(name)
+        k = 1
+        while candidate.casefold() in seen:
+            k += 1
+            candidate = f"{base}-{k}"
+        seen.add(candidate.casefold())
+        out.append(candidate)
+    return out
+
+
 def stage_json(files, path, payload):
     return files.write_text(path, json.dumps(_finite_json(payload), indent=2, allow_nan=False) + "\n")
 

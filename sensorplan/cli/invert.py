@@ -8,10 +8,10 @@ from ._common import (
     SEED,
     add_case_arguments,
     add_out_arguments,
+    file_names,
     input_file,
     integer,
     load_case,
-    safe_name,
     stage_figure,
     stage_json,
 )
@@ -62,8 +62,8 @@ def run(args, out, files):
         print(f"sensorplan invert: warning: {w.message}", file=sys.stderr)
     figures = [stage_figure(files, plotting.plot_ei_posterior(result, supports=case.bridge.support_positions),
                             args.out / "ei_posterior.png")]
-    for name in result.sensor_names:
-        figures.append(stage_figure(files, plotting.plot_fit(result, name), args.out / f"fit_{safe_name(name)}.png"))
+    for name, file_name in zip(result.sensor_names, file_names(result.sensor_names)):
+        figures.append(stage_figure(files, plotting.plot_fit(result, name), args.out / f"fit_{file_name}.png"))
     json_path = stage_json(files, args.json or args.out / "posterior.json", result.to_dict())
     out(result.summary())
     out(f"posterior written to {json_path}; figures: " + ", ".join(str(p) for p in figures))

@@ -404,9 +404,15 @@ def data_cases(fix):
     return c
 
 
-def name_cases():
+def name_cases(fix):
     c = []
     text = _example()
+    head, rows = _csv_rows(fix)
+    for label, pair in (("collide-after-sanitising", ("a b", "a_b")), ("case-fold", ("PE1", "pe1"))):
+        body = _sub('names = ["PE1", "PE2"]', f'names = ["{pair[0]}", "{pair[1]}"]')(text)
+        c.append(Case(f"name/{label}/invert", "name", ["invert", "--config", "case.toml", "--data", "h.csv",
+                                                      "--out", "out"],
+                      {"case.toml": body, "h.csv": _csv([head[0], head[1], *pair], rows)}, "ok"))
     names = {
         "slash": '"a/b"', "dotdot": '".."', "traversal": '"../../x"', "newline": '"a\\nb"', "comma": '"a,b"',
         "quote": '"a\\"b"', "space": '"a b"', "bom": '"\\ufeffPE1"', "crossing": '"crossing"',
@@ -493,7 +499,7 @@ def atomic_cases():
 
 
 def all_cases(fixtures):
-    return toml_cases() + option_cases() + data_cases(fixtures) + name_cases() + logger_cases(fixtures) + \
+    return toml_cases() + option_cases() + data_cases(fixtures) + name_cases(fixtures) + logger_cases(fixtures) + \
         atomic_cases()
 
 
