@@ -586,6 +586,9 @@ def test_crossings_speed_range_upside_down_names_both_options(tmp_path, capsys):
     rc, _, err = run(["crossings", *EXAMPLE, "--timeseries", log, "--min-speed", "50", "--max-speed", "1",
                       "--out", tmp_path / "out" / "x.csv"], capsys)
     assert_one_line_error(rc, err, "crossings", ["--min-speed 50", "--max-speed 1"])
+    rc, _, err = run(["crossings", *EXAMPLE, "--timeseries", log, "--speed", "1e-300",
+                      "--out", tmp_path / "out" / "x.csv"], capsys)
+    assert_one_line_error(rc, err, "crossings", ["--speed 1e-300", "--min-speed"])
     assert files_under(tmp_path) == ["log.csv"]
 
 

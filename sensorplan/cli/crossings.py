@@ -52,6 +52,10 @@ def run(args, out, files):
     if args.min_speed >= args.max_speed:
         raise ConfigError(f"--min-speed {args.min_speed:g} m/s is not below --max-speed {args.max_speed:g} m/s; "
                           "give --min-speed below --max-speed.")
+    if args.speed is not None and not args.min_speed <= args.speed <= args.max_speed:
+        raise ConfigError(f"--speed {args.speed:g} m/s is outside the plausible speeds --min-speed "
+                          f"{args.min_speed:g} to --max-speed {args.max_speed:g} m/s; give the speed in m/s or widen "
+                          "the range.")
     case = load_case(args)
     series = read_timeseries(args.timeseries, case.sensors, load_logger_format(args.config))
     axle_times = axle_speeds = None
