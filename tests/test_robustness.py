@@ -641,6 +641,25 @@ def test_json_outputs_are_strict_json(tmp_path):
         "springs": ["inf", "-inf", 1.0], "t": None}
 
 
+def test_a_tiny_false_alarm_rate_gives_a_finite_threshold():
+    """z_(1 - a) as -ndtri(a): 1 - 1e-300 is 1.0 in floating point and gave an infinite threshold (log 0)."""
+    from sensorplan.detection.detectability import detectability
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        result = detectability(example_case("simply-supported"), false_alarm=1e-300, step=2.0)
+    d = result.to_dict()
+    assert np.all(np.isfinite(np.asarray(d["power"], dtype=float)))
+
+
+def test_a_case_with_more_sensors_than_the_options_take_is_refused():
+    text = _replace('names = ["PE1", "PE2"]', "")(_replace('kinds = ["rotation", "rotation"]', "")(
+        _replace("positions = [11.0, 19.0]", "positions = [" + ", ".join(f"{0.01 * i:.2f}" for i in range(1001))
+                 + "]")(_example_text())))
+    with pytest.raises(ConfigError, match="1001 sensors, more than 1000"):
+        case_from_toml(text)
+
+
 def test_folders_given_as_files_give_one_line_errors(tmp_path, capsys):
     folder = tmp_path / "folder"
     folder.mkdir()

@@ -333,7 +333,10 @@ def rename_parameters(message, names):
     def swap(match):
         return names.get(match.group(1), match.group(0))
 
-    return re.sub(r"'(\w+)'(?: parameter)?", swap, message)
+    renamed = re.sub(r"'(\w+)'(?: parameter)?", swap, message)
+    for flag in set(names.values()):  # "The 'noise_std' (--noise-std) ..." names the option once
+        renamed = renamed.replace(f"{flag} ({flag})", flag)
+    return renamed
 
 
 @contextmanager

@@ -158,7 +158,7 @@ def detectability(case, *, layout=None, kind=None, severity=0.25, length=2.0, fa
     root = math.sqrt(n_crossings)
     d = root * model.projected_norms(model.damage(centres, severity))
     d_unit = root * model.projected_norms(model.unit(centres))
-    z_alarm = float(ndtri(1.0 - false_alarm))
+    z_alarm = -float(ndtri(false_alarm))  # exact for tiny rates (1 - 1e-300 == 1.0 in floating point)
     power = ndtr(d - z_alarm)
     target = z_alarm + float(ndtri(POWER_TARGET))
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -581,7 +581,7 @@ def run_case(case, fixtures):
         lines = err.splitlines()
         detail = f"rc {proc.returncode} ({seconds:.1f} s): {err[:300]}"
         if "Traceback" in proc.stderr or "Traceback" in proc.stdout:
-            return False, "traceback: " + detail
+            return False, "traceback: " + " | ".join((proc.stderr + proc.stdout).strip().splitlines()[-3:])
         if proc.returncode not in (0, 1):
             return False, "exit code: " + detail
         leftovers = [k for k in after if k.startswith("tmpdir/")]
