@@ -37,7 +37,8 @@ def add_arguments(p):
                    help="largest accepted fit rms in noise std (default 2)")
     p.add_argument("--out", type=output_file, required=True, help="crossings CSV to write (crossing,position_m,...)")
     p.add_argument("--json", type=output_file, help="events JSON (default: OUT with suffix .json)")
-    p.add_argument("--figure", type=output_file, help="figure of the record and the fits (default: OUT with suffix .png)")
+    p.add_argument("--figure", type=output_file,
+                   help="figure of the record and the fits (default: OUT with suffix .png)")
 
 
 def run(args, out, files):

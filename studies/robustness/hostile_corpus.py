@@ -569,7 +569,8 @@ def run_case(case, fixtures):
         t0 = time.perf_counter()
         try:
             proc = subprocess.run([sys.executable, "-m", "sensorplan", *case.argv, "--quiet"], cwd=work, env=env,
-                                  capture_output=True, text=True, timeout=TIMEOUT_S, preexec_fn=_limit)
+                                  capture_output=True, text=True, timeout=TIMEOUT_S, preexec_fn=_limit,
+                                  check=False)
         except subprocess.TimeoutExpired:
             return False, f"timeout after {TIMEOUT_S:g} s"
         seconds = time.perf_counter() - t0
