@@ -114,6 +114,10 @@ def _invalid_values(action):
     bounds = getattr(kind, "bounds", None)
     if action.choices is not None:
         return ["nosuch", ""]
+    if kind is _common.input_file:  # a folder, a missing file
+        return ["", ".", "no-such-file.csv"]
+    if kind is _common.output_file:  # a folder
+        return ["", "."]
     if kind is _common.parse_positions:
         return ["", "nan", "inf", "1,1", "a,b", "5;25", "1e400"]
     if kind is _common.parse_zones:
