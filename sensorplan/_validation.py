@@ -12,6 +12,10 @@ from ._errors import ConfigError
 
 __all__ = []
 
+# shortest damaged zone [m] the scenario and detectability models take: below it a zone is not a
+# physical loss on a bridge, and c +- length/2 stops being resolvable in floating point (1e-300 m -> 0 m)
+MIN_ZONE_LENGTH = 1e-3
+
 
 def _fail(name, owner, requirement, value, hint=""):
     message = f"The '{name}' parameter of {owner} must be {requirement}. Got {value!r} instead."

@@ -72,10 +72,10 @@ def test_recommend_existing_sensor_of_another_kind_takes_the_given_noise(tmp_pat
     (["--kind", "rotation", "--noise-std", "deflection=1e-4"], "--noise-std"),
     (["--cost", "rotation=-1", "--budget", "3"], "--cost"),
     (["--cost", "rotation=1"], "--cost"),  # a cost without a budget
-    (["--cost", "rotation=2", "--budget", "3"], "budget"),  # two sensors cost 4 at least
+    (["--cost", "rotation=2", "--budget", "3"], "--budget"),  # two sensors cost 4 at least
     (["--per-span-min", "1,1,1"], "--per-span-min"),
     (["--per-span-max", "1,x"], "--per-span-max"),
-    (["--per-span-min", "2,1"], "span_min"),  # more than the count
+    (["--per-span-min", "2,1"], "--per-span-min"),  # more than the count
     (["--fixed", "11:strain"], "--fixed"),
     (["--fixed", "11:deflection"], "--fixed"),  # no noise known for an existing deflection sensor
 ])

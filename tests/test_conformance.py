@@ -6,6 +6,7 @@ independent of the code under test: finite differences for gradients and
 Hessians, brute-force enumeration for optima, bounds and efficiencies.
 """
 
+import dataclasses
 import itertools
 
 import numpy as np
@@ -162,7 +163,11 @@ def test_baselines_are_feasible_or_none(name):
     ctx = BaselineContext(24.0, (0.0, 12.0, 24.0), 10, 0)
     layout = BASELINES[name](problem, ctx)
     assert layout is None or problem.feasible(layout)
-    impossible = problem_for("D", min_spacing=13.0)
+    # 3 sensors 13 m apart do not fit on 24 m: build_problem refuses it up front (feasibility.check_feasible),
+    # so the baseline meets the impossible problem built directly
+    with pytest.raises(sp.ConfigError, match="at most 2 sensor"):
+        problem_for("D", min_spacing=13.0)
+    impossible = dataclasses.replace(problem, min_spacing=13.0)
     layout = BASELINES[name](impossible, ctx)
     assert layout is None or impossible.feasible(layout)
 

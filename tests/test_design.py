@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import sensorplan as sp
-from sensorplan import CandidateGrid, Case, Constraints, SolverError, example_case, recommend
+from sensorplan import CandidateGrid, Case, ConfigError, Constraints, example_case, recommend
 from sensorplan.design.recommend import build_problem
 from sensorplan.design.relaxation import solve_relaxation
 from sensorplan.design.selection import exchange, greedy
@@ -335,7 +335,7 @@ def test_fixed_sensors_and_exclusions():
 
 def test_infeasible_constraints_are_reported():
     case = small_case()
-    with pytest.raises(SolverError):
+    with pytest.raises(ConfigError, match="'count' 3 with 'min_spacing' 15 m: at most 2 sensor"):
         recommend(case, 3, 'D', curve_max=0, n_random=5, grid=CandidateGrid(spacing=2.0), constraints=Constraints(min_spacing=15.0))
 
 

@@ -114,6 +114,10 @@ def _invalid_values(action):
     bounds = getattr(kind, "bounds", None)
     if action.choices is not None:
         return ["nosuch", ""]
+    if kind is _common.input_file:  # a folder, a missing file
+        return ["", ".", "no-such-file.csv"]
+    if kind is _common.output_file:  # a folder
+        return ["", "."]
     if kind is _common.parse_positions:
         return ["", "nan", "inf", "1,1", "a,b", "5;25", "1e400"]
     if kind is _common.parse_zones:
@@ -215,7 +219,19 @@ SEMANTIC = [
     (["recommend", "--noise-std", "0.5"], ["--noise-std", "rad"]),
     (["recommend", "--noise-std", "1e-300"], ["--noise-std"]),
     (["recommend", "--kind", "deflection", "--noise-std", "0.5"], ["--noise-std", "m"]),
-    (["recommend", "--count", "100"], ["count"]),
+    (["recommend", "--count", "100"], ["--count"]),
+    (["recommend", "--count", "61", "--min-spacing", "10"], ["--count 61", "--min-spacing 10 m", "at most 4"]),
+    (["recommend", "--count", "3", "--per-span-min", "3,0", "--min-spacing", "8"], ["--per-span-min", "--min-spacing"]),
+    (["recommend", "--count", "3", "--per-span-max", "1,1"], ["--per-span-max", "--count"]),
+    (["recommend", "--count", "2", "--budget", "2", "--cost", "rotation=1.5"], ["--budget", "--count"]),
+    (["recommend", "--count", "2", "--fixed", "5,15,25", "--min-spacing", "10"], ["--fixed", "--min-spacing"]),
+    (["recommend", "--count", "2", "--exclude", "0:30"], ["--exclude"]),
+    (["report", "--count", "5", "--min-spacing", "10"], ["--count 5", "--min-spacing"]),
+    (["recommend", "--criterion", "A", "--region", "100:200", "--count", "2"], ["--region"]),
+    (["recommend", "--criterion", "detect", "--length", "1e-300", "--count", "2"], ["--length", "1 mm"]),
+    (["verify", "--layout", "5,25", "--length", "1e-300", "--scenarios", "2"], ["--length", "1 mm"]),
+    (["detectability", "--length", "1e-300"], ["--length", "1 mm"]),
+    (["detectability", "--json", "."], ["--json", "folder"]),
     (["verify", "--layout", "5,100"], ["--layout"]),
     (["verify", "--layout", "5,25", "--noise-std", "0.01"], ["--noise-std"]),
     (["informativeness", "--positions", "-1"], ["--positions"]),
@@ -566,6 +582,86 @@ def test_out_inside_an_existing_file_names_the_file(tmp_path, capsys):
     rc, _, err = run(["informativeness", *EXAMPLE, "--out", blocker / "sub"], capsys)
     assert_one_line_error(rc, err, "informativeness", [str(blocker), "is a file"])
     assert files_under(tmp_path) == ["afile"]
+
+
+def test_crossings_speed_range_upside_down_names_both_options(tmp_path, capsys):
+    log = tmp_path / "log.csv"
+    log.write_text("time_s,PE1,PE2\n0,0,0\n0.1,0,0\n", encoding="utf-8")
+    rc, _, err = run(["crossings", *EXAMPLE, "--timeseries", log, "--min-speed", "50", "--max-speed", "1",
+                      "--out", tmp_path / "out" / "x.csv"], capsys)
+    assert_one_line_error(rc, err, "crossings", ["--min-speed 50", "--max-speed 1"])
+    rc, _, err = run(["crossings", *EXAMPLE, "--timeseries", log, "--speed", "1e-300",
+                      "--out", tmp_path / "out" / "x.csv"], capsys)
+    assert_one_line_error(rc, err, "crossings", ["--speed 1e-300", "--min-speed"])
+    assert files_under(tmp_path) == ["log.csv"]
+
+
+def test_a_vehicle_of_a_million_axles_is_refused_before_any_work():
+    text = _replace("axle_offsets = [0.0, 2.0]", "axle_offsets = [" + ", ".join(["0.0"] * 2000) + "]")(
+        _replace("axle_loads = [24.0e3, 24.0e3]", "axle_loads = [" + ", ".join(["1.0"] * 2000) + "]")(
+            _example_text()))
+    with pytest.raises(ConfigError, match="2000 axles, more than 1000"):
+        case_from_toml(text)
+
+
+LOGGER_HOSTILE = [
+    ("semicolons", "time_s;PE1;PE2\n" + "".join(f"{0.1 * k:.1f};0;0\n" for k in range(20)), "semicolon"),
+    ("two-rows", "time_s,PE1,PE2\n0,0,0\n0.1,0,0\n", "at least 10 samples"),
+    ("subnormal-steps", "time_s,PE1,PE2\n" + "".join(f"{k * 5e-324!r},0,0\n" for k in range(20)), "time_s"),
+    ("time-1e300", "time_s,PE1,PE2\n" + "".join(f"{k * 1e300!r},0,0\n" for k in range(20)), "time_s"),
+]
+
+
+@pytest.mark.parametrize("text, field", [c[1:] for c in LOGGER_HOSTILE], ids=[c[0] for c in LOGGER_HOSTILE])
+def test_hostile_logger_records_name_the_file_and_the_fault(tmp_path, capsys, text, field):
+    log = tmp_path / "log.csv"
+    log.write_text(text, encoding="utf-8")
+    rc, _, err = run(["crossings", *EXAMPLE, "--timeseries", log, "--out", tmp_path / "out" / "x.csv"], capsys)
+    assert_one_line_error(rc, err, "crossings", [str(log), field])
+    assert files_under(tmp_path) == ["log.csv"]
+
+
+def test_two_outputs_to_one_file_are_refused(tmp_path, capsys):
+    """--json naming a figure's file would overwrite it silently."""
+    rc, _, err = run(["recommend", "--example", "simply-supported", "--count", "2", "--spacing", "2", "--out",
+                      tmp_path / "o", "--json", tmp_path / "o" / "layout.png"], capsys)
+    assert_one_line_error(rc, err, "recommend", ["layout.png", "--json"])
+    assert files_under(tmp_path) == []
+
+
+def test_json_outputs_are_strict_json(tmp_path):
+    """Rigid springs (inf) and undefined values (NaN) are written as JSON any reader takes."""
+    import json
+
+    from sensorplan.io.output import OutputFiles
+
+    with OutputFiles() as files:
+        _common.stage_json(files, tmp_path / "x.json", {"springs": [math.inf, -math.inf, 1.0], "t": math.nan})
+
+    def reject(token):
+        raise ValueError(token)
+
+    assert json.loads((tmp_path / "x.json").read_text("utf-8"), parse_constant=reject) == {
+        "springs": ["inf", "-inf", 1.0], "t": None}
+
+
+def test_a_tiny_false_alarm_rate_gives_a_finite_threshold():
+    """z_(1 - a) as -ndtri(a): 1 - 1e-300 is 1.0 in floating point and gave an infinite threshold (log 0)."""
+    from sensorplan.detection.detectability import detectability
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        result = detectability(example_case("simply-supported"), false_alarm=1e-300, step=2.0)
+    d = result.to_dict()
+    assert np.all(np.isfinite(np.asarray(d["power"], dtype=float)))
+
+
+def test_a_case_with_more_sensors_than_the_options_take_is_refused():
+    text = _replace('names = ["PE1", "PE2"]', "")(_replace('kinds = ["rotation", "rotation"]', "")(
+        _replace("positions = [11.0, 19.0]", "positions = [" + ", ".join(f"{0.01 * i:.2f}" for i in range(1001))
+                 + "]")(_example_text())))
+    with pytest.raises(ConfigError, match="1001 sensors, more than 1000"):
+        case_from_toml(text)
 
 
 def test_folders_given_as_files_give_one_line_errors(tmp_path, capsys):

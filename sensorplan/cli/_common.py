@@ -4,12 +4,32 @@ import argparse
 import json
 import math
 import os
+import re
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
-from .._errors import ConfigError
+from .._errors import ConfigError, SensorplanError
 
 __all__ = []
+
+
+def input_file(text):
+    """An argparse type: the path of an existing file to read (a folder or a missing file is named)."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r} is a folder; give the file to read")
+    if not path.exists():
+        raise argparse.ArgumentTypeError(f"no file {text!r}; check the path")
+    return path
+
+
+def output_file(text):
+    """An argparse type: the path of a file to write (an existing folder is named)."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r} is a folder; give a file name")
+    return path
 
 
 def add_common_arguments(parser):
@@ -20,13 +40,13 @@ def add_common_arguments(parser):
 def add_case_arguments(parser):
     add_common_arguments(parser)
     group = parser.add_mutually_exclusive_group(required=True)
-    group.add_argument("--config", type=Path, help="case file (TOML)")
+    group.add_argument("--config", type=input_file, help="case file (TOML)")
     group.add_argument("--example", help="embedded example: simply-supported, openlab-like, three-span")
 
 
 def add_out_arguments(parser, *, json_default):
     parser.add_argument("--out", type=Path, default=Path("sensorplan-out"), help="output folder for figures")
-    parser.add_argument("--json", type=Path, help=f"JSON file (default OUT/{json_default})")
+    parser.add_argument("--json", type=output_file, help=f"JSON file (default OUT/{json_default})")
 
 
 def load_case(args):
@@ -48,13 +68,18 @@ def check_elements(case, command):
                           + (", or give --elements." if command == "invert" else "."))
 
 
-def _number(text, what):
+def number(text, what, error=argparse.ArgumentTypeError):
+    """The one number parser of the options: ``text`` as a finite float, else ``error(message)`` saying ``what``.
+
+    ``error`` is argparse's ArgumentTypeError for option types, or a function
+    building a ConfigError that names the option for values parsed later.
+    """
     try:
         value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected {what}; got {text!r}") from None
+    except (TypeError, ValueError):
+        raise error(f"expected {what}; got {text!r}") from None
     if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"expected a finite number ({what}); got {text!r}")
+        raise error(f"expected a finite number ({what}); got {text!r}")
     return value
 
 
@@ -81,7 +106,7 @@ def real(low, high, *, what, low_open=False, high_open=False):
     interval = f"in {left}{low:g}, {high:g}{right}"
 
     def parse(text):
-        value = _number(text, f"{what} {interval}")
+        value = number(text, f"{what} {interval}")
         if value < low or value > high or (low_open and value == low) or (high_open and value == high):
             raise argparse.ArgumentTypeError(f"expected {what} {interval}; got {text!r}")
         return value
@@ -103,7 +128,7 @@ MAX_POSITIONS = 1_000
 
 def parse_positions(text):
     parts = [v for v in text.split(",") if v.strip()]
-    values = [_number(v, "comma-separated positions in m, e.g. 2.5,5,10") for v in parts]
+    values = [number(v, "comma-separated positions in m, e.g. 2.5,5,10") for v in parts]
     if not values:
         raise argparse.ArgumentTypeError("give at least one position in m, e.g. 2.5,5,10")
     if len(values) > MAX_POSITIONS:
@@ -117,13 +142,11 @@ def parse_positions(text):
 def parse_zones(text):
     zones = []
     for part in text.split(","):
-        try:
-            a, b = (float(v) for v in part.split(":"))
-        except ValueError:
-            raise argparse.ArgumentTypeError(
-                f"expected zones as start:stop in m, e.g. 14:16,29:30; got {part!r}") from None
-        if not (math.isfinite(a) and math.isfinite(b)):
-            raise argparse.ArgumentTypeError(f"zone {part!r} must have finite ends in m, e.g. 14:16")
+        ends = part.split(":")
+        if len(ends) != 2:
+            raise argparse.ArgumentTypeError(f"expected zones as start:stop in m, e.g. 14:16,29:30; got {part!r}")
+        a, b = (number(v, f"zones as start:stop with finite ends in m, e.g. 14:16,29:30 (zone {part!r})")
+                for v in ends)
         if b < a:
             raise argparse.ArgumentTypeError(f"zone {part!r} ends before it starts; write it as {b:g}:{a:g}")
         zones.append((a, b))
@@ -167,14 +190,22 @@ def check_step(case, step, option):
 
 
 def check_length(case, length, option):
-    if length > case.bridge.length:
-        raise ConfigError(f"{option} {length:g} m is longer than the bridge ({case.bridge.length:g} m).")
+    """A damaged zone's length: from MIN_ZONE_LENGTH (1 mm) to the bridge length."""
+    from .._validation import MIN_ZONE_LENGTH
+
+    if length >= case.bridge.length:
+        raise ConfigError(f"{option} {length:g} m is not shorter than the bridge ({case.bridge.length:g} m).")
+    if length < MIN_ZONE_LENGTH:
+        raise ConfigError(f"{option} {length:g} m is shorter than {1e3 * MIN_ZONE_LENGTH:g} mm, no physical "
+                          f"damaged zone; give {option} in m, e.g. {option} 2.")
 
 
 def check_grid(case, args):
     """The recommend options against the bridge: candidate count, zones, --fixed, --min-spacing."""
     length = case.bridge.length
     check_step(case, args.spacing, "--spacing")
+    if getattr(args, "length", None) is not None:
+        check_length(case, args.length, "--length")
     if _count(length, args.spacing) > MAX_CANDIDATES:
         raise ConfigError(f"--spacing {args.spacing:g} m gives more than {MAX_CANDIDATES} candidates; "
                           f"use --spacing >= {length / MAX_CANDIDATES:.3g}.")
@@ -251,8 +282,35 @@ def safe_name(name):
     return "".join(ch if ch.isascii() and (ch.isalnum() or ch in "._-") else "_" for ch in name)
 
 
+def _finite_json(value):
+    """``value`` with non-finite floats as strict JSON allows: NaN -> null, +-inf -> "inf" / "-inf" (e.g. rigid
+    springs), so that any JSON reader takes the file (Python's json would write NaN and Infinity)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None if math.isnan(value) else ("inf" if value > 0 else "-inf")
+    if isinstance(value, dict):
+        return {k: _finite_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite_json(v) for v in value]
+    return value
+
+
+def file_names(names):
+    """:func:`safe_name` of each name, made distinct even on case-insensitive file systems ('a b' and 'A_b'
+    both give 'a_b': the second becomes 'A_b-2')."""
+    out, seen = [], set()
+    for name in names:
+        base = candidate = safe_name(name)
+        k = 1
+        while candidate.casefold() in seen:
+            k += 1
+            candidate = f"{base}-{k}"
+        seen.add(candidate.casefold())
+        out.append(candidate)
+    return out
+
+
 def stage_json(files, path, payload):
-    return files.write_text(path, json.dumps(payload, indent=2) + "\n")
+    return files.write_text(path, json.dumps(_finite_json(payload), indent=2, allow_nan=False) + "\n")
 
 
 def stage_figure(files, ax_or_fig, path):
@@ -261,3 +319,30 @@ def stage_figure(files, ax_or_fig, path):
 
     plotting.save_figure(ax_or_fig, files.stage(path, suffix=".png"))
     return Path(path)
+
+
+# the parameters of sensorplan.design.recommend as the options of recommend/report name them
+DESIGN_FLAGS = {"count": "--count", "min_spacing": "--min-spacing", "span_min": "--per-span-min",
+                "span_max": "--per-span-max", "budget": "--budget", "costs": "--cost", "fixed": "--fixed",
+                "spacing": "--spacing", "exclude": "--exclude", "noise_std": "--noise-std", "kind": "--kind",
+                "region": "--region", "solver": "--solver"}
+
+
+def rename_parameters(message, names):
+    """``message`` with every quoted parameter name ('min_spacing') replaced by ``names[...]`` (--min-spacing)."""
+    def swap(match):
+        return names.get(match.group(1), match.group(0))
+
+    renamed = re.sub(r"'(\w+)'(?: parameter)?", swap, message)
+    for flag in set(names.values()):  # "The 'noise_std' (--noise-std) ..." names the option once
+        renamed = renamed.replace(f"{flag} ({flag})", flag)
+    return renamed
+
+
+@contextmanager
+def option_names(names=None):
+    """Re-raise a sensorplan error with the parameters it names as the options (``DESIGN_FLAGS``) name them."""
+    try:
+        yield
+    except SensorplanError as exc:
+        raise type(exc)(rename_parameters(str(exc), DESIGN_FLAGS if names is None else names)) from exc

@@ -5,9 +5,8 @@ inputs (``kinds_and_noise``).  Errors name the option.
 """
 
 import argparse
-import math
 
-from ._common import MAX_POSITIONS
+from ._common import MAX_POSITIONS, number
 
 
 def parse_sensors(text):
@@ -20,12 +19,7 @@ def parse_sensors(text):
         if not part:
             continue
         x, _, kind = part.partition(":")
-        try:
-            value = float(x)
-        except ValueError:
-            raise argparse.ArgumentTypeError(usage) from None
-        if not math.isfinite(value):
-            raise argparse.ArgumentTypeError(f"expected finite positions in m; got {text!r}")
+        value = number(x, usage.split("; got")[0].removeprefix("expected ") + f" (in {text!r})")
         kind = kind.strip() or None
         if kind is not None and kind not in SENSOR_KINDS:
             raise argparse.ArgumentTypeError(f"unknown sensor kind {kind!r} in {text!r}; use "
@@ -103,13 +97,8 @@ def parse_per_kind(text, flag, *, allow_plain=True, low_open=True):
 
 
 def _kind_number(text, flag, bound, low_open):
-    import math
-
-    try:
-        value = float(text)
-    except ValueError:
-        raise _flag_error(flag, f"expected a number, got {text!r}") from None
-    if not math.isfinite(value) or value < 0 or (low_open and value == 0):
+    value = number(text, f"a {bound} number", error=lambda message: _flag_error(flag, message))
+    if value < 0 or (low_open and value == 0):
         raise _flag_error(flag, f"must be {bound}; got {text!r}")
     return value
 

@@ -1,8 +1,13 @@
 """``sensorplan crossings``: a data logger's record -> crossings CSV (readings against load position)."""
 
-from pathlib import Path
-
-from ._common import add_case_arguments, real, stage_figure, stage_json
+from ._common import (
+    add_case_arguments,
+    input_file,
+    output_file,
+    real,
+    stage_figure,
+    stage_json,
+)
 
 SPEED = real(0.0, 200.0, what="a speed in m/s", low_open=True)
 
@@ -19,10 +24,10 @@ in [logger] temperature_columns are averaged per crossing.
 
 def add_arguments(p):
     add_case_arguments(p)
-    p.add_argument("--timeseries", type=Path, required=True, help="logger export CSV: time_s,<sensor names>")
+    p.add_argument("--timeseries", type=input_file, required=True, help="logger export CSV: time_s,<sensor names>")
     group = p.add_mutually_exclusive_group()
     group.add_argument("--speed", type=SPEED, help="known constant speed in m/s (only entry times are fitted)")
-    group.add_argument("--axle-times", type=Path,
+    group.add_argument("--axle-times", type=input_file,
                        help="axle-detector CSV: time_s (front axle at x = 0)[,speed_m_s], one row per vehicle")
     p.add_argument("--min-speed", type=SPEED, default=0.3, help="slowest plausible speed in m/s (default 0.3)")
     p.add_argument("--max-speed", type=SPEED, default=40.0, help="fastest plausible speed in m/s (default 40)")
@@ -30,20 +35,28 @@ def add_arguments(p):
                    help="minimum quiet time between two vehicles in s (default 3)")
     p.add_argument("--max-rms", type=real(0.0, 1e6, what="a ratio to the noise std", low_open=True), default=2.0,
                    help="largest accepted fit rms in noise std (default 2)")
-    p.add_argument("--out", type=Path, required=True, help="crossings CSV to write (crossing,position_m,...)")
-    p.add_argument("--json", type=Path, help="events JSON (default: OUT with suffix .json)")
-    p.add_argument("--figure", type=Path, help="figure of the record and the fits (default: OUT with suffix .png)")
+    p.add_argument("--out", type=output_file, required=True, help="crossings CSV to write (crossing,position_m,...)")
+    p.add_argument("--json", type=output_file, help="events JSON (default: OUT with suffix .json)")
+    p.add_argument("--figure", type=output_file,
+                   help="figure of the record and the fits (default: OUT with suffix .png)")
 
 
 def run(args, out, files):
     from .. import plotting
-    from .._errors import DataError
+    from .._errors import ConfigError, DataError
     from ..acquisition import extract_crossings
     from ..io.config import load_logger_format
     from ..io.csvio import format_crossings
     from ..io.logger import read_axle_times, read_timeseries
     from ._common import load_case
 
+    if args.min_speed >= args.max_speed:
+        raise ConfigError(f"--min-speed {args.min_speed:g} m/s is not below --max-speed {args.max_speed:g} m/s; "
+                          "give --min-speed below --max-speed.")
+    if args.speed is not None and not args.min_speed <= args.speed <= args.max_speed:
+        raise ConfigError(f"--speed {args.speed:g} m/s is outside the plausible speeds --min-speed "
+                          f"{args.min_speed:g} to --max-speed {args.max_speed:g} m/s; give the speed in m/s or widen "
+                          "the range.")
     case = load_case(args)
     series = read_timeseries(args.timeseries, case.sensors, load_logger_format(args.config))
     axle_times = axle_speeds = None

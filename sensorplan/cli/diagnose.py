@@ -1,14 +1,15 @@
 """``sensorplan diagnose``: where model and measurements disagree, and why."""
 
 import sys
-from pathlib import Path
 
 from ._common import (
     MAX_WORKERS,
     add_case_arguments,
     add_out_arguments,
+    input_file,
     integer,
     load_case,
+    output_file,
     real,
     stage_figure,
     stage_json,
@@ -25,7 +26,7 @@ EPILOG = """example:
 
 def add_arguments(p):
     add_case_arguments(p)
-    p.add_argument("--data", type=Path, required=True, help="crossings CSV (crossing,position_m,<sensors>)")
+    p.add_argument("--data", type=input_file, required=True, help="crossings CSV (crossing,position_m,<sensors>)")
     p.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1, help="processes for screening the candidate effects (default 1)")
     p.add_argument("--scheduler", type=SCHEDULER, metavar="ADDRESS",
                    help="screen the effects on a Dask cluster: a scheduler address such as tcp://127.0.0.1:8786, "
@@ -35,7 +36,7 @@ def add_arguments(p):
     p.add_argument("--fixed-springs", action="store_true",
                    help="hold the case's elastic springs at their configured values (default: estimate them, "
                         "as invert does)")
-    p.add_argument("--write-case", type=Path, metavar="FILE",
+    p.add_argument("--write-case", type=output_file, metavar="FILE",
                    help="write the case (TOML) with the identified springs, sensor positions and axle loads, "
                         "for rerunning invert")
     add_out_arguments(p, json_default="diagnosis.json")

@@ -1,7 +1,6 @@
 """``sensorplan invert``: Bayesian identification of EI(x) from crossings (CSV)."""
 
 import sys
-from pathlib import Path
 
 from ._common import (
     FALSE_ALARM,
@@ -9,9 +8,10 @@ from ._common import (
     SEED,
     add_case_arguments,
     add_out_arguments,
+    file_names,
+    input_file,
     integer,
     load_case,
-    safe_name,
     stage_figure,
     stage_json,
 )
@@ -26,7 +26,7 @@ EPILOG = """example:
 
 def add_arguments(p):
     add_case_arguments(p)
-    p.add_argument("--data", type=Path, required=True, help="crossings CSV (crossing,position_m,<sensors>)")
+    p.add_argument("--data", type=input_file, required=True, help="crossings CSV (crossing,position_m,<sensors>)")
     p.add_argument("--elements", type=integer(1, MAX_INVERSION_ELEMENTS),
                    help="number of elements of the inversion mesh")
     p.add_argument("--false-alarm", type=FALSE_ALARM, default=0.05,
@@ -62,8 +62,8 @@ def run(args, out, files):
         print(f"sensorplan invert: warning: {w.message}", file=sys.stderr)
     figures = [stage_figure(files, plotting.plot_ei_posterior(result, supports=case.bridge.support_positions),
                             args.out / "ei_posterior.png")]
-    for name in result.sensor_names:
-        figures.append(stage_figure(files, plotting.plot_fit(result, name), args.out / f"fit_{safe_name(name)}.png"))
+    for name, file_name in zip(result.sensor_names, file_names(result.sensor_names)):
+        figures.append(stage_figure(files, plotting.plot_fit(result, name), args.out / f"fit_{file_name}.png"))
     json_path = stage_json(files, args.json or args.out / "posterior.json", result.to_dict())
     out(result.summary())
     out(f"posterior written to {json_path}; figures: " + ", ".join(str(p) for p in figures))

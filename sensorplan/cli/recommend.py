@@ -15,6 +15,7 @@ from ._common import (
     check_signal,
     integer,
     load_case,
+    option_names,
     parse_zones,
     real,
     stage_figure,
@@ -89,12 +90,12 @@ def run(args, out, files):
     from ..verification.ranking import rank_layouts
 
     case = load_case(args)
-    kinds, noise = kinds_and_noise(args, case, extra={k for _, k in args.fixed or () if k is not None})
     count = case.sensors.n_sensors if args.count is None else args.count
-    options = design_options(args, case)
-    check_grid(case, args)
-    check_signal(case, options["noise_std"], args.crossings)
-    result = recommend(case, count, args.criterion, **options)
+    with option_names():
+        options = design_options(args, case)
+        check_grid(case, args)
+        check_signal(case, options["noise_std"], args.crossings)
+        result = recommend(case, count, args.criterion, **options)
     outdir = args.out
     figures = [
         stage_figure(files, plotting.plot_layout(result, exclude=args.exclude or ()), outdir / "layout.png"),

@@ -3,7 +3,7 @@
 import sys
 from pathlib import Path
 
-from ._common import check_grid, load_case, stage_json
+from ._common import check_grid, input_file, load_case, option_names, stage_json
 from .recommend import add_arguments as add_recommend_arguments
 from .recommend import design_options, recommend_argv
 
@@ -21,7 +21,7 @@ OUT/design.json (the inputs of the design: rerun `sensorplan recommend` with its
 def add_arguments(p):
     add_recommend_arguments(p)
     p.set_defaults(scenarios=6)
-    p.add_argument("--data", type=Path, help="measured crossings CSV (adds identified EI and the gap diagnosis)")
+    p.add_argument("--data", type=input_file, help="measured crossings CSV (adds identified EI and the gap diagnosis)")
 
 
 def _inputs(args):
@@ -41,15 +41,18 @@ def run(args, out, files):
     from ..report import provenance, render_report
 
     case = load_case(args)
-    check_grid(case, args)
+    with option_names():
+        check_grid(case, args)
+        options = design_options(args, case)
     data = read_crossings(args.data, case.sensors) if args.data is not None else None
     if data is not None:
         check_case_data_scale(case, data, source=str(args.data))
         check_not_noise_free(case, data, source=str(args.data), what="diagnose in the report")
     progress = None if args.quiet else (lambda msg: print(f"sensorplan report: {msg}", file=sys.stderr, flush=True))
-    analysis = analyse(case, data=data, count=args.count, criterion=args.criterion, n_scenarios=args.scenarios,
-                       n_crossings=args.verify_crossings, seed=args.seed, progress=progress,
-                       design_options=design_options(args, case))
+    with option_names():
+        analysis = analyse(case, data=data, count=args.count, criterion=args.criterion, n_scenarios=args.scenarios,
+                           n_crossings=args.verify_crossings, seed=args.seed, progress=progress,
+                           design_options=options)
     argv = recommend_argv(args)
     options = {k: (str(v) if isinstance(v, Path) else v) for k, v in sorted(vars(args).items())
                if k not in ("handler", "quiet", "debug")}

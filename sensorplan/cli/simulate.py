@@ -1,9 +1,14 @@
 """``sensorplan simulate``: predicted or noisy synthetic crossings (CSV)."""
 
-from pathlib import Path
-
 from .._errors import SensorplanError
-from ._common import MAX_CROSSINGS, SEED, add_case_arguments, integer, load_case
+from ._common import (
+    MAX_CROSSINGS,
+    SEED,
+    add_case_arguments,
+    integer,
+    load_case,
+    output_file,
+)
 
 NAME = "simulate"
 HELP = "write predicted or noisy synthetic crossings (CSV)"
@@ -17,7 +22,7 @@ def add_arguments(p):
     p.add_argument("--crossings", type=integer(1, MAX_CROSSINGS), default=1, help="number of crossings (default 1)")
     p.add_argument("--noise", action="store_true", help="add noise from the case's noise model")
     p.add_argument("--seed", type=SEED, help="random seed (required with --noise)")
-    p.add_argument("--out", type=Path, required=True, help="output CSV file")
+    p.add_argument("--out", type=output_file, required=True, help="output CSV file")
 
 
 def run(args, out, files):

@@ -13,6 +13,7 @@ from ._common import (
     add_case_arguments,
     add_out_arguments,
     check_layouts,
+    check_length,
     integer,
     load_case,
     progress,
@@ -118,6 +119,7 @@ def run_verifications(args, case, layouts, names, files, *, json_path):
     severities = list(severity) if isinstance(severity, (list, tuple)) else [severity]
     options = dict(length=_given(args, "length", 2.0), false_alarm=_given(args, "false_alarm", 0.05),
                    nuisance=_given(args, "nuisance", "smooth"))
+    check_length(case, options["length"], "--length")
     results = []
     with executor_for(args.workers, args.scheduler, timeout=args.scheduler_timeout, name="--scheduler") as runner:
         for sev in severities:

@@ -153,6 +153,7 @@ def candidate_set(case, positions, kinds, noise, fixed, min_spacing):
         dist = np.abs(x - fx)
         keep &= ~((dist < min_spacing) | ((dist < 1e-9) & (k == fk)))
     if not keep.any():
-        raise ConfigError("The existing sensors and the minimum spacing leave no candidate position.")
+        raise ConfigError("The 'fixed' sensors and 'min_spacing' leave no candidate position; lower 'min_spacing' "
+                          "or move the 'fixed' sensors.")
     kinds_kept = tuple(str(v) for v in k[keep])
     return CandidateSet(x[keep], kinds_kept, np.array([noise[v] for v in kinds_kept]), fixed)

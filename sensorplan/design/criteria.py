@@ -287,7 +287,7 @@ class ACriterion(Criterion):
                 raise ConfigError(f"The region of interest must be (start, stop) with stop > start. Got {region!r}.")
             inside = (edges[1:] > a) & (edges[:-1] < b)
             if not inside.any():
-                raise ConfigError(f"The region of interest {a:g}..{b:g} m contains no element.")
+                raise ConfigError(f"The 'region' {a:g}:{b:g} m contains no element; give a 'region' on the bridge.")
             targets = np.zeros((int(inside.sum()), n_params))
             targets[np.arange(targets.shape[0]), np.nonzero(inside)[0]] = 1.0
             return cls(n_params, targets)

@@ -249,7 +249,7 @@ class DetectCriterion(Criterion):
         d2 = centre_d_squared(q)
         c = int(np.argmin(d2))
         d = math.sqrt(d2[c])
-        power = float(ndtr(d - ndtri(1.0 - self.false_alarm)))
+        power = float(ndtr(d + ndtri(self.false_alarm)))  # -ndtri(a): exact for tiny a, unlike ndtri(1 - a)
         details = {"worst_centre_m": float(self.centres[c]), "d2": float(d2[c]), "d": d, "power": power,
                    "false_alarm_rate": self.false_alarm, "n_crossings": self.n_crossings,
                    "severity": self.severity, "length_m": self.length, "nuisance": self.nuisance,

@@ -26,6 +26,7 @@ from .candidates import (
 )
 from .criteria import criterion_class, make_criterion
 from .detect_problem import DetectionTarget, detection_information
+from .feasibility import check_feasible, packing
 from .problem import DesignProblem
 from .relaxation import solve_relaxation
 from .results import Baseline, CurvePoint, DesignResult, SolverStats
@@ -115,10 +116,10 @@ def candidate_positions(bridge, spacing, exclude=()):
     keep = np.ones(x.size, dtype=bool)
     for a, b in exclude:
         if not b > a:
-            raise ConfigError(f"An exclusion zone must be start:stop with stop > start. Got {a}:{b}.")
+            raise ConfigError(f"An 'exclude' zone must be start:stop with stop > start. Got {a:g}:{b:g}.")
         keep &= ~((x >= a) & (x <= b))
     if not keep.any():
-        raise ConfigError("The exclusion zones remove every candidate position.")
+        raise ConfigError("The 'exclude' zones remove every candidate position; narrow 'exclude'.")
     return x[keep]
 
 
@@ -140,6 +141,17 @@ def build_problem(case, count, criterion="D", *, grid=None, constraints=None, ki
         bridge.check_on_bridge(fixed.positions, "fixed", "recommend")
     cands = candidate_set(case, grid.candidates(bridge), kinds, noise, fixed, constraints.min_spacing)
     positions = cands.positions
+    c_arr = None
+    if constraints.budget is not None:
+        c_arr = kind_costs(constraints.costs, cands.kinds, kinds)
+    span_min, span_max = (_span_counts(v, name, bridge.n_spans, int(count))
+                          for v, name in ((constraints.span_min, "span_min"), (constraints.span_max, "span_max")))
+    if span_min is not None and span_max is not None and np.any(span_min > span_max):
+        raise ConfigError(f"The 'span_min' counts ({span_min.tolist()}) exceed the 'span_max' counts "
+                          f"({span_max.tolist()}) in some span; lower 'span_min' or raise 'span_max'.")
+    check_feasible(positions, bridge.span_of(positions), int(count), min_spacing=float(constraints.min_spacing),
+                   span_min=span_min, span_max=span_max, n_fixed=0 if fixed is None else fixed.n_sensors,
+                   costs=c_arr, budget=constraints.budget)
     posterior_of = None
     if detection:
         blocks, q0, crit, posterior_of = detection_information(
@@ -152,26 +164,10 @@ def build_problem(case, count, criterion="D", *, grid=None, constraints=None, ki
         q0 = prior.precision(case.n_elements, n_springs) + blocks[positions.size:].sum(axis=0)
         crit = make_criterion(criterion, q0.shape[0], n_elements=case.n_elements, edges=case.mesh.edges,
                               region=region, functionals=functionals)
-    c_arr = None
-    if constraints.budget is not None:
-        c_arr = kind_costs(constraints.costs, cands.kinds, kinds)
-        _check_budget(c_arr, constraints.budget, int(count))
-    span_min, span_max = (_span_counts(v, name, bridge.n_spans, int(count))
-                          for v, name in ((constraints.span_min, "span_min"), (constraints.span_max, "span_max")))
-    if span_min is not None and span_max is not None and np.any(span_min > span_max):
-        raise ConfigError(f"The 'span_min' counts ({span_min.tolist()}) exceed the 'span_max' counts "
-                          f"({span_max.tolist()}) in some span.")
     return DesignProblem(positions, bridge.span_of(positions), np.ascontiguousarray(blocks[:positions.size]),
                          q0, crit, int(count), c_arr, constraints.budget, span_min, span_max,
                          float(constraints.min_spacing), bridge.n_spans, posterior_of, cands.kinds, cands.noise_std,
                          fixed)
-
-
-def _check_budget(costs, budget, count):
-    cheapest = float(np.sort(costs)[:count].sum())
-    if cheapest > budget + 1e-9:
-        raise ConfigError(f"The 'budget' ({budget:g}) is below the cost of the {count} cheapest candidate sensors "
-                          f"({cheapest:g}); raise the budget or lower the count.")
 
 
 def _span_counts(values, name, n_spans, count):
@@ -183,9 +179,11 @@ def _span_counts(values, name, n_spans, count):
         raise ConfigError(f"The '{name}' parameter must give a non-negative whole count for each of the {n_spans} "
                           f"span(s). Got {list(np.atleast_1d(values))!r} instead.")
     if name == "span_min" and arr.sum() > count:
-        raise ConfigError(f"The 'span_min' counts add up to {int(arr.sum())}, more than the {count} new sensors.")
+        raise ConfigError(f"The 'span_min' counts add up to {int(arr.sum())}, more than 'count' {count}; lower "
+                          "'span_min' or raise 'count'.")
     if name == "span_max" and arr.sum() < count:
-        raise ConfigError(f"The 'span_max' counts add up to {int(arr.sum())}, fewer than the {count} new sensors.")
+        raise ConfigError(f"The 'span_max' counts add up to {int(arr.sum())}, fewer than 'count' {count}; raise "
+                          "'span_max' or lower 'count'.")
     return arr.astype(int)
 
 
@@ -219,8 +217,12 @@ def _best_layout(problem, relaxation, starts, greedy_layout=None, rng=None):
         tried += [("randomised rounding + exchange", s) for s in
                   sample_roundings(problem, relaxation.weights, problem.criterion.random_starts,
                                    np.random.default_rng(rng))]
+    if not tried:  # the packing along the bridge (feasibility.packing) when every search failed
+        packed = packing(problem.positions, problem.spans, problem.min_spacing, problem.span_max)[:problem.count]
+        if problem.feasible(packed):
+            tried.append(("packing + exchange", packed))
     if not tried:
-        raise SolverError("No feasible layout was found; relax the budget, span counts or spacing.")
+        raise SolverError("No feasible layout was found; relax 'budget', 'span_min', 'span_max' or 'min_spacing'.")
     best = None
 
     def consider(method, start):

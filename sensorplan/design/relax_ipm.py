@@ -47,7 +47,14 @@ def solve_column_generation(problem, *, tol=1e-7, start_layout=None, max_rounds=
     inner = 1e-3  # early rounds only locate the support: solve them loosely
     for rounds in range(1, max_rounds + 1):
         idx = np.array(sorted(working))
-        x, nu, it = _pdip_restricted(problem, idx, weights, tol=inner)
+        try:
+            x, nu, it = _pdip_restricted(problem, idx, weights, tol=inner)
+        except SolverError:
+            if idx.size == c:
+                raise
+            working = set(range(c))  # the constraints need candidates outside the working set
+            idx = np.arange(c)
+            x, nu, it = _pdip_restricted(problem, idx, None, tol=inner)
         newton_iters += it
         weights = np.zeros(c)
         weights[idx] = x

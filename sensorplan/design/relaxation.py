@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._errors import ConfigError
+from .._errors import ConfigError, SolverError
 
 __all__ = ["Relaxation", "solve_relaxation", "RELAXATION_SOLVERS", "register_relaxation_solver"]
 
@@ -87,7 +87,19 @@ def solve_relaxation(problem, solver="auto", *, start_layout=None):
     if name not in RELAXATION_SOLVERS:
         raise ConfigError(f"The 'solver' parameter must be 'auto' or one of {', '.join(sorted(RELAXATION_SOLVERS))}. "
                           f"Got {solver!r} instead.")
-    return RELAXATION_SOLVERS[name](problem, start_layout=start_layout)
+    if solver != "auto":
+        return RELAXATION_SOLVERS[name](problem, start_layout=start_layout)
+    try:
+        return RELAXATION_SOLVERS[name](problem, start_layout=start_layout)
+    except SolverError as exc:
+        # the fast path needs a strictly feasible point; when the constraints are tight (every candidate
+        # chosen, a count that just fits the spacing) the relaxed set has none and Clarabel solves it
+        try:
+            relaxation = RELAXATION_SOLVERS["cvxpy"](problem, start_layout=start_layout)
+        except SolverError:
+            raise exc from None
+        relaxation.stats["fallback"] = f"fast path failed ({exc}); solved by cvxpy"
+        return relaxation
 
 
 @register_relaxation_solver("fast")

@@ -31,7 +31,7 @@ from scipy.special import ndtr, ndtri
 
 from .._errors import ConfigError
 from .._threads import single_threaded
-from .._validation import as_float_array
+from .._validation import MIN_ZONE_LENGTH, as_float_array
 from ..model.noise import NoiseModel
 from ..model.sensors import SENSOR_KINDS, SensorLayout
 from .results import POWER_TARGET, DetectabilityMap
@@ -61,8 +61,8 @@ def _number(value, name, requirement, ok):
 def _check_options(case, severity, length, false_alarm, n_crossings, nuisance, step):
     total = case.bridge.length
     severity = _number(severity, "severity", "a loss fraction in (0, 1)", lambda v: 0.0 < v < 1.0)
-    length = _number(length, "length", f"a zone length in (0, {total:g}) m (the bridge length)",
-                     lambda v: 0.0 < v < total)
+    length = _number(length, "length", f"a zone length in [{MIN_ZONE_LENGTH:g}, {total:g}) m (1 mm to the bridge "
+                     "length)", lambda v: MIN_ZONE_LENGTH <= v < total)
     false_alarm = _number(false_alarm, "false_alarm", "a probability in (0, 0.5)", lambda v: 0.0 < v < 0.5)
     step = _number(step, "step", "a positive spacing of the zone centres in m", lambda v: v > 0.0)
     count = math.floor((total - length) / step + 1e-9) + 1
@@ -158,7 +158,7 @@ def detectability(case, *, layout=None, kind=None, severity=0.25, length=2.0, fa
     root = math.sqrt(n_crossings)
     d = root * model.projected_norms(model.damage(centres, severity))
     d_unit = root * model.projected_norms(model.unit(centres))
-    z_alarm = float(ndtri(1.0 - false_alarm))
+    z_alarm = -float(ndtri(false_alarm))  # exact for tiny rates (1 - 1e-300 == 1.0 in floating point)
     power = ndtr(d - z_alarm)
     target = z_alarm + float(ndtri(POWER_TARGET))
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -23,6 +23,7 @@ from . import plausibility
 __all__ = ["load_case", "case_from_dict", "example_case", "load_logger_format", "EXAMPLES"]
 
 EXAMPLES = ("simply-supported", "openlab-like", "three-span")
+MAX_SENSORS = 1_000  # as many as --positions takes; every analysis is linear in the sensor count at best
 
 _KEYS = {
     "bridge": {"spans", "ei", "elements", "element_length", "rotational_springs",
@@ -190,6 +191,9 @@ def _sensors(s, bridge):
     positions = s["positions"]
     if not isinstance(positions, list):
         positions = [positions]
+    if len(positions) > MAX_SENSORS:
+        raise ConfigError(f"'positions' lists {len(positions)} sensors, more than {MAX_SENSORS}; give the "
+                          "sensors of one monitoring system.")
     kinds = s.get("kinds")
     layout = SensorLayout(positions, kinds, s.get("names"))
     for sensor in layout.names:

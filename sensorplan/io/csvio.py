@@ -77,6 +77,14 @@ def read_text(path):
         raise DataError(f"{path}: cannot read the file ({exc}).") from None
 
 
+def check_delimiter(header, source, columns):
+    """A DataError naming the delimiter when a header of one field holds ';', tab or '|'."""
+    for sep, label in ((";", "semicolon"), ("\t", "tab"), ("|", "pipe")):
+        if len(header) == 1 and sep in header[0]:
+            raise DataError(f"{source}: the file is {label}-delimited; sensorplan reads comma-separated values "
+                            f"({columns}): save it as CSV with ',' as the delimiter and '.' as the decimal mark.")
+
+
 def parse_crossings(text, sensors=None, *, source="data"):
     reader = csv.reader(io.StringIO(text))
     try:
@@ -88,11 +96,7 @@ def parse_crossings(text, sensors=None, *, source="data"):
         raise DataError(f"{source}: the file is empty; expected a header "
                         "'crossing,position_m,<sensor names>'.")
     header = [h.strip() for h in rows[0]]
-    for sep, label in ((";", "semicolon"), ("\t", "tab"), ("|", "pipe")):
-        if len(header) == 1 and sep in header[0]:
-            raise DataError(f"{source}: the file is {label}-delimited; sensorplan reads comma-separated values "
-                            "(crossing,position_m,<sensors>): save it as CSV with ',' as the delimiter and '.' as "
-                            "the decimal mark.")
+    check_delimiter(header, source, "crossing,position_m,<sensors>")
     for required in ("crossing", "position_m"):
         if required not in header:
             raise DataError(f"{source}: missing column '{required}'; the header must start "

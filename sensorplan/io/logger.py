@@ -16,7 +16,7 @@ import numpy as np
 
 from .._errors import DataError
 from ..model.timeseries import LoggerFormat, TimeSeries
-from .csvio import read_text
+from .csvio import check_delimiter, read_text
 
 if TYPE_CHECKING:
     from ..model.sensors import SensorLayout
@@ -34,6 +34,7 @@ def _rows(path):
     if len(rows) < 2:
         raise DataError(f"{path}: expected a header and data rows.")
     header = [h.strip() for h in rows[0]]
+    check_delimiter(header, path, "time_s,<sensors>")
     if len(set(header)) != len(header):
         dup = next(h for h in header if header.count(h) > 1)
         raise DataError(f"{path}: column '{dup}' appears twice.")
@@ -92,7 +93,10 @@ def read_timeseries(path: "str | os.PathLike[str]", sensors: "SensorLayout",
     kinds = [sensors.kinds[sensors.names.index(h)] for h in others]
     values = np.array([table[:, col[h]] * fmt.factor(k) for h, k in zip(others, kinds)])
     temps = {h: table[:, col[h]] for h in fmt.temperature_columns}
-    series = TimeSeries(table[:, col["time_s"]], tuple(others), values, temps)
+    try:
+        series = TimeSeries(table[:, col["time_s"]], tuple(others), values, temps)
+    except DataError as exc:
+        raise DataError(f"{path}: {exc}") from None
     for name, kind, row in zip(series.names, kinds, series.values):
         limit = 0.02 if kind == "rotation" else 1.0
         if np.ptp(row) > limit:

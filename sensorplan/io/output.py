@@ -14,6 +14,8 @@ import shutil
 import tempfile
 from pathlib import Path
 
+from .._errors import ConfigError
+
 __all__ = ["OutputFiles", "atomic_write_text"]
 
 
@@ -71,6 +73,9 @@ class OutputFiles:
         final = Path(os.path.abspath(path))
         if final.is_dir():
             raise IsADirectoryError(f"Output path {path} is a folder; give a file name.")
+        if any(final == f for _, f in self._staged):
+            raise ConfigError(f"Two outputs of this command would be written to {path}, one over the other; give each "
+                              "output option (--out, --json, --figure, ...) its own file name.")
         folder = _existing_ancestor(final.parent)
         if not folder.is_dir():
             raise NotADirectoryError(f"Output folder {folder} is a file, so {path} cannot be written in it; "

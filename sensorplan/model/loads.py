@@ -14,6 +14,8 @@ from .._validation import as_float, as_float_array, as_float_tuple
 
 __all__ = ["Vehicle", "LoadSweep"]
 
+MAX_AXLES = 1000  # the work of every influence line grows with the axle count
+
 
 @dataclass(frozen=True)
 class Vehicle:
@@ -41,6 +43,9 @@ class Vehicle:
     def __post_init__(self):
         offsets = as_float_tuple(self.axle_offsets, "axle_offsets", "Vehicle", low=0.0)
         loads = as_float_tuple(self.axle_loads, "axle_loads", "Vehicle", low=0.0, low_open=True)
+        if len(offsets) > MAX_AXLES:
+            raise ConfigError(f"The 'axle_offsets' parameter of Vehicle gives {len(offsets)} axles, more than "
+                              f"{MAX_AXLES} (a long train); give the axles of one vehicle.")
         if len(offsets) != len(loads):
             raise ConfigError(
                 "The 'axle_loads' parameter of Vehicle must have one entry per axle offset "

@@ -8,6 +8,10 @@ from .._errors import ConfigError, DataError
 
 __all__ = ["TimeSeries", "LoggerFormat"]
 
+# sample intervals [s] a logger record may have: 1 MHz to one sample a minute (a crossing lasts seconds)
+MIN_SAMPLE_INTERVAL = 1e-6
+MAX_SAMPLE_INTERVAL = 60.0
+
 # Units a logger may write, as factors to SI (rad or m).
 TILT_UNITS = {"rad": 1.0, "mm/m": 1e-3, "urad": 1e-6}
 DEFLECTION_UNITS = {"m": 1.0, "mm": 1e-3}
@@ -83,6 +87,10 @@ class TimeSeries:
                             "follow the one before. Sort the logger export by time.")
         if not (np.all(np.isfinite(time)) and np.all(np.isfinite(values))):
             raise DataError("The logger record contains NaN or inf; remove or fill those samples.")
+        interval = float(np.median(step))
+        if not MIN_SAMPLE_INTERVAL <= interval <= MAX_SAMPLE_INTERVAL:
+            raise DataError(f"time_s has a median sample interval of {interval:g} s, outside {MIN_SAMPLE_INTERVAL:g} "
+                            f"to {MAX_SAMPLE_INTERVAL:g} s (1 MHz to one sample a minute); give time_s in seconds.")
         object.__setattr__(self, "time", time)
         object.__setattr__(self, "values", values)
         object.__setattr__(self, "names", tuple(self.names))

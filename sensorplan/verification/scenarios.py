@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._errors import ConfigError
+from .._validation import MIN_ZONE_LENGTH
 from ..model.structure import Mesh
 
 __all__ = ["Scenario", "make_scenarios", "truth_mesh", "element_average_ei"]
@@ -42,8 +43,9 @@ def make_scenarios(case, n_locations=8, *, severity=0.25, length=2.0, n_controls
     if not 0.0 < severity < 1.0:
         raise ConfigError(f"The 'severity' parameter must be in (0, 1). Got {severity!r} instead.")
     total = case.bridge.length
-    if not 0.0 < length < total:
-        raise ConfigError(f"The 'length' parameter must be in (0, {total:g}) m. Got {length!r} instead.")
+    if not MIN_ZONE_LENGTH <= length < total:
+        raise ConfigError(f"The 'length' parameter must be in [{MIN_ZONE_LENGTH:g}, {total:g}) m (1 mm to the bridge "
+                          f"length). Got {length!r} instead.")
     if int(n_locations) != n_locations or n_locations < 1:
         raise ConfigError(f"The 'scenarios' parameter must be a positive integer. Got {n_locations!r} instead.")
     h = float(np.min(case.mesh.lengths))

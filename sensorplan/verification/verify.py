@@ -134,7 +134,7 @@ def detection_limit(case, layout, scenarios, *, kind="rotation", noise_std=None,
                               length=length, nuisance=nuisance)
     d = sig.projected_norms("damage") * math.sqrt(n_crossings)
     m = max(1, int(math.floor(case.bridge.length / length)))
-    return float(np.mean(stats.norm.cdf(d - stats.norm.ppf(1.0 - false_alarm / m))))
+    return float(np.mean(stats.norm.cdf(d - stats.norm.isf(false_alarm / m))))
 
 
 @single_threaded
