@@ -122,6 +122,16 @@ def test_overlapping_vehicles_rejected_with_reason(extracted):
     assert entry["accepted"] is False and entry["reason"] == "overlapping vehicles"
 
 
+def test_sign_flipped_channel_is_named(case, record):
+    # PE2 logged with the wrong sign: the events fit poorly as recorded (before: all "overlapping
+    # vehicles", the wrong cause) and fit with PE2 reversed, so the rejected events name PE2
+    time, noisy, _, _ = record
+    out = extract_crossings(case, TimeSeries(time, ("PE1", "PE2"), noisy * np.array([[1.0], [-1.0]]), {}))
+    assert out.events and not out.accepted
+    assert all(e.reason.startswith("PE2 reads with the wrong sign") for e in out.events if e.reason != "too short")
+    assert any(e.reason != "too short" for e in out.events)
+
+
 @pytest.mark.slow
 def test_invert_on_extracted_matches_invert_on_true_positions(case, record, extracted):
     time, noisy, drift, _ = record

@@ -1,5 +1,6 @@
 """From a continuous logger record to crossings: detect, fit, judge, convert."""
 
+import dataclasses
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -71,6 +72,40 @@ def extract_crossings(case: "Case", series: "TimeSeries", *, speed: float | None
     -------
     ExtractedCrossings
     """
+    options = dict(speed=speed, axle_times=axle_times, axle_speeds=axle_speeds, speed_range=speed_range,
+                   quiet_gap=quiet_gap, smooth=smooth, threshold=threshold, max_rms=max_rms)
+    result = _extract(case, series, **options)
+    return _sign_hint(case, series, options, result)
+
+
+def _sign_hint(case, series, options, result):
+    """When most events fail, name a channel whose reversed sign makes most of them fit.
+
+    A tiltmeter mounted the wrong way round (or logged with the wrong sign) makes every event fit
+    poorly and look like overlapping vehicles; the record is extracted again with each channel
+    reversed, and if that accepts at least half of its events (and more than as recorded), the
+    rejected events say so instead of blaming the traffic.
+    """
+    n_events, n_ok = len(result.events), len(result.accepted)
+    if n_events == 0 or n_ok >= 0.5 * n_events or len(series.names) == 0:
+        return result
+    best, name = n_ok, ""
+    for c, channel in enumerate(series.names):
+        values = series.values.copy()
+        values[c] = -values[c]
+        trial = _extract(case, dataclasses.replace(series, values=values), **options)
+        if len(trial.accepted) > best and len(trial.accepted) >= 0.5 * len(trial.events):
+            best, name = len(trial.accepted), channel
+    if not name:
+        return result
+    reason = (f"{name} reads with the wrong sign (mounted the wrong way round, or its sign in the logger): "
+              f"with it reversed {best} of the events fit")
+    events = tuple(e if e.accepted or e.reason == "too short" else dataclasses.replace(e, reason=reason)
+                   for e in result.events)
+    return dataclasses.replace(result, events=events)
+
+
+def _extract(case, series, *, speed, axle_times, axle_speeds, speed_range, quiet_gap, smooth, threshold, max_rms):
     lo, hi = _check_options(case, series, speed, axle_times, speed_range, max_rms)
     template = Template.from_case(case, series.names)
     kinds = tuple(case.sensors.kinds[case.sensors.names.index(n)] for n in series.names)
@@ -148,7 +183,7 @@ def _judge(fit, template, t, series, noise, window, active, speed_range, max_rms
         plausible = bool(np.all((two.speeds >= speed_range[0]) & (two.speeds <= speed_range[1])))
         if plausible and two.rms <= 0.8 * fit.rms and gain > _OVERLAP_CHI2:
             return "overlapping vehicles"
-            return "overlapping vehicles"
     if outside:
         return "overlapping vehicles"
     return "poor fit" if fit.rms > max_rms else ""
+
