@@ -7,10 +7,14 @@ gain over the folds (:func:`.refit.gain_is_significant`).
 * Forward: the effect with the largest Bayes factor among those with a
   Bayes factor >= ``bf_threshold`` and a significant held-out gain over the
   current model is added; effects within ``bf_threshold`` of it are its
-  alternatives.
+  alternatives.  A later pick (the second or third) with two or more
+  alternatives is not made: when three different effects explain what the
+  earlier picks left about equally, none of them is an identified cause
+  (the remainder stays in the gap after the fit).
 * Noise scale: after each forward step the noise scale is re-estimated at
-  the new model's MAP (whitened rms of its residuals) and the current model
-  refitted there.  The base fit's noise scale absorbs the whole gap; the
+  the new model's MAP (MacKay's evidence fixed point: whitened residual sum
+  of squares over the data count less the effective number of fitted
+  parameters) and the current model refitted there.  The base fit's noise scale absorbs the whole gap; the
   Bayes factor of a second effect given the first would otherwise be judged
   against a noise inflated by what the first already explains (and a small
   second effect would be missed).
@@ -36,6 +40,8 @@ from .refit import blocks_of, gain_is_significant, heldout, quick_fit
 
 __all__ = []
 
+AMBIGUOUS = 2  # a later pick with this many alternatives within bf_threshold is not made
+
 
 def _better(fit, held, current, current_held, threshold, folds):
     """(Bayes factor, significant held-out gain) of ``fit`` over ``current``."""
@@ -46,10 +52,16 @@ def _better(fit, held, current, current_held, threshold, folds):
 
 def _rescale(ctx, current):
     """Noise scale re-estimated at ``current``'s MAP; ``current`` refitted there (ctx.alpha updated)."""
-    lin = current.problem.evaluate(current.theta, jacobian=False)
-    if lin is None:
+    lin = current.problem.evaluate(current.theta)
+    if lin is None or lin.jtj is None:
         return current, None
-    alpha = math.sqrt(max(lin.rr / max(current.problem.n_data, 1), 1e-300))
+    # MacKay's fixed point of the evidence in alpha: alpha^2 = |r|^2 / (N - gamma), gamma = tr(H^-1 J^T J) / alpha^2
+    # the effective number of parameters the data determine (the ML |r|^2 / N would be biased low by them)
+    gamma = float(np.trace(np.linalg.solve(current.hessian, lin.jtj))) / current.noise_scale**2
+    dof = current.problem.n_data - gamma
+    if dof <= 1.0:
+        return current, None
+    alpha = math.sqrt(max(lin.rr / dof, 1e-300))
     if not alpha < ctx.alpha:  # only shrinks: the base noise scale bounds it from above
         return current, None
     ctx.alpha = alpha
@@ -87,7 +99,13 @@ def select(ctx, names, screened, base, base_held, *, bf_threshold, gain_threshol
             break
         eligible.sort(reverse=True)
         best_bf, best = eligible[0]
-        alternatives[best] = tuple(n for bf, n in eligible[1:] if bf >= best_bf - bf_threshold)
+        close = tuple(n for bf, n in eligible[1:] if bf >= best_bf - bf_threshold)
+        if selected and len(close) >= AMBIGUOUS:
+            # three or more different effects explain what is left about equally: the remainder has no
+            # identifiable cause (it stays in the gap after the fit), none of them is named
+            say(f"no further cause: {best}, {', '.join(close)} explain the remainder about equally")
+            break
+        alternatives[best] = close
         selected.append(best)
         visited.add(frozenset(selected))
         current, current_held = candidates[best]
