@@ -237,7 +237,13 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         final = integrated_fit(final_problem, prior, start=current.theta, noise_scale=alpha, tau=tau)
-    theta_final = final.mixture.mean
+    # a tau node with an effect parameter out of the model's domain (exp overflow of an axle load) makes the
+    # mixture mean invalid: then the MAP at the hyper-posterior's mode, else the selection's own MAP (the final
+    # fit is then reported as not converged)
+    valid = [t for t in (final.mixture.mean, final.theta_mode)
+             if final_problem._safe_predict(t, False) is not None]
+    theta_final = valid[0] if valid else current.theta
+    final_ok = bool(valid) and final.converged
     gap_after, _ = residual_gap(final_problem, theta_final, final.noise_scale)
     n_el = final_problem.n_elements
     sd_all = np.sqrt(np.clip(np.diag(final.mixture.covariance), 0, None))
@@ -268,7 +274,7 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
         ei_final_band=tuple(np.exp(b[:n_el]) for b in final.band()),
         findings=findings, alternatives=alternatives, not_offered=not_offered, shrinkage=shrinkage,
         springs=springs, springs_estimated=bool(estimate_springs and case.bridge.spring_names),
-        noise_scale=float(final.noise_scale), converged=bool(base_full.converged and final.converged),
+        noise_scale=float(final.noise_scale), converged=bool(base_full.converged and final_ok),
         heldout_ratio_after=None if current_held is None else current_held.ratio,
         heldout_ratio_before=None if base_held is None else base_held.ratio, corrected_model=corrected)
 
