@@ -59,7 +59,7 @@ def _run(models, names=("O", "G", "S")):
 def test_forward_selection_stops_when_nothing_is_gained():
     models = {frozenset(): (0, 0), frozenset("O"): (100, 200), frozenset("G"): (2, 1), frozenset("S"): (50, 80),
               frozenset("OG"): (101, 201), frozenset("OS"): (101, 201)}
-    selected, alternatives, current, _ = _run(models)
+    selected, _, current, _ = _run(models)
     assert selected == ["O"] and current.log_evidence == 100
 
 
@@ -69,7 +69,7 @@ def test_backward_test_drops_a_pick_the_later_one_makes_redundant():
     models = {frozenset(): (0, 0), frozenset("O"): (1000, 2000), frozenset("G"): (500, 900),
               frozenset("S"): (100, 150), frozenset("OG"): (1050, 2100), frozenset("OS"): (1045, 2108),
               frozenset("OGS"): (1060, 2110), frozenset("GS"): (600, 1000)}
-    selected, _, current, ctx = _run(models)
+    selected, _, current, _ = _run(models)
     assert selected == ["O", "S"] and current.log_evidence == 1045
     # without the backward test G would stay: it adds 15 > 3 in evidence given O and S
     assert models[frozenset("OGS")][0] - models[frozenset("OS")][0] > 3
