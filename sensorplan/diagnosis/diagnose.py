@@ -12,15 +12,14 @@
    positions held out in every crossing; whole crossings for static load
    steps) from rank updates of the linearised problem.  Non-converged fits
    are flagged and never selected.
-4. Forward selection: the effect with the largest Bayes factor among those
-   with a significant held-out gain over the current model is added;
-   effects within ``bf_threshold`` of it are reported as alternatives, and
-   the others are retested given the selection (an effect that only absorbs
-   what a selected one explains gains nothing and is not added).  With two
+4. Stepwise selection (:mod:`.selection`): the effect with the largest
+   Bayes factor among those with a significant held-out gain over the
+   current model is added (effects within ``bf_threshold`` of it are
+   reported as alternatives); the noise scale is re-estimated at the new
+   model, the others are retested given the selection, and earlier picks
+   that the new one makes redundant are dropped (backward test).  With two
    or more selected, a swap pass replaces a selected effect by another one
-   when that raises the evidence without losing held-out score (an early
-   pick that also absorbed part of a later one, drift for offsets, gives
-   way).
+   when that raises the evidence without losing held-out score.
 5. The selected model is refitted with its hyperparameters; its EI and
    bands are the EI after correction.
 6. Confounding: an effect whose data signature a plausible EI change can
@@ -45,16 +44,9 @@ from .describe import describe, informed
 from .effects import EFFECTS, make_effect
 from .gap import residual_gap
 from .joint import JointProblem
-from .refit import (
-    blocks_of,
-    fold_rows,
-    gain_is_significant,
-    heldout,
-    integrated_fit,
-    quick_fit,
-    warm_start,
-)
+from .refit import blocks_of, fold_rows, heldout, integrated_fit, quick_fit, warm_start
 from .results import EffectFit, GapDiagnosis
+from .selection import select
 
 if TYPE_CHECKING:
     from ..model.case import Case
@@ -101,12 +93,12 @@ class _Context:
         self.estimate_springs, self.alpha, self.tau = estimate_springs, alpha, tau
         self.blocks, self.test_masks, self.predictions = blocks, test_masks, predictions
 
-    def fit(self, names, blocks=None):
+    def fit(self, names, blocks=None, *, initial=True):
         problem = JointProblem(self.case, self.crossings, [make_effect(n) for n in names], self.prior,
                                estimate_springs=self.estimate_springs)
         start = warm_start(problem, self.blocks if blocks is None else blocks)
         effect, sl = problem.block(names[-1])
-        init = effect.initial(problem, self.predictions)
+        init = effect.initial(problem, self.predictions) if initial else None
         if init is not None:
             # a moment estimate against the nominal model (a sign flip, a unit slip): the base MAP is
             # distorted by exactly what the effect explains, so this fit starts from the nominal EI
@@ -236,54 +228,22 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
     results = [_entry(n, screened[n][0], screened[n][1], base, base_held, ei_base) for n in names]
     results.sort(key=lambda r: (r.converged, -math.inf if math.isnan(r.log_bayes_factor) else r.log_bayes_factor),
                  reverse=True)
-    selected: list[str] = []
-    alternatives: dict[str, tuple] = {}
-    current, current_held = base, base_held
-    candidates = screened
-    for rnd in range(max_rounds):
-        remaining = [n for n in names if n not in selected]
-        if rnd > 0:
-            candidates = {}
-            for k, name in enumerate(remaining):
-                say(f"selection round {rnd + 1}: effect {k + 1} of {len(remaining)} given {', '.join(selected)}")
-                candidates[name] = ctx.fit(selected + [name], blocks_of(current.problem, current.theta))
-        eligible = []
-        for name in remaining:
-            fit, held = candidates[name]
-            if fit is None or not fit.converged:
-                continue
-            bf = fit.log_evidence - current.log_evidence
-            significant, _ = gain_is_significant(held, current_held, gain_threshold) if folds else (True, None)
-            if bf >= bf_threshold and significant:
-                eligible.append((bf, name))
-        if not eligible:
-            break
-        eligible.sort(reverse=True)
-        best_bf, best = eligible[0]
-        alternatives[best] = tuple(n for bf, n in eligible[1:] if bf >= best_bf - bf_threshold)
-        selected.append(best)
-        current, current_held = candidates[best]
-    if len(selected) >= 2:  # swap pass: an early pick that absorbed part of a later one gives way
-        for name in list(selected):
-            others = [n for n in selected if n != name]
-            for other in [n for n in names if n not in selected]:
-                say(f"swap test: {other} for {name}")
-                fit, held = ctx.fit(others + [other], blocks_of(current.problem, current.theta))
-                better = fit is not None and fit.converged and fit.log_evidence > current.log_evidence
-                if better and held is not None and current_held is not None:
-                    better = float(np.sum(held.log_density)) >= float(np.sum(current_held.log_density))
-                if better:
-                    alternatives[other] = tuple(a for a in alternatives.pop(name, ()) if a != other)
-                    selected[selected.index(name)] = other
-                    current, current_held = fit, held
-                    break
+    selected, alternatives, current, current_held = select(
+        ctx, names, screened, base, base_held, bf_threshold=bf_threshold, gain_threshold=gain_threshold,
+        max_rounds=max_rounds, folds=bool(folds), say=say)
     say("final refit of the selected model with its hyperparameters")
     final_problem = JointProblem(case, crossings, [make_effect(n) for n in selected], prior,
                                  estimate_springs=estimate_springs)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         final = integrated_fit(final_problem, prior, start=current.theta, noise_scale=alpha, tau=tau)
-    theta_final = final.mixture.mean
+    # a tau node with an effect parameter out of the model's domain (exp overflow of an axle load) makes the
+    # mixture mean invalid: then the MAP at the hyper-posterior's mode, else the selection's own MAP (the final
+    # fit is then reported as not converged)
+    valid = [t for t in (final.mixture.mean, final.theta_mode)
+             if final_problem._safe_predict(t, False) is not None]
+    theta_final = valid[0] if valid else current.theta
+    final_ok = bool(valid) and final.converged
     gap_after, _ = residual_gap(final_problem, theta_final, final.noise_scale)
     n_el = final_problem.n_elements
     sd_all = np.sqrt(np.clip(np.diag(final.mixture.covariance), 0, None))
@@ -314,7 +274,7 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
         ei_final_band=tuple(np.exp(b[:n_el]) for b in final.band()),
         findings=findings, alternatives=alternatives, not_offered=not_offered, shrinkage=shrinkage,
         springs=springs, springs_estimated=bool(estimate_springs and case.bridge.spring_names),
-        noise_scale=float(final.noise_scale), converged=bool(base_full.converged and final.converged),
+        noise_scale=float(final.noise_scale), converged=bool(base_full.converged and final_ok),
         heldout_ratio_after=None if current_held is None else current_held.ratio,
         heldout_ratio_before=None if base_held is None else base_held.ratio, corrected_model=corrected)
 
@@ -359,6 +319,6 @@ def _verdict(selected, unexplained, significant, confounded):
         verdict = "unexplained: a significant gap remains that no candidate effect explains"
     else:
         verdict = "none: the model is adequate (no significant gap)"
-    if confounded and not selected:
+    if confounded and not selected and significant:
         verdict += "; confounded with an EI change: " + ", ".join(c.name for c in confounded)
     return verdict

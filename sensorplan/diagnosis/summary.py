@@ -48,7 +48,11 @@ def summary_lines(d):
             lo, hi = (np.asarray(b) for b in d.ei_final_band)
             lines.append(f"  EI after correction: {np.min(d.ei_final):.3g} to {np.max(d.ei_final):.3g} N·m², "
                          f"95 % bands {np.min(lo):.3g} to {np.max(hi):.3g} N·m² (noise scale {d.noise_scale:.2f})")
-    for c in d.confounded:
+    if d.confounded and not g.significant and not d.causes:
+        # nothing to explain: which effects an EI change could mimic is no finding here (it is in to_dict())
+        lines.append(f"  no significant gap, so confounded alternatives are not listed ({len(d.confounded)} effects "
+                     "an EI change could mimic; see the JSON)")
+    for c in (d.confounded if g.significant or d.causes else ()):
         where = "" if c.separating_sensor_m is None else (
             f"; a sensor at {c.separating_sensor_m:.2f} m would separate them")
         lines.append(f"  confounded: {c.name} can be mimicked by an EI change "

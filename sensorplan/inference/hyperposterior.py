@@ -68,6 +68,7 @@ class _Context:
     hyperprior: object
     n_data: int
     constant: float  # -log det(Sigma_0) / 2 - M log(2 pi) / 2
+    gauss_newton_max_iter: int | None = None  # evaluations before the LM fallback (None: max_iter)
 
 
 class _Surrogate:
@@ -216,7 +217,7 @@ def _solve_node(ctx, surrogate, log_tau, v, *, max_iter, tol):
     sl = surrogate.at(log_tau)
     v = sl.best_v(v)
     x = sl.map_point(v)
-    node, n_iter = _gauss_newton(ctx, x, ctx.problem.evaluate(x), log_tau, v, max_iter)
+    node, n_iter = _gauss_newton(ctx, x, ctx.problem.evaluate(x), log_tau, v, _gn_budget(ctx, max_iter))
     n_iter += 1
     if node is not None:
         return dataclasses.replace(node, n_iter=n_iter)
@@ -228,11 +229,15 @@ def _start_node(ctx, theta, log_tau, v, *, max_iter, tol):
     lin = ctx.problem.evaluate(theta)
     if lin is None:
         raise DataError("The start point gives an invalid model (non-positive EI).")
-    node, n_iter = _gauss_newton(ctx, theta, lin, log_tau, v, max_iter)
+    node, n_iter = _gauss_newton(ctx, theta, lin, log_tau, v, _gn_budget(ctx, max_iter))
     n_iter += 1
     if node is not None:
         return dataclasses.replace(node, n_iter=n_iter)
     return _levenberg_marquardt(ctx, theta, log_tau, v, max_iter=max_iter, tol=tol, n_iter=n_iter)
+
+
+def _gn_budget(ctx, max_iter):
+    return max_iter if ctx.gauss_newton_max_iter is None else min(max_iter, ctx.gauss_newton_max_iter)
 
 
 def _mode(surrogate, log_tau, v):
@@ -324,14 +329,17 @@ def _march(ctx, centre, step, *, max_iter, tol):
 
 
 def integrate_problem(problem, rough, fixed, theta0, hyperprior, *, noise_scale=1.0, tau=1.0, start=None,
-                      max_iter=100, tol=1e-10):
+                      max_iter=100, tol=1e-10, gauss_newton_max_iter=None):
     """Posterior mixture over log tau (alpha integrated by Laplace) of any problem with ``evaluate``.
 
     ``hyperprior`` provides ``log_density_log_tau``, ``log_density_log_noise``
     and ``noise_log_std``; ``noise_scale`` and ``tau`` are start values.
+    ``gauss_newton_max_iter`` caps the Gauss-Newton evaluations of a node
+    before the Levenberg-Marquardt fallback (default ``max_iter``).
     """
     ctx = _Context(problem, rough, fixed, theta0, hyperprior, problem.n_data,
-                   -0.5 * problem.log_det_noise - 0.5 * problem.n_data * math.log(2.0 * math.pi))
+                   -0.5 * problem.log_det_noise - 0.5 * problem.n_data * math.log(2.0 * math.pi),
+                   gauss_newton_max_iter)
     theta = theta0.copy() if start is None else np.asarray(start, dtype=float).copy()
     log_tau = min(max(math.log(tau), LOG_TAU_BOUNDS[0]), LOG_TAU_BOUNDS[1])
     v = math.log(noise_scale)
