@@ -13,13 +13,13 @@ def parse_sensors(text):
     """Positions in m, each optionally followed by ``:kind`` (e.g. 4,10:deflection,16): [(x, kind or None)]."""
     from ..model.sensors import SENSOR_KINDS
 
-    usage = f"expected comma-separated positions in m, each optionally with :kind, e.g. 4,10:deflection,16; got {text!r}"
+    what = "comma-separated positions in m, each optionally with :kind, e.g. 4,10:deflection,16"
     out = []
     for part in (p.strip() for p in text.split(",")):
         if not part:
             continue
         x, _, kind = part.partition(":")
-        value = number(x, usage.split("; got")[0].removeprefix("expected ") + f" (in {text!r})")
+        value = number(x, f"{what} (in {text!r})")
         kind = kind.strip() or None
         if kind is not None and kind not in SENSOR_KINDS:
             raise argparse.ArgumentTypeError(f"unknown sensor kind {kind!r} in {text!r}; use "

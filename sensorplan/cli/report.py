@@ -43,7 +43,7 @@ def run(args, out, files):
     case = load_case(args)
     with option_names():
         check_grid(case, args)
-        options = design_options(args, case)
+        design = design_options(args, case)
     data = read_crossings(args.data, case.sensors) if args.data is not None else None
     if data is not None:
         check_case_data_scale(case, data, source=str(args.data))
@@ -52,7 +52,7 @@ def run(args, out, files):
     with option_names():
         analysis = analyse(case, data=data, count=args.count, criterion=args.criterion, n_scenarios=args.scenarios,
                            n_crossings=args.verify_crossings, seed=args.seed, progress=progress,
-                           design_options=options)
+                           design_options=design)
     argv = recommend_argv(args)
     options = {k: (str(v) if isinstance(v, Path) else v) for k, v in sorted(vars(args).items())
                if k not in ("handler", "quiet", "debug")}

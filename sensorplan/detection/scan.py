@@ -348,8 +348,7 @@ def _zone_posteriors(proj, norms, alpha, zones, max_loss, log_prior=None):
 
     Returns (weights (H,), grid (G,), density (H, G)); each row of density sums to 1.
     """
-    grid = max_loss * (np.arange(_N_GRID) + 0.5) / _N_GRID
-    r = grid / (1.0 - grid)
+    grid, r = _loss_grid(max_loss)
     log_like = (proj / alpha**2)[:, None] * r[None] - 0.5 * (norms**2 / alpha**2)[:, None] * r[None] ** 2
     peak = log_like.max(axis=1)
     density = np.exp(log_like - peak[:, None])
@@ -368,17 +367,20 @@ def _plausible(proj, norms, alpha, log_prior, max_loss, margin=40.0):
     grid's range of r = f / (1 - f), which is closed-form; a zone whose maximum is ``margin`` below
     the exact evidence of the zone with the largest maximum cannot matter.
     """
-    grid = max_loss * (np.array([0.5, _N_GRID - 0.5])) / _N_GRID
-    r_lo, r_hi = grid / (1.0 - grid)
+    _, r = _loss_grid(max_loss)
     a, b = proj / alpha**2, norms**2 / alpha**2
-    r_star = np.clip(a / b, r_lo, r_hi)
+    r_star = np.clip(a / b, r[0], r[-1])
     bound = a * r_star - 0.5 * b * r_star**2 + log_prior
     best = int(np.argmax(bound))
-    r = max_loss * (np.arange(_N_GRID) + 0.5) / _N_GRID
-    r = r / (1.0 - r)
     log_like = a[best] * r - 0.5 * b[best] * r**2
     exact = float(log_like.max() + np.log(np.mean(np.exp(log_like - log_like.max()))) + log_prior[best])
     return bound >= exact - margin
+
+
+def _loss_grid(max_loss):
+    """Midpoints of the grid over the lost fraction f in (0, max_loss) and r = f / (1 - f) there."""
+    grid = max_loss * (np.arange(_N_GRID) + 0.5) / _N_GRID
+    return grid, grid / (1.0 - grid)
 
 
 def _estimates(zones, weights, grid, density, half=None):

@@ -90,11 +90,12 @@ def integrated_fit(problem, prior, *, start=None, noise_scale=1.0, tau=None):
     """The problem fitted as ``invert`` fits (hyperparameters integrated under the default hyperprior)."""
     hyperprior = HyperPrior().for_prior(prior)
     # Each node of the tau grid is solved to a Newton decrement of ~0.01 (log-density units), as the quick
-    # fits and the hyper-posterior's own node tolerance; Gauss-Newton gets 10 evaluations (a node
-    # that converges at all does so in <= 8 here) before the Levenberg-Marquardt fallback.  On grossly misfitting data (a sign-flipped sensor, position offsets
-    # with a settled bearing) Gauss-Newton crawls and the default (100 evaluations, then LM to a relative
-    # 1e-10) spent 15-45 s; LM to that decrement takes 10-30 evaluations (cProfile, three-span sign flip:
-    # 2533 -> 614 evaluations, log evidence equal to 0.01).
+    # fits and the hyper-posterior's own node tolerance; Gauss-Newton gets 10 evaluations (a node that
+    # converges at all does so in <= 8 here) before the Levenberg-Marquardt fallback.  On grossly
+    # misfitting data (a sign-flipped sensor, position offsets with a settled bearing) Gauss-Newton crawls
+    # and the default (100 evaluations, then LM to a relative 1e-10) spent 15-45 s; LM to that decrement
+    # takes 10-30 evaluations (cProfile, three-span sign flip: 2533 -> 614 evaluations, log evidence
+    # equal to 0.01).
     fit = integrate_problem(problem, problem.rough, problem.fixed, problem.theta0, hyperprior,
                             noise_scale=noise_scale, tau=prior.tau if tau is None else tau, start=start,
                             max_iter=40, tol=0.02 / max(problem.n_data, 1), gauss_newton_max_iter=10)

@@ -11,17 +11,18 @@ parameterisation below.  Spring log-stiffnesses get independent normal
 priors centred on the configured stiffness.
 
 :class:`HyperPrior` is the prior of the two hyperparameters of the
-inversion: a penalised-complexity prior on the smoothness std
-sigma = tau^{-1/2} and a log-normal prior on the noise scale alpha.
+inversion: a log-normal (or penalised-complexity) prior on the smoothness
+std sigma = tau^{-1/2} and a log-normal prior on the noise scale alpha.
 """
 
-import math
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sparse
 
+from .._errors import ConfigError
 from .._validation import as_float
 
 __all__ = ["GMRFPrior", "HyperPrior", "difference_operator"]
@@ -30,8 +31,6 @@ __all__ = ["GMRFPrior", "HyperPrior", "difference_operator"]
 def difference_operator(n, order):
     """Sparse (n - order) x n difference matrix of the given order (1 or 2)."""
     if order not in (1, 2):
-        from .._errors import ConfigError
-
         raise ConfigError(f"The 'order' parameter of GMRFPrior must be 1 or 2. Got {order!r} instead.")
     if n <= order:
         return sparse.csr_matrix((0, n))
@@ -140,8 +139,6 @@ class HyperPrior:
     smoothness_log_std: float = 0.5
 
     def __post_init__(self):
-        from .._errors import ConfigError
-
         if self.smoothness_scale is not None:
             object.__setattr__(self, "smoothness_scale", as_float(
                 self.smoothness_scale, "smoothness_scale", "HyperPrior", low=0.0, low_open=True))
@@ -188,8 +185,6 @@ class HyperPrior:
 
     def _scale(self):
         if self.smoothness_scale is None:
-            from .._errors import ConfigError
-
             raise ConfigError("HyperPrior.smoothness_scale is not set; use HyperPrior.for_prior(prior).")
         return self.smoothness_scale
 
