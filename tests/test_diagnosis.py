@@ -222,3 +222,75 @@ def test_written_case_brings_invert_back_to_the_truth(tmp_path, capsys):
     band = post.credible_interval(0.95)
     true_ei = example_case("openlab-like").ei
     assert np.all((band[:, 0] <= true_ei) & (true_ei <= band[:, 1]))
+
+
+def test_moved_loads_roll_onto_an_elastic_end_bearing_continuously():
+    # With the left bearing elastic (as the vertical-spring effect makes every support), a point load steps
+    # from nothing to the bearing's response as it crosses x = 0: the lines jumped when a position offset
+    # moved an axle over the end, and the fits crawled along that jump.  With a position effect the entry
+    # is a ramp over ENTRY: the predictions change by O(step) across the end.
+    from sensorplan.diagnosis.joint import ENTRY
+
+    case = small_case()
+    data = simulate_crossings(case, 1, noise=False, rng=0)
+    problem = JointProblem(case, data, [make_effect("vertical_support_spring"), make_effect("position_offset")],
+                           GMRFPrior())
+    assert problem.entry == ENTRY
+    _, sl = problem.block("position_offset")
+    rear = max(case.vehicle.axle_offsets)
+    recorded = data.crossings[0].positions
+    k = int(np.argmin(np.abs(recorded - rear - 1.0)))  # the rear axle 1 m into the bridge
+    crossing = recorded[k] - rear  # the shift that puts the rear axle exactly on x = 0
+
+    def rear_reading(shift):
+        theta = problem.theta0.copy()
+        theta[sl.start] = -crossing + shift
+        return problem.predict(theta, jacobian=False)[0][0][:, k]
+
+    on, off = rear_reading(1e-7), rear_reading(-1e-7)
+    assert np.all(np.abs(on - off) < 1e-5 * np.abs(on).max())
+    # a point-load model jumps there by the bearing's response: the ramp is what removes it
+    plain = JointProblem(case, data, [make_effect("vertical_support_spring")], GMRFPrior())
+    assert plain.entry == 0.0
+    # inside the ramp the Jacobian (shift, springs, EI) still equals finite differences of the predictions
+    theta = problem.theta0.copy()
+    theta[sl.start] = -crossing - 0.5 * ENTRY  # the rear axle half-way up the ramp
+    _, jac = problem.predict(theta)[0]
+    for j in [sl.start] + list(range(problem.n_elements, sl.start)) + [0, problem.n_elements - 1]:
+        h = 1e-6 if j < problem.n_elements or j == sl.start else 1e-4
+        up, down = theta.copy(), theta.copy()
+        up[j] += h
+        down[j] -= h
+        fd = (problem.predict(up, jacobian=False)[0][0] - problem.predict(down, jacobian=False)[0][0]) / (2 * h)
+        scale = max(np.abs(fd).max(), np.abs(jac[:, :, j]).max(), 1e-30)
+        np.testing.assert_allclose(jac[:, :, j], fd, atol=2e-4 * scale, err_msg=problem.param_names[j])
+
+
+def test_gains_act_on_the_response_and_drift_is_added_whatever_the_order():
+    # a gain selected after a drift must not scale the drift (it then shrank the drift's prior cost and was
+    # named as a false second cause): reading = gain * response + offset + slope * t, in either order
+    case = small_case()
+    data = simulate_crossings(case, 2, noise=True, rng=4)
+    first = JointProblem(case, data, [make_effect("thermal_drift"), make_effect("sensor_gain")], GMRFPrior())
+    second = JointProblem(case, data, [make_effect("sensor_gain"), make_effect("thermal_drift")], GMRFPrior())
+    rng = np.random.default_rng(3)
+    blocks = {n: 0.3 * rng.standard_normal(first.block(n)[1].stop - first.block(n)[1].start)
+              for n in ("thermal_drift", "sensor_gain")}
+    thetas = []
+    for problem in (first, second):
+        theta = problem.theta0.copy()
+        for name, value in blocks.items():
+            theta[problem.block(name)[1]] += value * (1e-6 if name == "thermal_drift" else 1.0)
+        thetas.append(theta)
+    (y1, _), (y2, _) = first.predict(thetas[0])[0], second.predict(thetas[1])[0]
+    np.testing.assert_allclose(y1, y2, rtol=1e-12, atol=1e-18)
+    # and the drift is not scaled: reading = gain * (response of the nominal model) + drift
+    effect, sl = first.block("sensor_gain")
+    gain = effect.sign * np.exp(thetas[0][sl])
+    base = JointProblem(case, data, [], GMRFPrior())
+    response = base.predict(base.theta0, jacobian=False)[0][0]
+    x = data.crossings[0].positions
+    t = (x - 0.5 * (x[0] + x[-1])) / (x[-1] - x[0])
+    drift = thetas[0][first.block("thermal_drift")[1]][:2 * case.sensors.n_sensors].reshape(-1, 2)
+    np.testing.assert_allclose(y1, gain[:, None] * response + drift[:, :1] + drift[:, 1:] * t[None, :],
+                               rtol=1e-12, atol=1e-18)

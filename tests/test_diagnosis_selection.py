@@ -8,11 +8,12 @@ is exercised alone; the numbers are not from data.
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 import sensorplan as sp
 from sensorplan import diagnose, example_case, simulate_crossings
-from sensorplan.diagnosis.refit import Heldout
-from sensorplan.diagnosis.selection import select
+from sensorplan.diagnosis.refit import Heldout, QuickFit
+from sensorplan.diagnosis.selection import fit_models, select
 from sensorplan.diagnosis.summary import summary_lines
 
 
@@ -25,7 +26,7 @@ class _Problem:
 
 class _Fit:
     def __init__(self, evidence):
-        self.log_evidence, self.converged = float(evidence), True
+        self.log_evidence, self.converged, self.abandoned = float(evidence), True, False
         self.problem, self.theta = _Problem(), np.zeros(1)
 
 
@@ -40,7 +41,7 @@ class _Table:
         self.models = models
         self.calls = []
 
-    def fit(self, names, blocks=None, *, initial=True):
+    def fit(self, names, blocks=None, *, initial=True, max_iter=40, floor=None):
         self.calls.append(tuple(names))
         evidence, held = self.models[frozenset(names)]
         return _Fit(evidence), _held(held)
@@ -104,3 +105,76 @@ def test_summary_without_a_significant_gap_does_not_list_confounded_effects():
     assert not any(line.lstrip().startswith("confounded:") for line in lines)
     assert any("confounded alternatives are not listed" in line for line in lines)
     assert "confounded" not in d.verdict
+
+
+class _Slow:
+    """ctx stand-in whose first pass leaves some fits unconverged (QuickFit with a ceiling)."""
+
+    def __init__(self, first, final):
+        self.first, self.final, self.resumed = first, final, []
+
+    def _fit(self, evidence, converged, ceiling):
+        return QuickFit(_Problem(), np.zeros(1), np.eye(1), float(evidence), converged, 15, 1.0, 1.0,
+                        ceiling=float(ceiling))
+
+    def fit(self, names, blocks=None, *, initial=True, max_iter=40, floor=None):
+        evidence, converged, ceiling = self.first[names[-1]]
+        return self._fit(evidence, converged, ceiling), _held(evidence) if converged else None
+
+    def resume(self, fit, *, max_iter=40, floor=None):
+        name = next(n for n, v in self.first.items() if v[0] == fit.log_evidence)
+        self.resumed.append((name, floor))
+        return self._fit(self.final[name], True, self.final[name]), _held(self.final[name])
+
+
+def test_two_passes_continue_only_fits_that_can_still_matter():
+    # A converges in the first pass at 100; B (not converged, at 90, ceiling 120) may still beat it and is
+    # continued; C (at 50, ceiling 60) cannot come within 3 of A (nor reach the level 20 + 3): abandoned.
+    # D is below the level the decision needs (base 40 + 3 = 43 > ceiling 42): abandoned too
+    ctx = _Slow({"A": (100, True, 100), "B": (90, False, 120), "C": (50, False, 60), "D": (30, False, 42)},
+                {"B": 110})
+    out = fit_models(ctx, {n: ([n], None) for n in "ABCD"}, 43.0, bf_threshold=3.0, runner=None,
+                     say=lambda text: None, label="")
+    assert ctx.resumed == [("B", 97.0)]  # continued with the floor: best first-pass evidence - 3
+    assert out["B"][0].converged and out["B"][0].log_evidence == 110
+    for name in "CD":
+        assert out[name][0].abandoned and not out[name][0].converged and out[name][1] is None
+    assert not out["A"][0].abandoned
+
+
+def test_a_fit_gives_up_below_its_floor_and_converges_without_one():
+    from sensorplan.diagnosis.effects import make_effect
+    from sensorplan.diagnosis.joint import JointProblem
+    from sensorplan.diagnosis.refit import quick_fit
+    from sensorplan.model.prior import GMRFPrior
+
+    case = example_case("openlab-like")
+    case = replace(case.with_mesh(sp.Mesh.uniform(case.bridge, 8)), sweep=sp.LoadSweep.from_range(0.0, 32.0, 1.0))
+    data = simulate_crossings(case, 3, noise=True, rng=5)
+    flipped = sp.Crossings(data.sensor_names, tuple(replace(c, values=c.values * np.array([[1.0], [-1.0]]))
+                                                    for c in data.crossings))
+    problem = JointProblem(case, flipped, [make_effect("thermal_drift")], GMRFPrior())  # misses the flip
+    free = quick_fit(problem, problem.theta0.copy(), 30.0, 1.0)
+    assert free.converged and not free.abandoned and free.ceiling == free.log_evidence
+    stopped = quick_fit(problem, problem.theta0.copy(), 30.0, 1.0, floor=free.log_evidence + 1e6)
+    assert stopped.abandoned and not stopped.converged and stopped.n_iter == 1
+    assert stopped.ceiling < free.log_evidence + 1e6
+
+
+def test_a_flipped_sign_is_a_discrete_choice_with_its_prior():
+    from sensorplan.diagnosis.effects import make_effect
+    from sensorplan.diagnosis.effects_more import FLIP_PROBABILITY
+    from sensorplan.diagnosis.joint import JointProblem
+    from sensorplan.model.prior import GMRFPrior
+
+    case = example_case("openlab-like")
+    data = simulate_crossings(case, 2, noise=True, rng=2)
+    flipped = sp.Crossings(data.sensor_names, tuple(replace(c, values=c.values * np.array([[1.0], [-1.0]]))
+                                                    for c in data.crossings))
+    for crossings, signs in ((data, [1.0, 1.0]), (flipped, [1.0, -1.0])):
+        problem = JointProblem(case, crossings, [make_effect("sensor_gain")], GMRFPrior())
+        effect, _ = problem.block("sensor_gain")
+        assert effect.sign.tolist() == signs
+        flips = signs.count(-1.0)
+        expected = flips * np.log(FLIP_PROBABILITY) + (2 - flips) * np.log(1 - FLIP_PROBABILITY)
+        assert problem.log_prior_constant == pytest.approx(expected)

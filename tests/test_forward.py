@@ -337,3 +337,44 @@ def test_kernel_matches_independent_fe_solve(geometry, seed):
     # Relative to the response scale of the case (rotation ~ P L^2 / EI).
     scale = max(np.abs(ref).max(), veh.total_load * length**2 / ei.max())
     np.testing.assert_allclose(lines.predictions, ref, rtol=0, atol=1e-9 * scale)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_moment_diagram_algebra_against_direct_evaluation_and_quadrature(seed):
+    # The diagram algebra under the force method, checked against references that share no code with
+    # it: each free-body diagram evaluated directly as sum w (s - p)_+ (ramps) or w H(s - p) (steps), and
+    # the compliance-weighted products integrated by Gauss-Legendre quadrature between breakpoints
+    # (exact for the piecewise-quadratic integrands).
+    from sensorplan.model.diagrams import RAMP, point_actions, weighted_products
+
+    rng = np.random.default_rng(seed)
+    n_el = int(rng.integers(1, 9))
+    edges = np.concatenate([[0.0], np.cumsum(rng.uniform(0.5, 3.0, n_el))])
+
+    def family():
+        n_funcs, n_actions = int(rng.integers(1, 6)), int(rng.integers(1, 4))
+        pos = rng.uniform(-0.5, edges[-1] + 0.5, (n_funcs, n_actions))
+        pos[:, 0] = np.where(rng.random(n_funcs) < 0.5, rng.choice(edges, n_funcs), pos[:, 0])  # some on edges
+        weights = np.where(rng.random((n_funcs, n_actions)) < 0.2, 0.0, rng.normal(size=(n_funcs, n_actions)))
+        return pos, weights, rng.integers(0, 2, (n_funcs, n_actions))
+
+    def direct(pos, weights, kinds, s):
+        d = s[None, None, :] - pos[:, :, None]
+        atom = np.where((kinds == RAMP)[:, :, None], np.maximum(d, 0.0), (d >= 0.0).astype(float))
+        return np.einsum("fa,fas->fs", weights, atom)
+
+    first, second = family(), family()
+    d1, d2 = point_actions(edges, *first), point_actions(edges, *second)
+    s = np.sort(np.concatenate([rng.uniform(0.0, edges[-1], 50), edges[1:-1] + 1e-9]))
+    np.testing.assert_allclose(d1.evaluate(edges, s), direct(*first, s), atol=1e-12 * edges[-1])
+    v = rng.uniform(0.5, 2.0, n_el)
+    breaks = np.unique(np.concatenate([edges, first[0].ravel(), second[0].ravel()]))
+    breaks = breaks[(breaks >= 0.0) & (breaks <= edges[-1])]
+    nodes, gl_weights = np.polynomial.legendre.leggauss(3)
+    mid, half = 0.5 * (breaks[1:] + breaks[:-1]), 0.5 * np.diff(breaks)
+    x = (mid[:, None] + half[:, None] * nodes[None, :]).ravel()
+    wq = (half[:, None] * gl_weights[None, :]).ravel() * v[np.clip(np.searchsorted(edges, x) - 1, 0, n_el - 1)]
+    reference = (direct(*first, x) * wq) @ direct(*second, x).T
+    scale = np.abs(reference).max() + 1e-12
+    np.testing.assert_allclose(weighted_products(edges, d1, d2, v) / scale, reference / scale, atol=1e-12)

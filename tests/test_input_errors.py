@@ -576,3 +576,30 @@ def test_unknown_example_gives_one_line_error(tmp_path, capsys):
     assert stdout == ""
     assert list(tmp_path.iterdir()) == []
 
+
+
+def test_a_sensor_the_model_says_reads_nothing_is_not_a_unit_slip_or_a_sign_flip():
+    # A deflection sensor on a rigid bearing reads zero in the model: up to round-off (~1e-19 m),
+    # not exactly.  Its measured noise has no scale to compare with (openLAB's laser LWA_2 at a bearing).
+    import warnings
+
+    from sensorplan.inference.screening import check_case_data_scale
+    from sensorplan.model.case import Case
+    from sensorplan.model.simulate import simulate_crossings
+
+    bridge = sensorplan.Bridge((15.0, 15.0))
+    sensors = sensorplan.SensorLayout([7.5, 15.0, 22.5], "deflection", ["D1", "D2", "D3"], [2e-5] * 3)
+    case = Case(bridge, sensorplan.Mesh.uniform(bridge, 30), 1e10, sensorplan.Vehicle.point_load(1e5), sensors,
+                sweep=sensorplan.LoadSweep.from_range(0.0, 30.0, 0.5))
+    assert 0.0 < np.abs(case.influence_lines().predictions[1]).max() < 1e-15  # round-off, not exactly zero
+    data = simulate_crossings(case, 3, noise=True, rng=3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_case_data_scale(case, data)
+    # the other sensors are still checked: D1 in mm under the SI key is a unit slip
+    from dataclasses import replace
+
+    slipped = replace(data, crossings=tuple(replace(c, values=c.values * np.array([[1e3], [1.0], [1.0]]))
+                                            for c in data))
+    with pytest.raises(DataError, match="D1"):
+        check_case_data_scale(case, slipped)

@@ -28,6 +28,9 @@ class Effect:
     structural = False  # changes the forward model (else only the outputs)
     in_case = False  # a property of the case (springs, sensor positions, axle loads), written by --write-case
     frees: tuple = ()  # spring kinds whose stiffness the effect sets (the case's springs of that kind step aside)
+    log_prior_constant = 0.0  # log prior of the effect's discrete choices (added to the evidence)
+    additive = False  # an output term added to the reading (applied after the multiplicative outputs)
+    moves_loads = False  # moves the load positions (the lines then need a continuous entry onto the bridge)
 
     def applicable(self, crossings):
         """Reason the effect cannot act on these data (None: it can)."""

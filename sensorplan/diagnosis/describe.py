@@ -94,10 +94,12 @@ def describe(effect, problem, mean, std):
                                100 * (mean[k] - Z95 * std[k]), 100 * (mean[k] + Z95 * std[k]), "%", ".1f"))
     elif name == "sensor_gain":
         for i, sname in enumerate(problem.sensor_names):
-            if ok[i]:
-                note = " (mounted the wrong way round)" if mean[i] + Z95 * std[i] < 0 else ""
-                out.append(finding(f"gain of {sname}{note}", mean[i], mean[i] - Z95 * std[i], mean[i] + Z95 * std[i],
-                                   "", ".3f"))
+            flipped = effect.sign[i] < 0
+            if ok[i] or flipped:
+                note = " (mounted the wrong way round)" if flipped else ""
+                ends = effect.sign[i] * np.exp([mean[i] - Z95 * std[i], mean[i] + Z95 * std[i]])
+                out.append(finding(f"gain of {sname}{note}", effect.sign[i] * math.exp(mean[i]), ends.min(),
+                                   ends.max(), "", ".3f"))
     elif name == "load_dependent_stiffness":
         if ok[0]:
             ref = LOAD_REFERENCE / 1e3

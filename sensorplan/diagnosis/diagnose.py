@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .._executors import executor_for, map_ordered
+from .._executors import executor_for
 from .._threads import single_threaded
 from ..inference.screening import check_case_data_scale
 from ..model.crossings import Crossings
@@ -46,7 +46,7 @@ from .gap import residual_gap
 from .joint import JointProblem
 from .refit import blocks_of, fold_rows, heldout, integrated_fit, quick_fit, warm_start
 from .results import EffectFit, GapDiagnosis
-from .selection import select
+from .selection import fit_models, select
 
 if TYPE_CHECKING:
     from ..model.case import Case
@@ -93,7 +93,7 @@ class _Context:
         self.estimate_springs, self.alpha, self.tau = estimate_springs, alpha, tau
         self.blocks, self.test_masks, self.predictions = blocks, test_masks, predictions
 
-    def fit(self, names, blocks=None, *, initial=True):
+    def fit(self, names, blocks=None, *, initial=True, max_iter=40, floor=None):
         problem = JointProblem(self.case, self.crossings, [make_effect(n) for n in names], self.prior,
                                estimate_springs=self.estimate_springs)
         start = warm_start(problem, self.blocks if blocks is None else blocks)
@@ -105,21 +105,15 @@ class _Context:
             start = warm_start(problem, {"log_ei": problem.theta0[:problem.n_elements]} if blocks is None
                                else blocks)
             start[sl] = init
-        fit = quick_fit(problem, start, self.alpha, self.tau)
+        return self._scored(quick_fit(problem, start, self.alpha, self.tau, max_iter=max_iter, floor=floor))
+
+    def resume(self, fit, *, max_iter=40, floor=None):
+        """``fit`` continued from where it stopped."""
+        return self._scored(quick_fit(fit.problem, fit.theta, self.alpha, self.tau, max_iter=max_iter, floor=floor))
+
+    def _scored(self, fit):
         held = heldout(fit, self.test_masks) if fit is not None and fit.converged else None
         return fit, held
-
-
-def _screen(ctx, name):
-    fit, held = ctx.fit([name])
-    if fit is not None:  # the influence-line cache is not needed any more (and not worth sending back)
-        fit.problem._cache, fit.problem._last = {}, None
-    return name, fit, held
-
-
-def _screen_item(item):
-    """:func:`_screen` of one (context, effect name) pair (what the executor maps)."""
-    return _screen(*item)
 
 
 def _entry(name, fit, held, base, base_held, ei_base):
@@ -138,6 +132,7 @@ def _entry(name, fit, held, base, base_held, ei_base):
         rms_after=float(math.sqrt(np.mean(res**2))), heldout_rms_after=None if held is None else held.rms,
         parameters={n: {"map": float(v), "std": float(s)} for n, v, s in zip(effect.names, fit.theta[sl], std)},
         ei_shift=tuple(shift.tolist()), max_ei_shift=float(np.max(np.abs(shift))), converged=fit.converged,
+        abandoned=fit.abandoned,
         findings=tuple(describe(effect, problem, fit.theta[sl], std)))
 
 
@@ -214,23 +209,17 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
                    test_masks, predictions)
     n_base = base_problem.n_elements
     ei_base = np.exp(base.theta[:n_base])
-    screened = {}
-    if workers == 1 and scheduler is None:
-        for k, name in enumerate(names):
-            say(f"effect {k + 1} of {len(names)}: {name}")
-            screened[name] = _screen(ctx, name)[1:]
-    else:  # a process pool or a Dask cluster; results in the order of the effects
-        with executor_for(workers, scheduler, timeout=scheduler_timeout, name="--scheduler") as runner:
-            done = map_ordered(runner, _screen_item, [(ctx, name) for name in names], chunksize=1,
-                               progress=lambda k, n: say(f"effect {k} of {n}: {names[k - 1]}"))
-        for name, fit, held in done:
-            screened[name] = (fit, held)
-    results = [_entry(n, screened[n][0], screened[n][1], base, base_held, ei_base) for n in names]
-    results.sort(key=lambda r: (r.converged, -math.inf if math.isnan(r.log_bayes_factor) else r.log_bayes_factor),
-                 reverse=True)
-    selected, alternatives, current, current_held = select(
-        ctx, names, screened, base, base_held, bf_threshold=bf_threshold, gain_threshold=gain_threshold,
-        max_rounds=max_rounds, folds=bool(folds), say=say)
+    # screening and selection on this process, a process pool or a Dask cluster (results in the order of
+    # the effects, the same on any of them)
+    with executor_for(workers, scheduler, timeout=scheduler_timeout, name="--scheduler") as runner:
+        screened = fit_models(ctx, {n: ([n], None) for n in names}, base.log_evidence + bf_threshold,
+                              bf_threshold=bf_threshold, runner=runner, say=say, label="")
+        results = [_entry(n, screened[n][0], screened[n][1], base, base_held, ei_base) for n in names]
+        results.sort(key=lambda r: (r.converged,
+                                    -math.inf if math.isnan(r.log_bayes_factor) else r.log_bayes_factor), reverse=True)
+        selected, alternatives, current, current_held = select(
+            ctx, names, screened, base, base_held, bf_threshold=bf_threshold, gain_threshold=gain_threshold,
+            max_rounds=max_rounds, folds=bool(folds), say=say, runner=runner)
     say("final refit of the selected model with its hyperparameters")
     final_problem = JointProblem(case, crossings, [make_effect(n) for n in selected], prior,
                                  estimate_springs=estimate_springs)

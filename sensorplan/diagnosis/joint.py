@@ -25,6 +25,14 @@ from .effects import CaseSprings, State
 
 __all__ = []
 
+ENTRY = 0.1  # m over which an axle moved by an effect rolls onto the bridge (half a tyre contact length)
+
+
+def _smooth_step(s):
+    """3 s^2 - 2 s^3 on [0, 1] (0 below, where u is on the bridge or beyond the ramp): C1, 0 at 0 and 1 at 1."""
+    s = np.clip(s, 0.0, 1.0)
+    return np.where((s > 0.0) & (s < 1.0), s * s * (3.0 - 2.0 * s), 0.0)
+
 
 class JointProblem(WhitenedData):
     """The case's model extended by ``effects``, fitted jointly with log EI (rows in ``masks``)."""
@@ -45,6 +53,9 @@ class JointProblem(WhitenedData):
             if springs.configure(self).n_params:
                 effects.insert(0, springs)
         self.effects = [e.configure(self) for e in effects]
+        # loads moved by an effect enter the bridge over a short ramp (see _entry); else as point loads
+        self.entry = ENTRY if any(e.moves_loads for e in self.effects) else 0.0
+        self.log_prior_constant = float(sum(e.log_prior_constant for e in self.effects))
         self.n_elements = case.mesh.n_elements
         self.slices = []
         start = self.n_elements
@@ -52,6 +63,11 @@ class JointProblem(WhitenedData):
             self.slices.append(slice(start, start + e.n_params))
             start += e.n_params
         self.n_params = start
+        # output effects: gains and amplifications act on the response, then offsets and drift are added in the
+        # sensor's output, whatever order the effects were selected in (a gain applied after a drift scaled the
+        # drift too, and was chosen for shrinking the drift's prior cost: a false second cause)
+        self._outputs = sorted([(e, sl) for e, sl in zip(self.effects, self.slices) if not e.structural],
+                               key=lambda item: item[0].additive)
         self.theta0 = np.concatenate([np.log(case.ei)] + [e.mean for e in self.effects])
         self.param_names = [f"log_ei_{j}" for j in range(self.n_elements)] + [
             f"{e.name}:{n}" for e in self.effects for n in e.names]
@@ -62,6 +78,7 @@ class JointProblem(WhitenedData):
         self.fixed = np.diag(diag)
         self._ei = None
         self._cache = {}
+        self._cache_ei = None
         self._last = None
         self.n_evaluations = 0
 
@@ -85,9 +102,55 @@ class JointProblem(WhitenedData):
             sensors = SensorLayout(r, self.sensors.kinds, self.sensors.names)
             vehicle = Vehicle(self.case.vehicle.axle_offsets,
                               tuple(np.asarray(self.case.vehicle.axle_loads) * state.axle_factors))
-            self._cache[key] = influence_lines(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors,
-                                               vehicle, x)
+            lines = influence_lines(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors, vehicle, x)
+            self._cache[key] = self._entry(lines, state, r, scale, x)
         return self._cache[key]
+
+    def _entry(self, lines, state, r, scale, x, axles=None):
+        """``lines`` with each axle's entry onto the bridge spread over ``self.entry`` (with a load-moving effect).
+
+        An axle within ``entry`` outside an end adds the response to its load
+        at that end, scaled by a smooth step from 1 at the end to 0 at
+        ``entry`` outside (s^2 (3 - 2 s): no kinks of its own; a tyre's
+        contact patch rolling on).  Over an elastic end
+        bearing a point load jumps from zero to the bearing's response as it
+        steps on; with the load positions as parameters the fit then sits on
+        that jump (line searches fail, Levenberg-Marquardt crawls: 20-30
+        evaluations per tau node of a settled end bearing with position
+        offsets).  The ramp makes the lines continuous in the positions.
+        ``axles``: (axle offsets, loads) (default: the vehicle's, with the
+        current axle factors).
+        """
+        if not self.entry:
+            return lines
+        if axles is None:
+            axles = (self.case.vehicle.axle_offsets, np.asarray(self.case.vehicle.axle_loads) * state.axle_factors)
+        offsets, loads = np.asarray(axles[0], float), np.asarray(axles[1], float)
+        length = state.bridge.length
+        u = x[None, :] - offsets[:, None]
+        before = loads @ _smooth_step(np.where(u < 0.0, 1.0 + u / self.entry, 0.0))
+        after = loads @ _smooth_step(np.where(u > length, 1.0 - (u - length) / self.entry, 0.0))
+        vertical = state.bridge.vertical_springs
+        if np.isinf(vertical[0]):  # a load on a rigid bearing moves nothing: no jump to spread
+            before = np.zeros_like(before)
+        if np.isinf(vertical[-1]):
+            after = np.zeros_like(after)
+        if not (before.any() or after.any()):
+            return lines
+        key = ("ends", r.tobytes(), state.bridge, scale)
+        if key not in self._cache:
+            sensors = SensorLayout(r, self.sensors.kinds, self.sensors.names)
+            self._cache[key] = influence_lines(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors,
+                                               Vehicle.point_load(1.0), np.array([0.0, length]))
+        ends = self._cache[key]
+
+        def spread(end_values, extra):  # end responses (S, 2, ...) times the ramped loads (K,)
+            return (end_values[:, 0:1] * before.reshape((1, -1) + (1,) * (end_values.ndim - 2))
+                    + end_values[:, 1:2] * after.reshape((1, -1) + (1,) * (end_values.ndim - 2)) + extra)
+
+        return replace(lines, predictions=spread(ends.predictions, lines.predictions),
+                       kernel=spread(ends.kernel, lines.kernel),
+                       spring_kernel=spread(ends.spring_kernel, lines.spring_kernel))
 
     def prefetch(self, state, jacobian):
         """Influence lines of every crossing (and the shifted positions effects ask for) in one solve.
@@ -114,8 +177,9 @@ class JointProblem(WhitenedData):
             sensors = SensorLayout(state.sensor_positions, self.sensors.kinds, self.sensors.names)
             vehicle = Vehicle(self.case.vehicle.axle_offsets,
                               tuple(np.asarray(self.case.vehicle.axle_loads) * state.axle_factors))
-            lines = influence_lines(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors, vehicle,
-                                    np.concatenate(xs))
+            every = np.concatenate(xs)
+            lines = self._entry(influence_lines(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors,
+                                                vehicle, every), state, state.sensor_positions, scale, every)
             start = 0
             for key, x in items.items():
                 sl = slice(start, start + x.size)
@@ -131,8 +195,10 @@ class JointProblem(WhitenedData):
         key = ("axle", x.tobytes(), state.sensor_positions.tobytes(), state.bridge, float(load), scale)
         if key not in self._cache:
             sensors = SensorLayout(state.sensor_positions, self.sensors.kinds, self.sensors.names)
-            self._cache[key] = influence_lines(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors,
-                                               Vehicle.point_load(load), x).predictions
+            lines = influence_lines(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors,
+                                    Vehicle.point_load(load), x)
+            self._cache[key] = self._entry(lines, state, state.sensor_positions, scale, x,
+                                           axles=((0.0,), (load,))).predictions
         return self._cache[key]
 
     # -- evaluation ------------------------------------------------------------------------
@@ -143,8 +209,12 @@ class JointProblem(WhitenedData):
 
     def predict(self, theta, *, jacobian=True):
         """Unwhitened predictions and Jacobians per crossing: list of (y (S,K), J (S,K,P) or None)."""
+        # the lines depend on EI and on the state (positions, springs, loads: in the cache keys); kept while EI
+        # is unchanged, so that the Jacobian at an accepted trial point reuses the trial's forward solve
+        ei_key = theta[:self.n_elements].tobytes()
+        if ei_key != self._cache_ei or len(self._cache) > 256:
+            self._cache, self._cache_ei = {}, ei_key
         self._ei = np.exp(theta[:self.n_elements])
-        self._cache = {}
         self.n_evaluations += 1
         state = self.initial_state()
         for e, sl in zip(self.effects, self.slices):
@@ -163,12 +233,11 @@ class JointProblem(WhitenedData):
                 for e, sl in zip(self.effects, self.slices):
                     if e.structural:
                         jac[:, :, sl] = e.structural_jacobian(self, state, theta[sl], c, y)
-            for e, sl in zip(self.effects, self.slices):
-                if not e.structural:
-                    y, block, mult = e.output(self, state, theta[sl], c, y)
-                    if jac is not None:
-                        jac *= np.reshape(mult, (-1, 1, 1)) if np.ndim(mult) else mult
-                        jac[:, :, sl] += block
+            for e, sl in self._outputs:
+                y, block, mult = e.output(self, state, theta[sl], c, y)
+                if jac is not None:
+                    jac *= np.reshape(mult, (-1, 1, 1)) if np.ndim(mult) else mult
+                    jac[:, :, sl] += block
             out.append((y, jac))
         return out
 

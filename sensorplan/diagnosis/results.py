@@ -76,6 +76,10 @@ class EffectFit:
     max_ei_shift : float
     converged : bool
         False: the refit did not converge; the entry never decides a verdict.
+    abandoned : bool
+        The refit was stopped before converging because it could not come
+        near the best candidate's evidence (its Bayes factor is what it had
+        reached; not converged).
     findings : tuple of dict
         The effect in engineering terms (where, value, 95 % interval, unit).
     """
@@ -90,6 +94,7 @@ class EffectFit:
     max_ei_shift: float
     converged: bool = True
     findings: tuple = ()  # dicts: where, value, low, high (95 %), unit, text
+    abandoned: bool = False
 
     def to_dict(self):
         out = asdict(self)

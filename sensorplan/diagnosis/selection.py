@@ -29,18 +29,80 @@ gain over the folds (:func:`.refit.gain_is_significant`).
   >= ``bf_threshold``) when that raises the evidence without losing
   held-out score.
 
+Two passes per set of candidate fits (:func:`fit_models`): every candidate
+gets ``FIRST_PASS`` Levenberg-Marquardt iterations; those not converged are
+continued only while they may still reach the level a decision needs (the
+best candidate's evidence less ``bf_threshold``, and the current model's
+plus ``bf_threshold``).  A candidate that misses what the data show fits
+slowly (large residuals, curved valleys) and cannot be chosen: it is left
+*abandoned* (not converged, flagged) instead of costing 40 iterations.  The
+backward and swap tests give up in the same way once their model cannot
+reach the evidence that would change the selection.
+
 Owns: the selection.  May import: the diagnosis's refits and the foundations.
 """
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
+from .._executors import map_ordered
 from .refit import blocks_of, gain_is_significant, heldout, quick_fit
 
 __all__ = []
 
 AMBIGUOUS = 2  # a later pick with this many alternatives within bf_threshold is not made
+FIRST_PASS = 15  # iterations every candidate gets; most converge within them (2-12 on the validation datasets)
+
+
+def _light(out):
+    fit = out[0]
+    if fit is not None:  # the influence-line cache is not needed any more (and not worth sending back)
+        fit.problem._cache, fit.problem._last = {}, None
+    return out
+
+
+def _first_pass(item):
+    ctx, names, blocks, floor = item
+    return _light(ctx.fit(names, blocks, max_iter=FIRST_PASS, floor=floor))
+
+
+def _second_pass(item):
+    ctx, fit, floor = item
+    return _light(ctx.resume(fit, floor=floor))
+
+
+def fit_models(ctx, models, level, *, bf_threshold, runner, say, label, strict=False):
+    """{name: (fit, held-out)} of ``models`` ({name: (effect names, warm-start blocks or None)}), two passes.
+
+    ``level``: the log evidence a candidate needs to be chosen.  ``runner``:
+    an executor or None (this process).  ``strict``: only a candidate that
+    reaches ``level`` matters (a selection step, where an alternative must be
+    eligible itself), so a fit gives up as soon as its ceiling is below it;
+    otherwise (screening, whose table reports every effect) the first pass
+    runs its full budget.
+    """
+    names = list(models)
+    prefix = f"{label}: " if label else ""
+    early = level if strict else None
+    first = map_ordered(runner, _first_pass, [(ctx, *models[n], early) for n in names], chunksize=1,
+                        progress=lambda k, n: say(f"{prefix}effect {k} of {n}: {names[k - 1]}"))
+    out = dict(zip(names, first))
+    reached = [f.log_evidence for f, _ in first if f is not None and math.isfinite(f.log_evidence)]
+    if not reached:
+        return out
+    floor = max(max(reached) - bf_threshold, level)
+    slow = [n for n in names if out[n][0] is not None and not out[n][0].converged]
+    todo = [n for n in slow if out[n][0].ceiling >= floor]
+    for n in slow:
+        if n not in todo:
+            out[n] = (replace(out[n][0], abandoned=True), None)
+    if todo:
+        again = map_ordered(runner, _second_pass, [(ctx, out[n][0], floor) for n in todo], chunksize=1,
+                            progress=lambda k, n: say(f"{prefix}continued {k} of {n}: {todo[k - 1]}"))
+        out.update(zip(todo, again))
+    return out
 
 
 def _better(fit, held, current, current_held, threshold, folds):
@@ -71,7 +133,8 @@ def _rescale(ctx, current):
     return fit, heldout(fit, ctx.test_masks)
 
 
-def select(ctx, names, screened, base, base_held, *, bf_threshold, gain_threshold, max_rounds, folds, say):
+def select(ctx, names, screened, base, base_held, *, bf_threshold, gain_threshold, max_rounds, folds, say,
+           runner=None):
     """Selected effect names, their alternatives, and the fit and held-out score of the selected model."""
     selected: list[str] = []
     alternatives: dict[str, tuple] = {}
@@ -83,10 +146,11 @@ def select(ctx, names, screened, base, base_held, *, bf_threshold, gain_threshol
             break
         remaining = [n for n in names if n not in selected]
         if step > 0:
-            candidates = {}
-            for k, name in enumerate(remaining):
-                say(f"selection step {step + 1}: effect {k + 1} of {len(remaining)} given {', '.join(selected)}")
-                candidates[name] = ctx.fit(selected + [name], blocks_of(current.problem, current.theta))
+            blocks = blocks_of(current.problem, current.theta)
+            candidates = fit_models(ctx, {n: (selected + [n], blocks) for n in remaining},
+                                    current.log_evidence + bf_threshold, bf_threshold=bf_threshold, runner=runner,
+                                    say=say, label=f"selection step {step + 1} given {', '.join(selected)}",
+                                    strict=True)
         eligible = []
         for name in remaining:
             fit, held = candidates[name]
@@ -117,7 +181,9 @@ def select(ctx, names, screened, base, base_held, *, bf_threshold, gain_threshol
     if len(selected) >= 2:
         # swap candidates: effects that alone explain part of the gap (screening log BF >= bf_threshold); one
         # that explains nothing alone cannot replace a pick that does (and the test costs a refit each)
-        strong = [n for n in names if screened[n][0] is not None and screened[n][0].converged
+        # (an abandoned fit's evidence is what it had reached: enough to count it)
+        strong = [n for n in names if screened[n][0] is not None
+                  and (screened[n][0].converged or screened[n][0].abandoned)
                   and screened[n][0].log_evidence - base.log_evidence >= bf_threshold]
         current, current_held = _swap(ctx, strong, selected, alternatives, current, current_held, say)
     return selected, alternatives, current, current_held
@@ -131,7 +197,8 @@ def _prune(ctx, selected, alternatives, current, current_held, visited, bf_thres
             others = [n for n in selected if n != name]
             say(f"backward test: {name} given {', '.join(others)}")
             blocks = blocks_of(current.problem, current.theta)
-            fit, held = ctx.fit(others, blocks, initial=False)
+            # given up once it cannot come within bf_threshold of the current model (the pick then stays)
+            fit, held = ctx.fit(others, blocks, initial=False, floor=current.log_evidence - bf_threshold)
             if fit is None or not fit.converged:
                 continue
             bf, significant = _better(current, current_held, fit, held, gain_threshold, folds)
@@ -154,7 +221,9 @@ def _swap(ctx, names, selected, alternatives, current, current_held, say):
         others = [n for n in selected if n != name]
         for other in [n for n in names if n not in selected]:
             say(f"swap test: {other} for {name}")
-            fit, held = ctx.fit(others + [other], blocks_of(current.problem, current.theta))
+            # given up once it cannot beat the current model
+            fit, held = ctx.fit(others + [other], blocks_of(current.problem, current.theta),
+                                floor=current.log_evidence)
             better = fit is not None and fit.converged and fit.log_evidence > current.log_evidence
             if better and held is not None and current_held is not None:
                 better = float(np.sum(held.log_density)) >= float(np.sum(current_held.log_density))

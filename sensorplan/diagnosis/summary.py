@@ -30,7 +30,8 @@ def summary_lines(d):
     for e in d.effects:
         gain = "n/a" if e.heldout_score_gain is None else f"{e.heldout_score_gain:.1f}"
         bf = "n/a" if not np.isfinite(e.log_bayes_factor) else f"{e.log_bayes_factor:.1f}"
-        flag = "" if e.converged else "  (not converged: not used)"
+        flag = ("" if e.converged else "  (stopped: far below the best; not used)" if e.abandoned
+                else "  (not converged: not used)")
         lines.append(f"  {e.name:26s} {bf:>8s} {gain:>14s} {100 * e.max_ei_shift:12.1f}%{flag}")
     for k, name in enumerate(d.causes):
         lines.append(f"  cause {k + 1}: {name}")

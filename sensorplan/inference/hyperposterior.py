@@ -35,7 +35,7 @@ Owns: the quadrature over log tau.  May import: model, errors.
 
 import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg
@@ -69,6 +69,9 @@ class _Context:
     n_data: int
     constant: float  # -log det(Sigma_0) / 2 - M log(2 pi) / 2
     gauss_newton_max_iter: int | None = None  # evaluations before the LM fallback (None: max_iter)
+    # Nodes differ only in tau: once Gauss-Newton has failed on one (a model too nonlinear for its
+    # steps), the others go straight to the fallback instead of spending the budget again.
+    gauss_newton_failed: list = field(default_factory=list)
 
 
 class _Surrogate:
@@ -216,11 +219,14 @@ def _solve_node(ctx, surrogate, log_tau, v, *, max_iter, tol):
     """
     sl = surrogate.at(log_tau)
     v = sl.best_v(v)
-    x = sl.map_point(v)
-    node, n_iter = _gauss_newton(ctx, x, ctx.problem.evaluate(x), log_tau, v, _gn_budget(ctx, max_iter))
-    n_iter += 1
-    if node is not None:
-        return dataclasses.replace(node, n_iter=n_iter)
+    n_iter = 0
+    if not ctx.gauss_newton_failed:
+        x = sl.map_point(v)
+        node, n_iter = _gauss_newton(ctx, x, ctx.problem.evaluate(x), log_tau, v, _gn_budget(ctx, max_iter))
+        n_iter += 1
+        if node is not None:
+            return dataclasses.replace(node, n_iter=n_iter)
+        ctx.gauss_newton_failed.append(log_tau)
     return _levenberg_marquardt(ctx, surrogate.theta, log_tau, v, max_iter=max_iter, tol=tol, n_iter=n_iter)
 
 
@@ -233,6 +239,7 @@ def _start_node(ctx, theta, log_tau, v, *, max_iter, tol):
     n_iter += 1
     if node is not None:
         return dataclasses.replace(node, n_iter=n_iter)
+    ctx.gauss_newton_failed.append(log_tau)
     return _levenberg_marquardt(ctx, theta, log_tau, v, max_iter=max_iter, tol=tol, n_iter=n_iter)
 
 

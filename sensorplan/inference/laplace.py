@@ -66,8 +66,12 @@ class Linearisation:
 
 
 
-def solve_map(problem, theta, alpha, q, theta0, *, max_iter, tol):
-    """Levenberg-Marquardt MAP; returns theta, linearisation, iterations, converged."""
+def solve_map(problem, theta, alpha, q, theta0, *, max_iter, tol, stop=None):
+    """Levenberg-Marquardt MAP; returns theta, linearisation, iterations, converged.
+
+    ``stop(theta, lin)``, if given, is asked after every accepted step whether
+    to give up (the fit is then returned as not converged).
+    """
     lin = problem.evaluate(theta)
     if lin is None:
         raise DataError("The start point gives an invalid model (non-positive EI).")
@@ -111,6 +115,8 @@ def solve_map(problem, theta, alpha, q, theta0, *, max_iter, tol):
         newton_decrement = float(-step @ grad)
         if newton_decrement < tol * max(1.0, abs(obj)) or decrease <= tol * 1e-3 * max(1.0, abs(obj)):
             converged = True
+            break
+        if stop is not None and lin is not None and stop(theta, lin):
             break
     return theta, lin, it, converged
 

@@ -81,12 +81,25 @@ def point_actions(edges, positions, weights, kinds):
     a = edges[:-1]
     b = edges[1:]
     n_el = a.size
-    p = positions[:, :, None]
-    w = weights[:, :, None]
-    ramp = (kinds == RAMP)[:, :, None]
-    before = p <= a[None, None, :]  # action at or left of the element start
-    left = np.where(before, np.where(ramp, w * (a - p), w), 0.0).sum(axis=1)
-    right = np.where(before, np.where(ramp, w * (b - p), w), 0.0).sum(axis=1)
+    # An action at or left of an element's start adds w (s - p) (ramp) or w (step) to its linear part:
+    # with S0 = sum of ramp weights, S1 = sum of ramp weights times positions and T = sum of step weights
+    # over those actions, the values at a_j and b_j are a_j S0 - S1 + T and b_j S0 - S1 + T.  An action
+    # at p counts for the elements from the first j with a_j >= p on: the sums are cumulative sums of
+    # the weights scattered at those indices, (n_funcs, n_elements) work whatever the number of actions.
+    n_funcs = positions.shape[0]
+    first = np.searchsorted(a, positions, side="left")  # n_el: left of no element start
+    flat = (np.arange(n_funcs)[:, None] * (n_el + 1) + first).ravel()
+    is_ramp = (kinds == RAMP).ravel()
+    w = weights.ravel()
+
+    def cumulative(values):
+        spread = np.bincount(flat, values, minlength=n_funcs * (n_el + 1)).reshape(n_funcs, n_el + 1)
+        return np.cumsum(spread[:, :n_el], axis=1)
+
+    s0 = cumulative(np.where(is_ramp, w, 0.0))
+    t = cumulative(np.where(is_ramp, -w * positions.ravel(), w))  # T - S1
+    left = a * s0 + t
+    right = b * s0 + t
     elem = np.searchsorted(edges, positions, side="right") - 1
     inside = (weights != 0.0) & (elem >= 0) & (elem < n_el)
     elem_c = np.clip(elem, 0, n_el - 1)
@@ -157,6 +170,41 @@ def element_products(edges, first, second, out=None):
     _add_atoms_times_linear(out, edges, second, first, transpose=True)
     _add_atom_pairs(out, edges, first, second)
     return out
+
+
+def weighted_products(edges, first, second, weights):
+    """``element_products(edges, first, second) @ weights`` without the (n_first, n_second, n_elements) array.
+
+    The sums over elements are matrix products, so a force-method solve of
+    thousands of load positions costs (n_first x n_elements) x (n_elements x
+    n_second) products instead of a three-index array.
+    """
+    a = edges[:-1]
+    h = edges[1:] - a
+    fl, fr = first.left * weights, first.right * weights
+    # Simpson (exact for the product of two linear functions), summed over the elements
+    out = (2.0 * fl + fr) @ (second.left * (h / 6.0)).T + (fl + 2.0 * fr) @ (second.right * (h / 6.0)).T
+    _add_weighted_atoms(out, edges, first, second, weights, transpose=False)
+    _add_weighted_atoms(out, edges, second, first, weights, transpose=True)
+    if first.atom_func.size and second.atom_func.size:
+        pairs = np.zeros((first.n_funcs, second.n_funcs, a.size))
+        _add_atom_pairs(pairs, edges, first, second)
+        out += pairs @ weights
+    return out
+
+
+def _add_weighted_atoms(out, edges, atoms, linear, weights, *, transpose):
+    if atoms.atom_func.size == 0:
+        return
+    e = atoms.atom_elem
+    c_left, c_right = _atom_linear_coefficients(edges[e], edges[e + 1], atoms.atom_pos, atoms.atom_kind)
+    # (n_atoms, linear.n_funcs): each atom times the other family's linear part on its element, weighted
+    vals = (atoms.atom_weight * weights[e])[:, None] * (c_left[:, None] * linear.left[:, e].T
+                                                        + c_right[:, None] * linear.right[:, e].T)
+    if transpose:
+        np.add.at(out.T, atoms.atom_func, vals)
+    else:
+        np.add.at(out, atoms.atom_func, vals)
 
 
 def _add_atoms_times_linear(out, edges, atoms, linear, *, transpose):

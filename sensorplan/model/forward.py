@@ -28,6 +28,8 @@ Signs: w(x) downward, theta = dw/dx, x from the left end.  Under a sagging
 load a tiltmeter near a span's left support reads positive.
 """
 
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -45,6 +47,7 @@ from .diagrams import (
     element_products,
     end_value_and_slope,
     point_actions,
+    weighted_products,
 )
 from .loads import LoadSweep, Vehicle
 from .sensors import SensorLayout
@@ -211,15 +214,38 @@ class _ForceMethod:
     def solve(self, positions, weights, kinds):
         """Actual diagrams and reactions for free-body atoms (n_funcs, n_actions)."""
         free = point_actions(self.edges, positions, weights, kinds)
-        g = element_products(self.edges, self.basis, free) @ self.v  # (n_u, n_funcs)
+        g = weighted_products(self.edges, self.basis, free, self.v)  # (n_u, n_funcs)
         value, slope = end_value_and_slope(self.length, positions, weights, kinds)
         rhs = np.vstack([-g / self.ref, -slope[None, :], -value[None, :] / self.length])
         sol = scipy.linalg.lu_solve(self.lu, rhs)
         x_scaled = sol[: self.n_u]  # (n_u, n_funcs)
-        left = free.left + x_scaled.T @ self.basis.left
-        right = free.right + x_scaled.T @ self.basis.right
         reactions = x_scaled * self.scale[:, None]  # physical R [N] and C [N m]
-        return free.plus_linear(left - free.left, right - free.right), reactions
+        return free.plus_linear(x_scaled.T @ self.basis.left, x_scaled.T @ self.basis.right), reactions
+
+
+_METHODS: OrderedDict = OrderedDict()  # the last few force methods, by (bridge, mesh, EI)
+_METHODS_LOCK = threading.Lock()
+_METHODS_KEPT = 8
+
+
+def _force_method(bridge, mesh, ei):
+    """:class:`_ForceMethod` of ``bridge`` at ``ei``, shared by calls at the same EI.
+
+    A fit asks for the lines at one EI several times (the crossings' load
+    positions, the ends, each axle): the factorisation is done once.
+    """
+    key = (bridge, mesh.edges.tobytes(), np.asarray(ei, dtype=float).tobytes())
+    with _METHODS_LOCK:
+        method = _METHODS.get(key)
+        if method is not None:
+            _METHODS.move_to_end(key)
+            return method
+    method = _ForceMethod(bridge, mesh, ei)
+    with _METHODS_LOCK:
+        _METHODS[key] = method
+        while len(_METHODS) > _METHODS_KEPT:
+            _METHODS.popitem(last=False)
+    return method
 
 
 def _sensor_actions(sensors):
@@ -278,7 +304,7 @@ def influence_lines(bridge: Bridge, mesh: Mesh, ei: "ArrayLike", sensors: Sensor
     """
     positions = _check_inputs(bridge, mesh, sensors, positions)
     ei = expand_ei(bridge, mesh, ei)
-    method = _ForceMethod(bridge, mesh, ei)
+    method = _force_method(bridge, mesh, ei)
     load_diagrams, load_reactions = method.solve(*_load_actions(bridge, vehicle, positions))
     sensor_diagrams, sensor_reactions = method.solve(*_sensor_actions(sensors))
     kernel = element_products(mesh.edges, sensor_diagrams, load_diagrams)
@@ -336,7 +362,7 @@ def bending_moments(bridge, mesh, ei, vehicle, positions, x):
     value right of the support is returned.
     """
     positions = _check_inputs(bridge, mesh, None, positions)
-    method = _ForceMethod(bridge, mesh, expand_ei(bridge, mesh, ei))
+    method = _force_method(bridge, mesh, expand_ei(bridge, mesh, ei))
     diagrams, _ = method.solve(*_load_actions(bridge, vehicle, positions))
     return diagrams.evaluate(mesh.edges, x)
 
@@ -350,7 +376,7 @@ def support_reactions(bridge, mesh, ei, vehicle, positions):
     the sagging moment, left to right.
     """
     positions = _check_inputs(bridge, mesh, None, positions)
-    method = _ForceMethod(bridge, mesh, expand_ei(bridge, mesh, ei))
+    method = _force_method(bridge, mesh, expand_ei(bridge, mesh, ei))
     _, reactions = method.solve(*_load_actions(bridge, vehicle, positions))
     n_sup = bridge.support_positions.size
     forces = np.zeros((positions.size, n_sup))

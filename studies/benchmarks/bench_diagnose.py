@@ -10,6 +10,9 @@ model) on two bridges of the size of issue 18,
           white noise, the one-axle 100 kN vehicle, 12 crossings;
   three   12 + 16 + 12 m on elastic bearings, 60 elements, 8 tiltmeters
           (2-38 m), 3 µrad AR(1) noise (0.5 m), three axles, 6 crossings;
+  pairs   two withheld effects at once, as studies/diagnosis/pairs.py: the
+          three-span bridge with 3 tiltmeters, its left bearing settled,
+          plus each second effect, 12 crossings;
 
 and effects (none, every library effect that applies to equal-load
 crossings, and the out-of-library vibration), the CPU time
@@ -38,21 +41,32 @@ four held-out folds and in every selection round.
 
 Run: python studies/benchmarks/bench_diagnose.py [--quick]
 
-Last run (2026-11-25, after the stepwise selection and the integrated refits to a 0.01
-decrement with a 10-evaluation Gauss-Newton budget; shared 2-core machine, one or two other
-study processes running, CPU seconds, ratios from the same run):
-  small (11 datasets): diagnose median 2.47 s, max 6.07 s; ratio to invert median 9.3x, max 16.2x
-  (thermal_drift, 3.02 s against an invert of 0.19 s)
-  three (11 datasets): diagnose median 4.05 s, max 11.36 s; ratio median 7.6x, max 11.1x
-  (position_offset 11.36 s, 10.7x: was 20.0x; the sign flip 10.75 s, 3.7x)
-  every dataset < 15 s CPU: met (max 11.36 s); ratio <= 20x: met (median 8.5x, max 16.2x); the
-  aim of <= 15x is met on the three-span bridge, not on the small one (16.2x, 14.7x, 14.5x:
-  invert there takes 0.2-0.4 s, and the screening of 9 effects plus a selection step of 8
-  refits costs 2-6 s whatever the size).
-  Verdicts: the withheld effect named in 16 of 18 library datasets; not named: the three-span
-  vertical spring (no significant gap once the case's elastic bearings are estimated) and the
-  small-bridge axle loads (adequate, confounded with EI); no cause on effect-free data;
-  vibration unexplained.
+Last run (2026-11-26, after: a selection step's refits give up as soon as they cannot reach the
+level a pick needs; Gauss-Newton skipped on the remaining tau nodes of a fit once it has failed
+on one; the force method's reaction integrals as matrix products, its factorisation shared by
+calls at one EI; the pairs group added; CPU seconds, ratios from the same run, nothing else
+running):
+  small (11 datasets): diagnose median 1.43 s, max 3.57 s; ratio to invert median 6.8x, max 12.0x
+  three (11 datasets): diagnose median 3.42 s, max 7.72 s; ratio median 6.1x, max 8.9x
+  pairs (5 datasets): diagnose median 4.57 s, max 10.14 s; ratio median 9.1x, max 19.3x
+  (settled bearing + position offsets: 10.14 s against an invert of 0.53 s)
+  every dataset < 15 s CPU: met (max 10.14 s); ratio <= 20x: met (median 6.8x, max 19.3x).
+  Verdicts: the withheld effect named in 16 of 18 single-effect library datasets (not named: the
+  three-span vertical spring, no significant gap once the case's elastic bearings are estimated;
+  the small-bridge axle loads, adequate, confounded with EI); both effects named in 5 of 5 pairs;
+  no cause on effect-free data; vibration unexplained.
+Where the time goes now (the slowest pair dataset of studies/diagnosis/pairs.py, three-span,
+settled bearing + position offsets, 12 crossings, 11.0 s): base fit 0.6 s, screening of 9
+effects 2.0 s, selection step 2 (8 refits) 2.9 s, step 3 (7 refits) 1.0 s, swap tests 0.3 s,
+final integrated refit 3.5 s, confounding scans 0.8 s.  Every evaluation with a position offset
+needs the lines at new load positions (and at +1e-4 m for the Jacobian): 25-50 ms each.  The
+same dataset took 26.7 s before these changes: selection step 2 and 3 refits ran 3-13 steps each
+(now the chosen one runs to convergence and the others stop after 1-3: what they can still reach
+is below the pick's level), Gauss-Newton spent 10-13 evaluations at each of 10 tau nodes before
+Levenberg-Marquardt (297 -> 191 forward evaluations in the final refit), and the forward solve
+of 4344 load positions took 77 ms (now 48 ms).
+Run before (2026-11-25): small median 2.47 s, max 6.07 s, ratio max 16.2x; three median
+4.05 s, max 11.36 s, ratio max 11.1x.
 Where the time went before (cProfile, validation three-span white noise with a sign-flipped
 sensor, 16.9 s): the base fit with hyperparameters integrated took 12-15 s, 2533 forward
 evaluations: at 7 of 14 tau nodes Gauss-Newton spent its 100 evaluations without reaching the
@@ -79,6 +93,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "diagnosis"))
 sys.path.insert(0, str(HERE.parents[1]))  # this checkout's sensorplan, not another installed copy
 
+import pairs
 from effects_data import generate
 
 import sensorplan as sp
@@ -105,13 +120,26 @@ def three_case():
 
 
 CASES = {"small": (small_case, 12), "three": (three_case, 6)}
+# two withheld effects at once (studies/diagnosis/pairs.py): the three-span bridge of that study (3 tiltmeters,
+# three axles, AR(1) noise, elastic interior bearings), its left bearing settled, 12 crossings, and each second
+# effect; position offsets with a settled bearing are the slowest datasets measured
+PAIRS = "pairs"
+
+
+def _data(bridge, effect, seed):
+    if bridge == PAIRS:
+        case = pairs.make_case("three-span")
+        truth = pairs.settled(case, pairs.BRIDGES["three-span"])
+        rng = np.random.SeedSequence((len(CASES), pairs.SECOND.index(effect), seed))
+        return case, generate(truth, effect, rng, 12)
+    make, n_crossings = CASES[bridge]
+    case = make()
+    return case, generate(case, effect, np.random.SeedSequence((list(CASES).index(bridge), EFFECTS.index(effect),
+                                                                seed)), n_crossings)
 
 
 def run_one(bridge, effect, seed):
-    make, n_crossings = CASES[bridge]
-    case = make()
-    data = generate(case, effect, np.random.SeedSequence((list(CASES).index(bridge), EFFECTS.index(effect), seed)),
-                    n_crossings)
+    case, data = _data(bridge, effect, seed)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         t0 = time.process_time()
@@ -127,16 +155,18 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="three datasets per bridge")
     args = parser.parse_args(argv)
-    effects = EFFECTS[:3] if args.quick else EFFECTS
+    groups = {bridge: EFFECTS[:3] if args.quick else EFFECTS for bridge in CASES}
+    groups[PAIRS] = pairs.SECOND[:2] if args.quick else pairs.SECOND
     rows = []
     print(f"{'bridge':6s} {'effect':26s} {'diagnose [s]':>12s} {'invert [s]':>10s} {'ratio':>6s}  verdict")
-    for bridge in CASES:
+    for bridge, effects in groups.items():
         for effect in effects:
             t_diag, t_inv, verdict = run_one(bridge, effect, 0)
             rows.append((bridge, t_diag, t_inv))
-            print(f"{bridge:6s} {effect!s:26s} {t_diag:12.2f} {t_inv:10.2f} {t_diag / t_inv:6.1f}  {verdict[:70]}",
+            label = f"spring + {effect}" if bridge == PAIRS else str(effect)
+            print(f"{bridge:6s} {label:26s} {t_diag:12.2f} {t_inv:10.2f} {t_diag / t_inv:6.1f}  {verdict[:70]}",
                   flush=True)
-    for bridge in CASES:
+    for bridge in groups:
         t = np.array([r[1] for r in rows if r[0] == bridge])
         ratio = np.array([r[1] / r[2] for r in rows if r[0] == bridge])
         print(f"{bridge}: diagnose CPU median {np.median(t):.2f} s, max {t.max():.2f} s; ratio to invert "

@@ -54,28 +54,25 @@ differing from their configured values ("case-springs": diagnose estimates
 them as invert does).  Two withheld effects at once: pairs.py.
 
 Run: python studies/diagnosis/validation.py [--quick] [--out DIR] [--workers N]
-The full study (130 datasets) takes about 20 minutes on 2 shared cores;
+The full study (130 datasets) takes about 2 minutes on 2 cores;
 --quick (one bridge, four datasets) under a minute.
 
-Last run (2026-11-25, 130 datasets, stepwise selection of commit d9f2947:
-noise scale re-estimated after each pick, backward test, integrated refits
-to a 0.01 decrement; 2 workers on a shared machine with 2-3 other
-processes): top-ranked cause right for 99/100 = 99 % of the single-effect
-datasets (70/100 named strictly, 26 via the EI-confounded rule: 8
-axle_loads, 7 sensor_position, 6 rotational springs, 5
-dynamic_amplification; 3 three-span vertical springs via case-springs),
-wrong once (two-span, load_dependent_stiffness named as
-dynamic_amplification, log BF 4.8 against 3.9, as before); false alarms
-0/10; local damage blamed on an effect 0/10; held-out rms after the true
-effect within 20 % of the noise floor in 100/100 (median 1.005, max 1.052 x
-noise); the out-of-library vibration unexplained with no cause named in
-10/10.  CPU per dataset: median 2.2 s, max 11.3 s (three-span AR(1),
-thermal drift; the sign-flipped three-span sensors 8.4-9.7 s, were 16.9 s).
-A second cause was named on 2 datasets (three-span and three-span-w thermal
-drift: + dynamic_amplification; still so with the final rules).  The two
-later rules (MacKay's dof-corrected noise scale, no later pick with two or
-more alternatives) act only after the first pick, so the scores above
-(first cause, false alarms, local damage, vibration) do not depend on them.
+Last run (2026-11-26, 130 datasets: log gain with a discrete sign, two-pass
+refits, gains applied before additive outputs, selection steps that give up
+on candidates which cannot reach a pick's level, the faster forward solve;
+2 workers): top-ranked cause right for 99/100 = 99 % of the single-effect
+datasets (74/100 named strictly, 22 via the EI-confounded rule: 8
+axle_loads, 4 sensor_position, 5 rotational springs, 5
+dynamic_amplification), wrong once (two-span, load_dependent_stiffness
+named as dynamic_amplification, as before); false alarms 0/10; local
+damage blamed on an effect 0/10; held-out rms after the true effect within
+20 % of the noise floor in 100/100 (max 1.051 x noise); the out-of-library
+vibration unexplained with no cause named in 10/10; no dataset names a
+second cause (the three-span thermal drift + dynamic_amplification of the
+run before is gone with the output order).  CPU per dataset: median 1 s,
+max 4 s (whole seconds as the study prints them).
+Run before (2026-11-25, stepwise selection of commit d9f2947): the same
+99 %, 0/10, 0/10, 10/10; 70/100 strictly; CPU median 2.2 s, max 11.3 s.
 Previous run (2026-11-24, forward selection + swap): the same 99 %, 0/10,
 0/10, 10/10; CPU median 1.4 s, max 16.9 s.
 """
