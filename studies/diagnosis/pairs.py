@@ -33,6 +33,10 @@ products; one process per support effect on the 2-core machine), both named and 
   given a second effect an EI change absorbs it); lenient 34/45.
   All 90: 50/90 = 56 %; without the two-span rotational rows (an effect the layout cannot see
   alone): 49/75 = 65 %.
+  The limit (restraint_limit.py): the optimal test that knows the restraint's support and value
+  has non-centrality d^2 = 4.2-4.6 (two-span) and 2.9-7.7 (three-span) given a second effect:
+  power 0.19-0.59 at a naming level (one-sided 0.005), 0.52-0.88 at 0.05; single span d^2 > 400.
+  1/15 on each is about 0.1-0.2 of that oracle (which also knows where and how large).
   Misses: axle loads + spring 17/18 (8/9 with a settled bearing, 9/9 with a rotational restraint:
   the axle-load error is confounded with the EI level once the spring is in; reported as
   confounded); single-span position offsets + settled bearing seed 1 names an extra
