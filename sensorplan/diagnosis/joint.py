@@ -144,9 +144,14 @@ class JointProblem(WhitenedData):
                                                Vehicle.point_load(1.0), np.array([0.0, length]))
         ends = self._cache[key]
 
-        def spread(end_values, extra):  # end responses (S, 2, ...) times the ramped loads (K,)
-            return (end_values[:, 0:1] * before.reshape((1, -1) + (1,) * (end_values.ndim - 2))
-                    + end_values[:, 1:2] * after.reshape((1, -1) + (1,) * (end_values.ndim - 2)) + extra)
+        cols = np.nonzero((before != 0.0) | (after != 0.0))[0]  # the few positions on a ramp
+
+        def spread(end_values, extra):  # extra plus the end responses (S, 2, ...) times the ramped loads
+            shape = (1, -1) + (1,) * (end_values.ndim - 2)
+            out = extra.copy()
+            out[:, cols] += (end_values[:, 0:1] * before[cols].reshape(shape)
+                             + end_values[:, 1:2] * after[cols].reshape(shape))
+            return out
 
         return replace(lines, predictions=spread(ends.predictions, lines.predictions),
                        kernel=spread(ends.kernel, lines.kernel),

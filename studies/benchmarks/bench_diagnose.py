@@ -13,6 +13,7 @@ model) on two bridges of the size of issue 18,
   pairs   two withheld effects at once, as studies/diagnosis/pairs.py: the
           three-span bridge with 3 tiltmeters, its left bearing settled,
           plus each second effect, 12 crossings;
+  pairs6  the same with 6 tiltmeters from 0.1 L to 0.9 L;
 
 and effects (none, every library effect that applies to equal-load
 crossings, and the out-of-library vibration), the CPU time
@@ -44,17 +45,25 @@ Run: python studies/benchmarks/bench_diagnose.py [--quick]
 Last run (2026-11-26, after: a selection step's refits give up as soon as they cannot reach the
 level a pick needs; Gauss-Newton skipped on the remaining tau nodes of a fit once it has failed
 on one; the force method's reaction integrals as matrix products, its factorisation shared by
-calls at one EI; the pairs group added; CPU seconds, ratios from the same run, nothing else
-running):
-  small (11 datasets): diagnose median 1.43 s, max 3.57 s; ratio to invert median 6.8x, max 12.0x
-  three (11 datasets): diagnose median 3.42 s, max 7.72 s; ratio median 6.1x, max 8.9x
-  pairs (5 datasets): diagnose median 4.57 s, max 10.14 s; ratio median 9.1x, max 19.3x
-  (settled bearing + position offsets: 10.14 s against an invert of 0.53 s)
-  every dataset < 15 s CPU: met (max 10.14 s); ratio <= 20x: met (median 6.8x, max 19.3x).
+calls at one EI; the pairs groups added; CPU seconds, one BLAS thread, ratios from the same run,
+nothing else running):
+  small (11 datasets): diagnose median 1.76 s, max 4.20 s; ratio to invert median 7.9x, max 11.6x
+  three (11 datasets): diagnose median 2.97 s, max 7.43 s; ratio median 5.8x, max 8.4x
+  pairs (5 datasets): diagnose median 5.14 s, max 10.32 s; ratio median 6.5x, max 21.8x
+  (settled bearing + position offsets: 8.27 s against an invert of 0.38 s)
+  pairs6 (5 datasets): median 10.77 s, max 14.12 s; ratio median 12.1x, max 23.1x
+  (thermal drift 10.77 s against an invert of 0.47 s; position offsets 14.12 s, 19.3x)
+  every dataset < 15 s CPU: met (max 14.12 s); ratio <= 20x: NOT met (median 6.9x, max 23.1x).
+  The invert reference itself varies by up to 2x between runs on this shared machine (the pairs
+  position-offset dataset: 0.53 s in the run before, 0.38 s here), and the ratio with it.
+  Outside this benchmark, with six tiltmeters and 12 crossings (settled bearing + a second effect,
+  other seeds): single span + position offsets 27-34 s (three picks: an extra axle_loads, and 12
+  swap tests), three-span + position offsets 17-22 s, three-span + sensor gain 19 s; the other
+  12 of 15 such datasets 5-14 s.  So the 15 s limit is not met everywhere in the issue's range.
   Verdicts: the withheld effect named in 16 of 18 single-effect library datasets (not named: the
   three-span vertical spring, no significant gap once the case's elastic bearings are estimated;
-  the small-bridge axle loads, adequate, confounded with EI); both effects named in 5 of 5 pairs;
-  no cause on effect-free data; vibration unexplained.
+  the small-bridge axle loads, adequate, confounded with EI); both effects and nothing else named
+  in 10 of 10 pairs; no cause on effect-free data; vibration unexplained.
 Where the time goes now (the slowest pair dataset of studies/diagnosis/pairs.py, three-span,
 settled bearing + position offsets, 12 crossings, 11.0 s): base fit 0.6 s, screening of 9
 effects 2.0 s, selection step 2 (8 refits) 2.9 s, step 3 (7 refits) 1.0 s, swap tests 0.3 s,
@@ -122,13 +131,24 @@ def three_case():
 CASES = {"small": (small_case, 12), "three": (three_case, 6)}
 # two withheld effects at once (studies/diagnosis/pairs.py): the three-span bridge of that study (3 tiltmeters,
 # three axles, AR(1) noise, elastic interior bearings), its left bearing settled, 12 crossings, and each second
-# effect; position offsets with a settled bearing are the slowest datasets measured
-PAIRS = "pairs"
+# effect; position offsets with a settled bearing are the slowest datasets measured.  "pairs6": the same with
+# six tiltmeters evenly from 0.1 L to 0.9 L (the top of the issue's 2-6 sensor range)
+PAIRS = ("pairs", "pairs6")
+
+
+def _six(case):
+    length = case.bridge.length
+    std = float(case.noise.std[0])
+    names = [f"T{i + 1}" for i in range(6)]
+    sensors = sp.SensorLayout(np.linspace(0.1 * length, 0.9 * length, 6), "rotation", names, [std] * 6)
+    return case.with_sensors(sensors, sp.NoiseModel([std] * 6, case.noise.correlation_length))
 
 
 def _data(bridge, effect, seed):
-    if bridge == PAIRS:
+    if bridge in PAIRS:
         case = pairs.make_case("three-span")
+        if bridge == "pairs6":
+            case = _six(case)
         truth = pairs.settled(case, pairs.BRIDGES["three-span"])
         rng = np.random.SeedSequence((len(CASES), pairs.SECOND.index(effect), seed))
         return case, generate(truth, effect, rng, 12)
@@ -156,14 +176,15 @@ def main(argv=None):
     parser.add_argument("--quick", action="store_true", help="three datasets per bridge")
     args = parser.parse_args(argv)
     groups = {bridge: EFFECTS[:3] if args.quick else EFFECTS for bridge in CASES}
-    groups[PAIRS] = pairs.SECOND[:2] if args.quick else pairs.SECOND
+    for group in PAIRS:
+        groups[group] = pairs.SECOND[:2] if args.quick else pairs.SECOND
     rows = []
     print(f"{'bridge':6s} {'effect':26s} {'diagnose [s]':>12s} {'invert [s]':>10s} {'ratio':>6s}  verdict")
     for bridge, effects in groups.items():
         for effect in effects:
             t_diag, t_inv, verdict = run_one(bridge, effect, 0)
             rows.append((bridge, t_diag, t_inv))
-            label = f"spring + {effect}" if bridge == PAIRS else str(effect)
+            label = f"spring + {effect}" if bridge in PAIRS else str(effect)
             print(f"{bridge:6s} {label:26s} {t_diag:12.2f} {t_inv:10.2f} {t_diag / t_inv:6.1f}  {verdict[:70]}",
                   flush=True)
     for bridge in groups:
