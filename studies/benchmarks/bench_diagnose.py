@@ -136,19 +136,11 @@ CASES = {"small": (small_case, 12), "three": (three_case, 6)}
 PAIRS = ("pairs", "pairs6")
 
 
-def _six(case):
-    length = case.bridge.length
-    std = float(case.noise.std[0])
-    names = [f"T{i + 1}" for i in range(6)]
-    sensors = sp.SensorLayout(np.linspace(0.1 * length, 0.9 * length, 6), "rotation", names, [std] * 6)
-    return case.with_sensors(sensors, sp.NoiseModel([std] * 6, case.noise.correlation_length))
-
-
 def _data(bridge, effect, seed):
     if bridge in PAIRS:
         case = pairs.make_case("three-span")
         if bridge == "pairs6":
-            case = _six(case)
+            case = pairs.six_tiltmeters(case)
         truth = pairs.settled(case, pairs.BRIDGES["three-span"])
         rng = np.random.SeedSequence((len(CASES), pairs.SECOND.index(effect), seed))
         return case, generate(truth, effect, rng, 12)
