@@ -35,7 +35,10 @@ continued only while they may still reach the level a decision needs (the
 best candidate's evidence less ``bf_threshold``, and the current model's
 plus ``bf_threshold``).  A candidate that misses what the data show fits
 slowly (large residuals, curved valleys) and cannot be chosen: it is left
-*abandoned* (not converged, flagged) instead of costing 40 iterations.  The
+*abandoned* (not converged, flagged) instead of costing 40 iterations.  In a
+selection step (after the first pick) only a candidate that reaches the
+current model's evidence plus ``bf_threshold`` can matter, so there a fit
+gives up during its first pass as soon as it cannot reach that.  The
 backward and swap tests give up in the same way once their model cannot
 reach the evidence that would change the selection.
 

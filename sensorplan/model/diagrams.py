@@ -196,11 +196,8 @@ def weighted_products(edges, first, second, weights):
 def _add_weighted_atoms(out, edges, atoms, linear, weights, *, transpose):
     if atoms.atom_func.size == 0:
         return
-    e = atoms.atom_elem
-    c_left, c_right = _atom_linear_coefficients(edges[e], edges[e + 1], atoms.atom_pos, atoms.atom_kind)
-    # (n_atoms, linear.n_funcs): each atom times the other family's linear part on its element, weighted
-    vals = (atoms.atom_weight * weights[e])[:, None] * (c_left[:, None] * linear.left[:, e].T
-                                                        + c_right[:, None] * linear.right[:, e].T)
+    # each atom times the other family's linear part on its element, weighted by its element's weight
+    vals = weights[atoms.atom_elem][:, None] * _atoms_times_linear(edges, atoms, linear)
     if transpose:
         np.add.at(out.T, atoms.atom_func, vals)
     else:
@@ -211,15 +208,19 @@ def _add_atoms_times_linear(out, edges, atoms, linear, *, transpose):
     if atoms.atom_func.size == 0:
         return
     e = atoms.atom_elem
-    c_left, c_right = _atom_linear_coefficients(edges[e], edges[e + 1], atoms.atom_pos,
-                                                atoms.atom_kind)
-    # values (n_atoms, linear.n_funcs)
-    vals = atoms.atom_weight[:, None] * (c_left[:, None] * linear.left[:, e].T
-                                         + c_right[:, None] * linear.right[:, e].T)
+    vals = _atoms_times_linear(edges, atoms, linear)
     if transpose:
         np.add.at(out, (slice(None), atoms.atom_func, e), vals.T)
     else:
         np.add.at(out, (atoms.atom_func, slice(None), e), vals)
+
+
+def _atoms_times_linear(edges, atoms, linear):
+    """(n_atoms, linear.n_funcs): integral of each atom times each linear part over the atom's element."""
+    e = atoms.atom_elem
+    c_left, c_right = _atom_linear_coefficients(edges[e], edges[e + 1], atoms.atom_pos, atoms.atom_kind)
+    return atoms.atom_weight[:, None] * (c_left[:, None] * linear.left[:, e].T
+                                         + c_right[:, None] * linear.right[:, e].T)
 
 
 def _add_atom_pairs(out, edges, first, second):
