@@ -53,6 +53,30 @@ def test_effect_jacobian_equals_finite_differences(name):
             np.testing.assert_allclose(jac[:, :, k], fd, atol=2e-4 * scale, err_msg=problem.param_names[k])
 
 
+def test_vehicle_lines_summed_from_axle_lines_equal_the_vehicle_solve():
+    # with axle loads in the model, the lines come from unit point loads at every axle position; reference: the
+    # direct solve for the whole vehicle (a separate force-method call with every axle as one load case)
+    case = small_case()
+    data = simulate_crossings(case, 2, noise=True, rng=0)
+    effects = [make_effect("axle_loads"), make_effect("position_offset")]
+    problem = JointProblem(case, data, effects, GMRFPrior())
+    theta = problem.theta0 + 0.1 * np.random.default_rng(2).standard_normal(problem.n_params) * np.sqrt(
+        1.0 / np.diag(problem.fixed))
+    summed = problem.predict(theta, jacobian=True)
+    state = problem.initial_state()
+    for e, sl in zip(problem.effects, problem.slices):
+        e.apply(state, theta[sl])
+    problem._cache.clear()
+    for c, (y, _) in enumerate(summed):
+        direct = problem.lines(state, c)  # one vehicle solve (nothing cached)
+        np.testing.assert_allclose(y, direct.predictions * problem.load_factor(c)[None, :],
+                                   rtol=1e-12, atol=1e-12 * np.abs(y).max())
+    problem._cache.clear()
+    unsummed = problem.predict(theta, jacobian=False)
+    for (y, _), (y0, _) in zip(summed, unsummed):
+        np.testing.assert_allclose(y, y0, rtol=1e-12, atol=1e-12 * np.abs(y).max())
+
+
 @pytest.fixture(scope="module")
 def case():
     return example_case("openlab-like")
@@ -248,6 +272,18 @@ def test_moved_loads_roll_onto_an_elastic_end_bearing_continuously():
         return problem.predict(theta, jacobian=False)[0][0][:, k]
 
     on, off = rear_reading(1e-7), rear_reading(-1e-7)
+    assert np.all(np.abs(on - off) < 1e-5 * np.abs(on).max())
+    # and off the right end (an elastic bearing there too): the front axle leaves over the same ramp
+    front = min(case.vehicle.axle_offsets)
+    k = int(np.argmin(np.abs(recorded - front - (case.bridge.length - 1.0))))  # the front axle 1 m before L
+    leaving = recorded[k] - front - case.bridge.length  # the shift that puts it exactly on x = L
+
+    def front_reading(shift):
+        theta = problem.theta0.copy()
+        theta[sl.start] = -leaving + shift
+        return problem.predict(theta, jacobian=False)[0][0][:, k]
+
+    on, off = front_reading(-1e-7), front_reading(1e-7)
     assert np.all(np.abs(on - off) < 1e-5 * np.abs(on).max())
     # a point-load model jumps there by the bearing's response: the ramp is what removes it
     plain = JointProblem(case, data, [make_effect("vertical_support_spring")], GMRFPrior())

@@ -31,14 +31,11 @@ class Effect:
     log_prior_constant = 0.0  # log prior of the effect's discrete choices (added to the evidence)
     additive = False  # an output term added to the reading (applied after the multiplicative outputs)
     moves_loads = False  # moves the load positions (the lines then need a continuous entry onto the bridge)
+    needs_axle_lines = False  # the Jacobian needs each axle's response alone (JointProblem.axle_lines)
 
     def applicable(self, crossings):
         """Reason the effect cannot act on these data (None: it can)."""
         return
-
-    def positions_needed(self, state, c):
-        """Load positions of crossing ``c`` whose lines the Jacobian needs besides the current ones."""
-        return []
 
     def initial(self, ctx, predictions):
         """Start values from the base model's ``predictions`` per crossing (None: the prior mean)."""

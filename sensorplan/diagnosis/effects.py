@@ -189,16 +189,9 @@ class PositionOffset(Effect):
     def apply(self, state, phi):
         state.positions = [x + phi[c] + phi[-1] * x for c, x in enumerate(state.positions)]
 
-    def positions_needed(self, state, c):
-        return [state.positions[c] + _H]
-
     def structural_jacobian(self, ctx, state, phi, c, y):
-        # a forward difference (y: the lines at the positions themselves): one more set of load positions per
-        # Jacobian instead of two, a third of the cost of a fit with position offsets; its O(_H) error is
-        # ~1e-4 of the slope, below what the Gauss-Newton steps and the Laplace covariance need
-        x = state.positions[c]
-        up = ctx.lines(state, c, positions=x + _H).predictions
-        dydx = (up * ctx.load_factor(c)[None, :] - y) / _H
+        # exact: the slope of the piecewise-cubic lines in the load position (JointProblem.line_slopes)
+        dydx = ctx.line_slopes(state, c) * ctx.load_factor(c)[None, :]
         jac = np.zeros(y.shape + (self.n_params,))
         jac[:, :, c] = dydx
         recorded = ctx.crossings.crossings[c].positions
@@ -212,6 +205,7 @@ class AxleLoads(Effect):
     name = "axle_loads"
     structural = True
     in_case = True
+    needs_axle_lines = True
 
     def configure(self, ctx):
         n = ctx.case.vehicle.n_axles

@@ -12,13 +12,12 @@ row (with the crossing and load index of each row), from which the
 held-out folds are scored by exact rank updates of the linearised problem.
 """
 
-from dataclasses import replace
-
 import numpy as np
 
 from .._errors import ConfigError
 from ..inference.laplace import Linearisation, WhitenedData
-from ..model.forward import influence_lines
+from ..model.forward import InfluenceLines
+from ..model.interpolant import LineInterpolant
 from ..model.loads import Vehicle
 from ..model.sensors import SensorLayout
 from .effects import CaseSprings, State
@@ -32,6 +31,12 @@ def _smooth_step(s):
     """3 s^2 - 2 s^3 on [0, 1] (0 below, where u is on the bridge or beyond the ramp): C1, 0 at 0 and 1 at 1."""
     s = np.clip(s, 0.0, 1.0)
     return np.where((s > 0.0) & (s < 1.0), s * s * (3.0 - 2.0 * s), 0.0)
+
+
+def _smooth_step_slope(s):
+    """d/ds of :func:`_smooth_step` (0 outside the open ramp)."""
+    s = np.clip(s, 0.0, 1.0)
+    return np.where((s > 0.0) & (s < 1.0), 6.0 * s * (1.0 - s), 0.0)
 
 
 class JointProblem(WhitenedData):
@@ -54,7 +59,9 @@ class JointProblem(WhitenedData):
                 effects.insert(0, springs)
         self.effects = [e.configure(self) for e in effects]
         # loads moved by an effect enter the bridge over a short ramp (see _entry); else as point loads
-        self.entry = ENTRY if any(e.moves_loads for e in self.effects) else 0.0
+        self.entry_moves = any(e.moves_loads for e in self.effects)
+        self.entry = ENTRY if self.entry_moves else 0.0
+        self.axle_responses = any(e.needs_axle_lines for e in self.effects)
         self.log_prior_constant = float(sum(e.log_prior_constant for e in self.effects))
         self.n_elements = case.mesh.n_elements
         self.slices = []
@@ -93,21 +100,117 @@ class JointProblem(WhitenedData):
     def load_factor(self, c):
         return self.crossings.crossings[c].load_factor
 
+    def interpolant(self, state, scale, sensor_positions=None):
+        """The exact piecewise-cubic unit-load lines at the current EI (x exp(scale)), cached per EI and state."""
+        r = state.sensor_positions if sensor_positions is None else sensor_positions
+        key = ("interpolant", r.tobytes(), state.bridge, scale)
+        if key not in self._cache:
+            sensors = SensorLayout(r, self.sensors.kinds, self.sensors.names)
+            self._cache[key] = LineInterpolant(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors)
+        return self._cache[key]
+
+    def _axles(self, state):
+        return (np.asarray(self.case.vehicle.axle_offsets, float),
+                np.asarray(self.case.vehicle.axle_loads, float) * state.axle_factors)
+
     def lines(self, state, c, *, positions=None, sensor_positions=None):
+        """The vehicle's influence lines for crossing ``c`` (or at ``positions`` / ``sensor_positions``).
+
+        Sums of the unit-load lines of every axle, read off the exact
+        piecewise-cubic interpolant (:class:`~sensorplan.model.interpolant.LineInterpolant`):
+        one small force-method solve per EI serves every crossing, shifted
+        position and axle (the crossings' positions differ once an effect
+        moves them).
+        """
         x = state.positions[c] if positions is None else positions
         r = state.sensor_positions if sensor_positions is None else sensor_positions
         scale = float(state.ei_log_scale[c])
         key = (x.tobytes(), r.tobytes(), state.bridge, state.axle_factors.tobytes(), scale)
         if key not in self._cache:
-            sensors = SensorLayout(r, self.sensors.kinds, self.sensors.names)
-            vehicle = Vehicle(self.case.vehicle.axle_offsets,
-                              tuple(np.asarray(self.case.vehicle.axle_loads) * state.axle_factors))
-            lines = influence_lines(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors, vehicle, x)
-            self._cache[key] = self._entry(lines, state, r, scale, x)
+            if positions is None:  # every crossing at these sensor positions at once (sensor-position Jacobian)
+                self.prefetch(state, sensor_positions=r)
+            else:
+                self._fill(state, r, scale, {key: x})
         return self._cache[key]
 
-    def _entry(self, lines, state, r, scale, x, axles=None):
-        """``lines`` with each axle's entry onto the bridge spread over ``self.entry`` (with a load-moving effect).
+    def prefetch(self, state, jacobian=False, sensor_positions=None):
+        """The lines of every crossing, read off the interpolant in one sparse product per EI factor.
+
+        With ``jacobian``, also the slopes in the load position (effects that
+        move the loads) and each axle's own response (axle loads), from the
+        same interpolation weights.
+        """
+        r = state.sensor_positions if sensor_positions is None else sensor_positions
+        groups = {}
+        for c in range(self.n_crossings):
+            scale = float(state.ei_log_scale[c])
+            x = state.positions[c]
+            key = (x.tobytes(), r.tobytes(), state.bridge, state.axle_factors.tobytes(), scale)
+            missing = key not in self._cache or jacobian and (
+                (self.entry_moves and ("slope",) + key not in self._cache)
+                or (self.axle_responses and ("axle", x.tobytes(), 0, r.tobytes(), state.bridge, scale)
+                    not in self._cache))
+            if missing:
+                groups.setdefault(scale, {})[key] = x
+        for scale, items in groups.items():
+            self._fill(state, r, scale, items, jacobian)
+
+    def _fill(self, state, r, scale, items, jacobian=False):
+        """Cache the lines of every {key: positions} in ``items`` (one sparse product)."""
+        interpolant = self.interpolant(state, scale, r)
+        offsets, loads = self._axles(state)
+        every = np.concatenate(list(items.values()))
+        bases = [interpolant.basis(every - off) for off in offsets]
+        weights = interpolant.combine(bases, loads)
+        ramp = self._ramp(state, every, offsets, loads)
+        if ramp is not None:
+            weights = weights + interpolant.end_weights(*ramp)
+        predictions, kernel, spring_kernel = interpolant.lines(weights)
+        slopes, axles = None, []
+        if jacobian and self.entry_moves:
+            weights = interpolant.combine(bases, loads, derivative=True)
+            ramp = self._ramp(state, every, offsets, loads, derivative=True)
+            if ramp is not None:
+                weights = weights + interpolant.end_weights(*ramp)
+            slopes = interpolant.readings(weights)
+        if jacobian and self.axle_responses:
+            for a in range(offsets.size):
+                weights = interpolant.combine(bases[a:a + 1], (1.0,))
+                ramp = self._ramp(state, every, offsets[a:a + 1], np.ones(1))
+                if ramp is not None:
+                    weights = weights + interpolant.end_weights(*ramp)
+                axles.append(interpolant.readings(weights))
+        sensors = SensorLayout(r, self.sensors.kinds, self.sensors.names)
+        vehicle, ei, stiffness = self._vehicle(state), self._ei * np.exp(scale), state.bridge.spring_stiffness()
+        start = 0
+        for key, x in items.items():
+            sl = slice(start, start + x.size)
+            start += x.size
+            self._cache[key] = InfluenceLines(state.bridge, self.case.mesh, sensors, vehicle, x, ei, stiffness,
+                                              predictions[:, sl], kernel[:, sl], spring_kernel[:, sl])
+            if slopes is not None:
+                self._cache[("slope",) + key] = slopes[:, sl]
+            for a, unit in enumerate(axles):
+                self._cache[("axle", x.tobytes(), a, r.tobytes(), state.bridge, scale)] = unit[:, sl]
+
+    def line_slopes(self, state, c):
+        """d(vehicle lines)/d(load position) for crossing ``c`` (S, K): exact, from the interpolant."""
+        x = state.positions[c]
+        scale = float(state.ei_log_scale[c])
+        key = ("slope", x.tobytes(), state.sensor_positions.tobytes(), state.bridge, state.axle_factors.tobytes(),
+               scale)
+        if key not in self._cache:
+            interpolant = self.interpolant(state, scale)
+            offsets, loads = self._axles(state)
+            weights = interpolant.weights(x, offsets, loads, derivative=True)
+            ramp = self._ramp(state, x, offsets, loads, derivative=True)
+            if ramp is not None:
+                weights = weights + interpolant.end_weights(*ramp)
+            self._cache[key] = interpolant.readings(weights)
+        return self._cache[key]
+
+    def _ramp(self, state, x, offsets, loads, *, derivative=False):
+        """Each axle's entry onto the bridge spread over ``self.entry`` (with a load-moving effect).
 
         An axle within ``entry`` outside an end adds the response to its load
         at that end, scaled by a smooth step from 1 at the end to 0 at
@@ -118,93 +221,47 @@ class JointProblem(WhitenedData):
         that jump (line searches fail, Levenberg-Marquardt crawls: 20-30
         evaluations per tau node of a settled end bearing with position
         offsets).  The ramp makes the lines continuous in the positions.
-        ``axles``: (axle offsets, loads) (default: the vehicle's, with the
-        current axle factors).
+
+        Returns None (no axle on a ramp) or the weights (N,) of the responses
+        to a unit load at the left and at the right end -- or their
+        derivatives in x.
         """
         if not self.entry:
-            return lines
-        if axles is None:
-            axles = (self.case.vehicle.axle_offsets, np.asarray(self.case.vehicle.axle_loads) * state.axle_factors)
-        offsets, loads = np.asarray(axles[0], float), np.asarray(axles[1], float)
+            return None
         length = state.bridge.length
         u = x[None, :] - offsets[:, None]
-        before = loads @ _smooth_step(np.where(u < 0.0, 1.0 + u / self.entry, 0.0))
-        after = loads @ _smooth_step(np.where(u > length, 1.0 - (u - length) / self.entry, 0.0))
+        step = _smooth_step_slope if derivative else _smooth_step
+        rate = 1.0 / self.entry if derivative else 1.0  # d s / d x on the left ramp (minus that on the right)
+        before = loads @ step(np.where(u < 0.0, 1.0 + u / self.entry, 0.0)) * rate
+        after_rate = -rate if derivative else 1.0
+        after = loads @ step(np.where(u > length, 1.0 - (u - length) / self.entry, 0.0)) * after_rate
         vertical = state.bridge.vertical_springs
         if np.isinf(vertical[0]):  # a load on a rigid bearing moves nothing: no jump to spread
             before = np.zeros_like(before)
         if np.isinf(vertical[-1]):
             after = np.zeros_like(after)
         if not (before.any() or after.any()):
-            return lines
-        key = ("ends", r.tobytes(), state.bridge, scale)
-        if key not in self._cache:
-            sensors = SensorLayout(r, self.sensors.kinds, self.sensors.names)
-            self._cache[key] = influence_lines(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors,
-                                               Vehicle.point_load(1.0), np.array([0.0, length]))
-        ends = self._cache[key]
+            return None
+        return before, after
 
-        cols = np.nonzero((before != 0.0) | (after != 0.0))[0]  # the few positions on a ramp
-
-        def spread(end_values, extra):  # extra plus the end responses (S, 2, ...) times the ramped loads
-            shape = (1, -1) + (1,) * (end_values.ndim - 2)
-            out = extra.copy()
-            out[:, cols] += (end_values[:, 0:1] * before[cols].reshape(shape)
-                             + end_values[:, 1:2] * after[cols].reshape(shape))
-            return out
-
-        return replace(lines, predictions=spread(ends.predictions, lines.predictions),
-                       kernel=spread(ends.kernel, lines.kernel),
-                       spring_kernel=spread(ends.spring_kernel, lines.spring_kernel))
-
-    def prefetch(self, state, jacobian):
-        """Influence lines of every crossing (and the shifted positions effects ask for) in one solve.
-
-        One forward solve over all load positions at once instead of one per
-        crossing: the factorisation of the bridge is shared, which is most of
-        the cost when the crossings' positions differ (position effects).
-        """
-        groups = {}
-        for c in range(self.n_crossings):
-            wanted = [state.positions[c]]
-            if jacobian:
-                for e in self.effects:
-                    wanted += e.positions_needed(state, c)
-            scale = float(state.ei_log_scale[c])
-            for x in wanted:
-                key = (x.tobytes(), state.sensor_positions.tobytes(), state.bridge, state.axle_factors.tobytes(), scale)
-                if key not in self._cache:
-                    groups.setdefault(scale, {})[key] = x
-        for scale, items in groups.items():
-            if len(items) < 2:
-                continue
-            xs = list(items.values())
-            sensors = SensorLayout(state.sensor_positions, self.sensors.kinds, self.sensors.names)
-            vehicle = Vehicle(self.case.vehicle.axle_offsets,
-                              tuple(np.asarray(self.case.vehicle.axle_loads) * state.axle_factors))
-            every = np.concatenate(xs)
-            lines = self._entry(influence_lines(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors,
-                                                vehicle, every), state, state.sensor_positions, scale, every)
-            start = 0
-            for key, x in items.items():
-                sl = slice(start, start + x.size)
-                start += x.size
-                self._cache[key] = replace(lines, positions=x, predictions=lines.predictions[:, sl],
-                                           kernel=lines.kernel[:, sl], spring_kernel=lines.spring_kernel[:, sl])
+    def _vehicle(self, state):
+        return Vehicle(self.case.vehicle.axle_offsets,
+                       tuple(np.asarray(self.case.vehicle.axle_loads) * state.axle_factors))
 
     def axle_lines(self, state, c, axle):
         """Response to axle ``axle`` alone (with its current load), cached like :meth:`lines`."""
-        x = state.positions[c] - self.case.vehicle.axle_offsets[axle]
-        load = self.case.vehicle.axle_loads[axle] * state.axle_factors[axle]
+        x = state.positions[c]
         scale = float(state.ei_log_scale[c])
-        key = ("axle", x.tobytes(), state.sensor_positions.tobytes(), state.bridge, float(load), scale)
+        key = ("axle", x.tobytes(), axle, state.sensor_positions.tobytes(), state.bridge, scale)
         if key not in self._cache:
-            sensors = SensorLayout(state.sensor_positions, self.sensors.kinds, self.sensors.names)
-            lines = influence_lines(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors,
-                                    Vehicle.point_load(load), x)
-            self._cache[key] = self._entry(lines, state, state.sensor_positions, scale, x,
-                                           axles=((0.0,), (load,))).predictions
-        return self._cache[key]
+            interpolant = self.interpolant(state, scale)
+            offset = np.array([self.case.vehicle.axle_offsets[axle]], float)
+            weights = interpolant.weights(x, offset, np.ones(1))
+            ramp = self._ramp(state, x, offset, np.ones(1))
+            if ramp is not None:
+                weights = weights + interpolant.end_weights(*ramp)
+            self._cache[key] = interpolant.readings(weights)
+        return self._cache[key] * (self.case.vehicle.axle_loads[axle] * state.axle_factors[axle])
 
     # -- evaluation ------------------------------------------------------------------------
     def initial_state(self):

@@ -1,0 +1,133 @@
+"""Influence lines as exact piecewise-cubic functions of the load position.
+
+By reciprocity the reading of sensor r under a unit point load at x is the
+deflection at x caused by the sensor's unit action, and its element integrals
+int_j m_r M(s; x) ds are the deflections at x caused by the curvature m_r v
+imposed on element j alone.  Curvature is piecewise linear between the mesh
+edges and the sensor positions, so every one of these functions of x is a
+cubic between those breakpoints (and C1 across them): Hermite interpolation
+from the values and slopes at the breakpoints is exact.  The slope in x of
+the response to a point load is the response to a unit couple at x
+(d/dp of the ramp w (s - p)_+ is the step -w H(s - p)), so one force-method
+solve with a unit load and a unit couple at every breakpoint gives the lines
+at any load position -- and their derivative in it -- without a new solve.
+
+Used where load positions change from one evaluation to the next (a fitted
+position offset, each axle's response): the cost per EI is 2 x (breakpoints)
+load cases instead of (crossings x positions x axles).
+
+Owns: the interpolant.  May import: the force method and the foundations.
+"""
+
+import numpy as np
+import scipy.sparse
+
+from .diagrams import RAMP, STEP, element_products
+from .forward import _force_method, _sensor_actions, expand_ei
+
+__all__ = []
+
+_MERGE = 1e-9  # m: a sensor this close to a mesh edge shares its breakpoint
+
+
+def _hermite(t, h):
+    """Hermite basis (values) and its x-derivative at fractions ``t`` of intervals of length ``h``."""
+    t2, t3 = t * t, t * t * t
+    value = np.stack([2 * t3 - 3 * t2 + 1, (t3 - 2 * t2 + t) * h, -2 * t3 + 3 * t2, (t3 - t2) * h])
+    slope = np.stack([(6 * t2 - 6 * t) / h, 3 * t2 - 4 * t + 1, (-6 * t2 + 6 * t) / h, 3 * t2 - 2 * t])
+    return value, slope
+
+
+class LineInterpolant:
+    """Unit point-load lines of ``sensors`` on ``bridge`` at ``ei``, exact at any load position.
+
+    Parameters
+    ----------
+    bridge, mesh, ei, sensors
+        As for :func:`~sensorplan.model.forward.influence_lines`.
+
+    Notes
+    -----
+    :meth:`unit` returns what ``influence_lines`` returns for
+    ``Vehicle.point_load(1.0)`` (predictions, kernel, spring kernel) to
+    round-off; a load off the bridge gives zero.
+    """
+
+    def __init__(self, bridge, mesh, ei, sensors):
+        ei = expand_ei(bridge, mesh, ei)
+        method = _force_method(bridge, mesh, ei)
+        edges = mesh.edges
+        points = np.union1d(edges, sensors.positions)
+        keep = np.concatenate([[True], np.diff(points) > _MERGE])
+        points = points[keep]
+        points[-1] = edges[-1]
+        n = points.size
+        # a unit downward load (ramp of weight -1) and its derivative in position (step of weight +1)
+        where = np.concatenate([points, points])[:, None]
+        weights = np.concatenate([np.full(n, -1.0), np.full(n, 1.0)])[:, None]
+        kinds = np.concatenate([np.full(n, RAMP), np.full(n, STEP)])[:, None]
+        loads, load_reactions = method.solve(where, weights, kinds)
+        sensor_diagrams, sensor_reactions = method.solve(*_sensor_actions(sensors))
+        kernel = element_products(edges, sensor_diagrams, loads)  # (S, 2n, E)
+        springs = method.spring_unknown
+        self.bridge, self.length = bridge, float(bridge.length)
+        self.points = points
+        self.n_sensors, self.n_elements = kernel.shape[0], kernel.shape[2]
+        self.sensor_reactions = sensor_reactions[springs].T  # (S, n_springs)
+        predictions = kernel @ method.v + np.einsum("ur,u,uk->rk", sensor_reactions, method.compliance,
+                                                   load_reactions)
+        # tables over [values at the breakpoints, slopes at the breakpoints] (2n rows), read by weights()
+        self._predictions = np.ascontiguousarray(predictions.T)  # (2n, S)
+        self._kernel = np.ascontiguousarray(kernel.transpose(1, 0, 2)).reshape(2 * n, -1)  # (2n, S E)
+        self._reactions = np.ascontiguousarray(load_reactions[springs].T)  # (2n, n_springs)
+
+    def weights(self, x, offsets=(0.0,), loads=(1.0,), *, derivative=False):
+        """Sparse (N, 2n) map from the tables to a vehicle at reference positions ``x`` (or its x-derivative).
+
+        ``offsets``, ``loads``: the axles (behind the reference axle, and their
+        loads); an axle off the bridge contributes nothing.
+        """
+        x = np.asarray(x, dtype=float)
+        return self.combine([self.basis(x - offset) for offset in offsets], loads, derivative=derivative)
+
+    def combine(self, bases, loads, *, derivative=False):
+        """:meth:`weights` from the :meth:`basis` of each axle's positions (shared by several combinations)."""
+        n = self.points.size
+        count = bases[0][0].size
+        rows = np.tile(np.arange(count), 4 * len(bases))
+        cols = np.concatenate([np.concatenate([i, n + i, i + 1, n + i + 1]) for i, _, _ in bases])
+        vals = np.concatenate([load * (slope if derivative else value).ravel()
+                               for (_, value, slope), load in zip(bases, loads)])
+        return scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(count, 2 * n))
+
+    def end_weights(self, before, after):
+        """Sparse (N, 2n) weights of the responses to a unit load at x = 0 and x = L."""
+        n = self.points.size
+        rows = np.concatenate([np.arange(before.size)] * 2)
+        cols = np.concatenate([np.zeros(before.size, int), np.full(after.size, n - 1)])
+        return scipy.sparse.csr_matrix((np.concatenate([before, after]), (rows, cols)), shape=(before.size, 2 * n))
+
+    def readings(self, weights):
+        """Readings (S, N) of the loads described by ``weights``."""
+        return np.asarray(weights @ self._predictions).T
+
+    def lines(self, weights):
+        """(predictions (S, N), kernel (S, N, E), spring kernel (S, N, n_springs)) of ``weights``."""
+        count = weights.shape[0]
+        kernel = np.asarray(weights @ self._kernel).reshape(count, self.n_sensors, self.n_elements)
+        reactions = np.asarray(weights @ self._reactions)  # (N, n_springs)
+        return (self.readings(weights), kernel.transpose(1, 0, 2),
+                self.sensor_reactions[:, None, :] * reactions[None, :, :])
+
+    def basis(self, x):
+        """Interval index, Hermite weights (4, N) and their x-derivatives at load positions ``x`` (0 off the bridge)."""
+        on = (x >= 0.0) & (x <= self.length)
+        i = np.clip(np.searchsorted(self.points, x, side="right") - 1, 0, self.points.size - 2)
+        h = self.points[i + 1] - self.points[i]
+        t = np.clip((x - self.points[i]) / h, 0.0, 1.0)
+        value, slope = _hermite(t, h)
+        return i, value * on, slope * on
+
+    def unit(self, x):
+        """(predictions, kernel, spring kernel) of a unit point load at each of ``x``."""
+        return self.lines(self.weights(x))

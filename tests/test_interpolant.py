@@ -1,0 +1,63 @@
+"""The piecewise-cubic line interpolant against the independent FE solve, the force method and differences."""
+import sys, pathlib
+sys.path.insert(0, str(pathlib.Path(__file__).parent))
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import sensorplan as sp
+from fe_reference import fe_response
+from sensorplan.model.interpolant import LineInterpolant
+from test_forward import _clear_of, _off_edges, random_bridges
+
+
+def _setup(geometry, seed):
+    spans, rot, vert = geometry
+    rng = np.random.default_rng(seed)
+    bridge = sp.Bridge(spans, rot, vert)
+    mesh = sp.Mesh.uniform(bridge, int(rng.integers(bridge.n_spans, 4 * bridge.n_spans + 8)))
+    ei = rng.uniform(1e9, 3e10, mesh.n_elements)
+    sensors = sp.SensorLayout(_off_edges(rng.uniform(0, bridge.length, 4), mesh.edges),
+                              [str(k) for k in rng.choice(["rotation", "deflection"], 4)])
+    return rng, bridge, mesh, ei, sensors
+
+
+@settings(max_examples=60, deadline=None)
+@given(random_bridges(), st.integers(0, 2**32 - 1))
+def test_unit_lines_match_the_independent_fe_solve(geometry, seed):
+    # reference: tests/fe_reference.py (Hermite beam elements refined around every load and sensor; shares no
+    # code with the force method or the interpolant)
+    rng, bridge, mesh, ei, sensors = _setup(geometry, seed)
+    nodes = np.concatenate([mesh.edges, sensors.positions])
+    x = np.array([_clear_of(z, np.zeros(1), nodes) for z in rng.uniform(0.0, bridge.length - 2.1, 5)])
+    predictions, _, _ = LineInterpolant(bridge, mesh, ei, sensors).unit(x)
+    ref = np.column_stack([fe_response(geometry[0], mesh.edges, ei, geometry[1], geometry[2], [(z, 1.0)],
+                                       list(zip(sensors.positions, sensors.kinds))) for z in x])
+    scale = max(np.abs(ref).max(), bridge.length**2 / ei.max())
+    np.testing.assert_allclose(predictions, ref, rtol=0, atol=1e-9 * scale)
+
+
+@settings(max_examples=60, deadline=None)
+@given(random_bridges(), st.integers(0, 2**32 - 1))
+def test_lines_kernels_and_slopes_equal_the_force_method(geometry, seed):
+    # reference: influence_lines (one force-method solve per load position; matches the FE solve above) at
+    # arbitrary positions, on element edges, on the sensors and off the bridge; the x-derivative against
+    # central differences of it (exact for the cubic pieces up to h^2 w''' / 6)
+    rng, bridge, mesh, ei, sensors = _setup(geometry, seed)
+    length = bridge.length
+    x = np.concatenate([rng.uniform(-2.0, length + 2.0, 30), mesh.edges, sensors.positions, [0.0, length]])
+    interpolant = LineInterpolant(bridge, mesh, ei, sensors)
+    vehicle = sp.Vehicle((0.0, 1.7), (6e4, 4e4))
+    got = interpolant.lines(interpolant.weights(x, vehicle.axle_offsets, vehicle.axle_loads))
+    ref = sp.influence_lines(bridge, mesh, ei, sensors, vehicle, x)
+    for mine, theirs in zip(got, (ref.predictions, ref.kernel, ref.spring_kernel)):
+        np.testing.assert_allclose(mine, theirs, rtol=0, atol=1e-11 * np.abs(theirs).max(initial=1e-300))
+    nodes = np.concatenate([mesh.edges, sensors.positions, mesh.edges + 1.7])
+    h = 1e-4
+    z = np.array([_clear_of(zk, np.zeros(1), nodes) for zk in rng.uniform(0.1, length - 2.2, 10)])
+    fd = (sp.influence_lines(bridge, mesh, ei, sensors, vehicle, z + h).predictions
+          - sp.influence_lines(bridge, mesh, ei, sensors, vehicle, z - h).predictions) / (2 * h)
+    slopes = interpolant.readings(interpolant.weights(z, vehicle.axle_offsets, vehicle.axle_loads,
+                                                      derivative=True))
+    np.testing.assert_allclose(slopes, fd, rtol=0, atol=1e-6 * np.abs(fd).max())
