@@ -4,8 +4,9 @@ Each effect owns a block of parameters phi with an independent Gaussian
 prior (mean, std), changes the model state (bridge springs, sensor or load
 positions, axle loads) or the outputs (offsets, drift, amplification), and
 returns the exact derivative of the predictions with respect to its
-parameters (position derivatives by a central difference of the exact
-influence lines in the position, step 1e-4 m).
+parameters (sensor-position derivatives by a central difference of the
+exact influence lines, step 1e-4 m; load-position derivatives exact, from
+the piecewise-cubic lines of ``JointProblem.line_slopes``).
 
 State passed around (one per parameter vector):
   bridge, sensor_positions (S,), positions (list per crossing),

@@ -312,8 +312,16 @@ class JointProblem(WhitenedData):
             return None
 
     def evaluate(self, theta, *, jacobian=True):
-        key = theta.tobytes()
-        if self._last is not None and self._last[0] == key and (self._last[1].jtj is not None or not jacobian):
+        """Residual sum of squares, J^T J and J^T r of the whitened problem at ``theta`` (None: out of domain).
+
+        A crossing's Jacobian is zero in the columns of the other crossings'
+        own parameters (offsets, drift, shifts, amplification): its J^T J is
+        formed on its non-zero columns only (with per-crossing drift on six
+        sensors that is a quarter of the columns).
+        """
+        theta_key = theta.tobytes()
+        if (self._last is not None and self._last[0] == theta_key
+                and (self._last[1].jtj is not None or not jacobian)):
             return self._last[1]
         preds = self._safe_predict(theta, jacobian)
         if preds is None:
@@ -332,15 +340,17 @@ class JointProblem(WhitenedData):
             if jacobian:
                 key = x.tobytes() + m.tobytes()
                 if key in shared and np.array_equal(shared[key][0], jac):
-                    _, wj, block = shared[key]
+                    _, cols, wj, block = shared[key]
                 else:
-                    wj = self.noise.whiten(jac[:, m], x).reshape(-1, self.n_params)
+                    rows = jac[:, m]
+                    cols = np.flatnonzero(np.any(rows != 0.0, axis=(0, 1)))
+                    wj = self.noise.whiten(rows[:, :, cols], x).reshape(-1, cols.size)
                     block = wj.T @ wj
-                    shared[key] = (jac, wj, block)
-                jtj += block
-                jtr += wj.T @ r
+                    shared[key] = (jac, cols, wj, block)
+                jtj[np.ix_(cols, cols)] += block
+                jtr[cols] += wj.T @ r
         out = Linearisation(rr, jtj, jtr)
-        self._last = (key, out)
+        self._last = (theta_key, out)
         return out
 
     def rows(self, theta):
