@@ -72,6 +72,7 @@ class _Context:
     # Nodes differ only in tau: once Gauss-Newton has failed on one (a model too nonlinear for its
     # steps), the others go straight to the fallback instead of spending the budget again.
     gauss_newton_failed: list = field(default_factory=list)
+    atol: float = 0.0  # the fallback's absolute Newton-decrement tolerance (solve_map's atol)
 
 
 class _Surrogate:
@@ -205,7 +206,8 @@ def _gauss_newton(ctx, x, lin, log_tau, v, max_iter):
 def _levenberg_marquardt(ctx, theta, log_tau, v, *, max_iter, tol, n_iter):
     """The node by the safeguarded MAP of :func:`solve_map` from ``theta``, then one surrogate step for alpha."""
     q = math.exp(log_tau) * ctx.rough + ctx.fixed
-    theta, lin, it, ok = solve_map(ctx.problem, theta, math.exp(v), q, ctx.theta0, max_iter=max_iter, tol=tol)
+    theta, lin, it, ok = solve_map(ctx.problem, theta, math.exp(v), q, ctx.theta0, max_iter=max_iter, tol=tol,
+                                   atol=ctx.atol)
     here = _Surrogate(lin, theta, ctx)
     sl = here.at(log_tau)
     v = sl.best_v(v)
@@ -336,22 +338,23 @@ def _march(ctx, centre, step, *, max_iter, tol):
 
 
 def integrate_problem(problem, rough, fixed, theta0, hyperprior, *, noise_scale=1.0, tau=1.0, start=None,
-                      max_iter=100, tol=1e-10, gauss_newton_max_iter=None):
+                      max_iter=100, tol=1e-10, gauss_newton_max_iter=None, atol=0.0):
     """Posterior mixture over log tau (alpha integrated by Laplace) of any problem with ``evaluate``.
 
     ``hyperprior`` provides ``log_density_log_tau``, ``log_density_log_noise``
     and ``noise_log_std``; ``noise_scale`` and ``tau`` are start values.
     ``gauss_newton_max_iter`` caps the Gauss-Newton evaluations of a node
-    before the Levenberg-Marquardt fallback (default ``max_iter``).
+    before the Levenberg-Marquardt fallback (default ``max_iter``); ``tol``
+    and ``atol`` are the fallback's tolerances (:func:`solve_map`).
     """
     ctx = _Context(problem, rough, fixed, theta0, hyperprior, problem.n_data,
                    -0.5 * problem.log_det_noise - 0.5 * problem.n_data * math.log(2.0 * math.pi),
-                   gauss_newton_max_iter)
+                   gauss_newton_max_iter, atol=atol)
     theta = theta0.copy() if start is None else np.asarray(start, dtype=float).copy()
     log_tau = min(max(math.log(tau), LOG_TAU_BOUNDS[0]), LOG_TAU_BOUNDS[1])
     v = math.log(noise_scale)
     first = _start_node(ctx, theta, log_tau, v, max_iter=max_iter, tol=tol)
-    n_iter, converged = first.n_iter, first.converged
+    n_iter = first.n_iter
     surrogate, v = first.surrogate, first.v
     centre = None
     for _ in range(8):
@@ -384,5 +387,9 @@ def integrate_problem(problem, rough, fixed, theta0, hyperprior, *, noise_scale=
         if denom < 0.0:
             log_tau_mode += 0.5 * step * (a - c) / denom
     log_evidence = float(log_w.max() + math.log(np.sum(np.exp(log_w - log_w.max())) * step))
+    # converged: every node of the mixture.  The start node only seeds the search for the mode (it is far
+    # from it when the start tau is: a gapped base fit crawled there at the prior's tau while the mixture sat
+    # three orders lower, and the whole diagnosis was flagged)
+    converged = all(n.converged for n in ordered)
     return IntegratedFit(mixture, log_tau_mode, math.exp(v_mode), log_evidence, mass_at_bound, step,
-                         bool(converged and all(n.converged for n in ordered)), int(n_iter))
+                         bool(converged), int(n_iter))

@@ -66,9 +66,11 @@ class Linearisation:
 
 
 
-def solve_map(problem, theta, alpha, q, theta0, *, max_iter, tol, stop=None):
+def solve_map(problem, theta, alpha, q, theta0, *, max_iter, tol, stop=None, atol=0.0):
     """Levenberg-Marquardt MAP; returns theta, linearisation, iterations, converged.
 
+    Converged when the Newton decrement is below ``tol`` times the objective
+    or below ``atol`` (log-density units), or the objective stops falling.
     ``stop(theta, lin)``, if given, is asked after every accepted step whether
     to give up (the fit is then returned as not converged).
     """
@@ -113,7 +115,8 @@ def solve_map(problem, theta, alpha, q, theta0, *, max_iter, tol, stop=None):
         lin = problem.evaluate(theta)
         mu = mu / 3.0 if mu > 1e-8 else 0.0
         newton_decrement = float(-step @ grad)
-        if newton_decrement < tol * max(1.0, abs(obj)) or decrease <= tol * 1e-3 * max(1.0, abs(obj)):
+        if (newton_decrement < max(tol * max(1.0, abs(obj)), atol)
+                or decrease <= tol * 1e-3 * max(1.0, abs(obj))):
             converged = True
             break
         if stop is not None and lin is not None and stop(theta, lin):
