@@ -42,7 +42,30 @@ four held-out folds and in every selection round.
 
 Run: python studies/benchmarks/bench_diagnose.py [--quick]
 
-Last run (2026-11-26, after: a selection step's refits give up as soon as they cannot reach the
+Last run (2026-11-26, after: influence lines read off an exact piecewise-cubic table in the load
+position (one force-method solve per EI for a unit load and a unit couple at every mesh edge and
+sensor, instead of a solve at every shifted position and per axle; exact position slopes); each
+crossing's J^T J on its non-zero columns; the refits' absolute convergence floor; CPU seconds,
+one BLAS thread, ratios from the same run, pairs.py --six running on the other core):
+  small (11 datasets): diagnose median 1.52 s, max 5.19 s; ratio to invert median 7.5x, max 15.8x
+  three (11 datasets): diagnose median 4.03 s, max 8.75 s; ratio median 6.3x, max 8.5x
+  pairs (5 datasets): diagnose median 4.35 s, max 9.99 s; ratio median 6.3x, max 16.8x
+  pairs6 (5 datasets): median 7.65 s, max 10.84 s; ratio median 15.0x, max 18.2x
+  every dataset < 15 s CPU: met (max 10.84 s); ratio <= 20x: met (median 7.4x, max 18.2x).
+  A run on the idle machine right after the interpolant alone: pairs6 max 11.83 s, ratio max
+  21.9x (thermal drift: 9.39 s against an invert of 0.43 s); the column-sparse normal equations
+  took that dataset to 7.65 s.  Verdicts: the same as in the run below.
+  Outside this benchmark (six tiltmeters, 12 crossings, settled bearing + a second effect): the
+  single-span position-offset dataset that took 27-34 s takes 14.3 s, three-span position offsets
+  17-22 s -> 9.6 s, three-span thermal drift 12.9 -> 9.0 s.  The slowest pair datasets are now
+  the sign-flipped sensors with six tiltmeters and 12 crossings (studies/diagnosis/pairs.py
+  --six: 13.9-18.0 s depending on what else runs), where invert itself takes 1.5-9.5 s.
+Where the time goes now (cProfile, pairs.py --six, three-span restraint + sensor gain, 12
+crossings, 22 s under the profiler): 1357 evaluations; forming and whitening the Jacobians
+(AR(1) noise) and their normal equations 7 s, the predictions and the Jacobian blocks 5 s, the
+forward model itself (the interpolant table, ~2 ms per EI) 2 s; the screening's refits 9 s, the
+selection 7 s (swap tests 4.8 s), the two integrated fits 6.5 s.
+Run before (2026-11-26, after: a selection step's refits give up as soon as they cannot reach the
 level a pick needs; Gauss-Newton skipped on the remaining tau nodes of a fit once it has failed
 on one; the force method's reaction integrals as matrix products, its factorisation shared by
 calls at one EI; the pairs groups added; CPU seconds, one BLAS thread, ratios from the same run,

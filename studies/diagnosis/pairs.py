@@ -22,7 +22,18 @@ gap.
 
 Run: python studies/diagnosis/pairs.py [--seeds N] [--first ...] [--bridges ...] [--six]
 
-Last run (2026-11-26: log gain with a discrete sign, two-pass refits, selection steps that give
+Last run (2026-11-26, after the piecewise-cubic lines (no new solve for shifted loads or single
+axles), the column-sparse normal equations and the absolute convergence floor of the refits; the
+two runs side by side with the test suite and the benchmark on the 2-core machine): the same
+verdicts as the run below except one: single-span restraint + axle loads seed 2 (12 crossings)
+now names the restraint (its refit, log BF 789, crawled at decrements of 0.05-0.005 and was
+dropped as not converged; the verdict was "unexplained") and reports the axle loads confounded
+with EI.  Case layouts: 50/90 = 56 % (vertical 36/45, rotational 14/45), lenient 79/90; CPU
+median 3.7 s, max 10.7 s, 0/90 above 15 s (was max 13.8 s).  --six: 68/90 = 76 % (37/45,
+31/45), lenient 86/90; CPU median 7.5 s, max 18.0 s, 2/90 above 15 s (two-span settled bearing
++ sensor gain, 12 crossings, 16.2 s; three-span restraint + sensor gain, 12 crossings, 18.0 s;
+the same two took 13.9 s and 14.8 s in a run beside one other job instead of two).
+Run before (2026-11-26: log gain with a discrete sign, two-pass refits, selection steps that give
 up on a candidate as soon as it cannot reach the level a pick needs, Gauss-Newton skipped on the
 remaining tau nodes once it has failed on one, the forward solve's reaction integrals as matrix
 products; one process per support effect on the 2-core machine), both named and nothing else:
