@@ -284,6 +284,7 @@ class JointProblem(WhitenedData):
                 e.apply(state, theta[sl])
         self.prefetch(state, jacobian)
         out = []
+        log_ei_jacobians = {}  # per lines object: crossings at the same positions share it
         for c in range(self.n_crossings):
             lines = self.lines(state, c)
             lf = self.load_factor(c)
@@ -291,7 +292,9 @@ class JointProblem(WhitenedData):
             jac = None
             if jacobian:
                 jac = np.zeros(y.shape + (self.n_params,))
-                jac[:, :, :self.n_elements] = lines.jacobian("log_ei") * lf[None, :, None]
+                if id(lines) not in log_ei_jacobians:
+                    log_ei_jacobians[id(lines)] = lines.jacobian("log_ei")
+                jac[:, :, :self.n_elements] = log_ei_jacobians[id(lines)] * lf[None, :, None]
                 for e, sl in zip(self.effects, self.slices):
                     if e.structural:
                         jac[:, :, sl] = e.structural_jacobian(self, state, theta[sl], c, y)
@@ -329,13 +332,25 @@ class JointProblem(WhitenedData):
         rr = 0.0
         jtj = np.zeros((self.n_params, self.n_params)) if jacobian else None
         jtr = np.zeros(self.n_params) if jacobian else None
+        # the predictions of crossings with the same rows are whitened together (one call instead of one each)
+        groups = {}
+        for c in range(len(preds)):
+            m = self.masks[c]
+            if m.any():
+                groups.setdefault(self.crossings[c].positions[m].tobytes() + m.tobytes(), []).append(c)
+        white = {}
+        for members in groups.values():
+            m = self.masks[members[0]]
+            stacked = self.noise.whiten(np.stack([preds[c][0][:, m] for c in members]),
+                                        self.crossings[members[0]].positions[m], sensor_axis=1)
+            white.update(zip(members, stacked))
         shared = {}  # crossings with the same rows and Jacobian share J^T J (the base model, output-free effects)
         for c, (y, jac) in enumerate(preds):
             m = self.masks[c]
             if not m.any():
                 continue
             x = self.crossings[c].positions[m]
-            r = (self.white_data[c] - self.noise.whiten(y[:, m], x)).ravel()
+            r = (self.white_data[c] - white[c]).ravel()
             rr += float(r @ r)
             if jacobian:
                 key = x.tobytes() + m.tobytes()
