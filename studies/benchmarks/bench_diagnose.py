@@ -42,7 +42,14 @@ four held-out folds and in every selection round.
 
 Run: python studies/benchmarks/bench_diagnose.py [--quick]
 
-Last run (2026-11-26, after: influence lines read off an exact piecewise-cubic table in the load
+Last run (2026-11-26, final code of the day: also the predictions of all crossings at the same
+positions whitened in one call; idle machine, CPU seconds, one BLAS thread):
+  small median 1.18 s, max 3.83 s, ratio median 7.0x, max 10.4x; three median 3.79 s, max
+  8.19 s, ratio max 8.1x; pairs median 4.13 s, max 7.74 s, ratio max 13.8x; pairs6 median
+  6.18 s, max 8.63 s, ratio max 16.4x (position offsets: 7.36 s against an invert of 0.45 s).
+  Every dataset < 15 s: met (max 8.63 s); ratio <= 20x: met (median 7.0x, max 16.4x).
+  Verdicts: the same as in the runs below.
+Run before (2026-11-26, after: influence lines read off an exact piecewise-cubic table in the load
 position (one force-method solve per EI for a unit load and a unit couple at every mesh edge and
 sensor, instead of a solve at every shifted position and per axle; exact position slopes); each
 crossing's J^T J on its non-zero columns; the refits' absolute convergence floor; CPU seconds,
