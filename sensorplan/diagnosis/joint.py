@@ -39,6 +39,11 @@ def _smooth_step_slope(s):
     return np.where((s > 0.0) & (s < 1.0), 6.0 * s * (1.0 - s), 0.0)
 
 
+def _axle_key(state, x, axle, r, scale):
+    """Cache key of one axle's unit-load response (independent of the axle loads)."""
+    return ("axle", x.tobytes(), axle, r.tobytes(), state.bridge, scale)
+
+
 class JointProblem(WhitenedData):
     """The case's model extended by ``effects``, fitted jointly with log EI (rows in ``masks``)."""
 
@@ -125,7 +130,7 @@ class JointProblem(WhitenedData):
         x = state.positions[c] if positions is None else positions
         r = state.sensor_positions if sensor_positions is None else sensor_positions
         scale = float(state.ei_log_scale[c])
-        key = (x.tobytes(), r.tobytes(), state.bridge, state.axle_factors.tobytes(), scale)
+        key = self._lines_key(state, x, r, scale)
         if key not in self._cache:
             if positions is None:  # every crossing at these sensor positions at once (sensor-position Jacobian)
                 self.prefetch(state, sensor_positions=r)
@@ -145,41 +150,35 @@ class JointProblem(WhitenedData):
         for c in range(self.n_crossings):
             scale = float(state.ei_log_scale[c])
             x = state.positions[c]
-            key = (x.tobytes(), r.tobytes(), state.bridge, state.axle_factors.tobytes(), scale)
+            key = self._lines_key(state, x, r, scale)
             missing = key not in self._cache or jacobian and (
                 (self.entry_moves and ("slope",) + key not in self._cache)
-                or (self.axle_responses and ("axle", x.tobytes(), 0, r.tobytes(), state.bridge, scale)
-                    not in self._cache))
+                or (self.axle_responses and _axle_key(state, x, 0, r, scale) not in self._cache))
             if missing:
                 groups.setdefault(scale, {})[key] = x
         for scale, items in groups.items():
             self._fill(state, r, scale, items, jacobian)
 
     def _fill(self, state, r, scale, items, jacobian=False):
-        """Cache the lines of every {key: positions} in ``items`` (one sparse product)."""
+        """Cache the lines of every {key: positions} in ``items`` (one sparse product).
+
+        With ``jacobian``, also their slopes in the load position (when an
+        effect moves the loads) and each axle's own response (axle loads).
+        """
         interpolant = self.interpolant(state, scale, r)
         offsets, loads = self._axles(state)
         every = np.concatenate(list(items.values()))
         bases = [interpolant.basis(every - off) for off in offsets]
-        weights = interpolant.combine(bases, loads)
-        ramp = self._ramp(state, every, offsets, loads)
-        if ramp is not None:
-            weights = weights + interpolant.end_weights(*ramp)
-        predictions, kernel, spring_kernel = interpolant.lines(weights)
+        predictions, kernel, spring_kernel = interpolant.lines(
+            self._weights(interpolant, state, every, bases, offsets, loads))
         slopes, axles = None, []
         if jacobian and self.entry_moves:
-            weights = interpolant.combine(bases, loads, derivative=True)
-            ramp = self._ramp(state, every, offsets, loads, derivative=True)
-            if ramp is not None:
-                weights = weights + interpolant.end_weights(*ramp)
-            slopes = interpolant.readings(weights)
+            slopes = interpolant.readings(self._weights(interpolant, state, every, bases, offsets, loads,
+                                                        derivative=True))
         if jacobian and self.axle_responses:
-            for a in range(offsets.size):
-                weights = interpolant.combine(bases[a:a + 1], (1.0,))
-                ramp = self._ramp(state, every, offsets[a:a + 1], np.ones(1))
-                if ramp is not None:
-                    weights = weights + interpolant.end_weights(*ramp)
-                axles.append(interpolant.readings(weights))
+            axles = [interpolant.readings(self._weights(interpolant, state, every, bases[a:a + 1],
+                                                        offsets[a:a + 1], np.ones(1)))
+                     for a in range(offsets.size)]
         sensors = SensorLayout(r, self.sensors.kinds, self.sensors.names)
         vehicle, ei, stiffness = self._vehicle(state), self._ei * np.exp(scale), state.bridge.spring_stiffness()
         start = 0
@@ -191,23 +190,24 @@ class JointProblem(WhitenedData):
             if slopes is not None:
                 self._cache[("slope",) + key] = slopes[:, sl]
             for a, unit in enumerate(axles):
-                self._cache[("axle", x.tobytes(), a, r.tobytes(), state.bridge, scale)] = unit[:, sl]
+                self._cache[_axle_key(state, x, a, r, scale)] = unit[:, sl]
+
+    def _weights(self, interpolant, state, x, bases, offsets, loads, derivative=False):
+        """Interpolation weights of the axles (``bases`` at ``x`` - offsets), with the entry ramps added."""
+        weights = interpolant.combine(bases, loads, derivative=derivative)
+        ramp = self._ramp(state, x, offsets, loads, derivative=derivative)
+        return weights if ramp is None else weights + interpolant.end_weights(*ramp)
+
+    def _lines_key(self, state, x, r, scale):
+        return (x.tobytes(), r.tobytes(), state.bridge, state.axle_factors.tobytes(), scale)
 
     def line_slopes(self, state, c):
         """d(vehicle lines)/d(load position) for crossing ``c`` (S, K): exact, from the interpolant."""
-        x = state.positions[c]
-        scale = float(state.ei_log_scale[c])
-        key = ("slope", x.tobytes(), state.sensor_positions.tobytes(), state.bridge, state.axle_factors.tobytes(),
-               scale)
-        if key not in self._cache:
-            interpolant = self.interpolant(state, scale)
-            offsets, loads = self._axles(state)
-            weights = interpolant.weights(x, offsets, loads, derivative=True)
-            ramp = self._ramp(state, x, offsets, loads, derivative=True)
-            if ramp is not None:
-                weights = weights + interpolant.end_weights(*ramp)
-            self._cache[key] = interpolant.readings(weights)
-        return self._cache[key]
+        x, r, scale = state.positions[c], state.sensor_positions, float(state.ei_log_scale[c])
+        key = self._lines_key(state, x, r, scale)
+        if ("slope",) + key not in self._cache:
+            self._fill(state, r, scale, {key: x}, jacobian=True)
+        return self._cache[("slope",) + key]
 
     def _ramp(self, state, x, offsets, loads, *, derivative=False):
         """Each axle's entry onto the bridge spread over ``self.entry`` (with a load-moving effect).
@@ -250,17 +250,10 @@ class JointProblem(WhitenedData):
 
     def axle_lines(self, state, c, axle):
         """Response to axle ``axle`` alone (with its current load), cached like :meth:`lines`."""
-        x = state.positions[c]
-        scale = float(state.ei_log_scale[c])
-        key = ("axle", x.tobytes(), axle, state.sensor_positions.tobytes(), state.bridge, scale)
+        x, r, scale = state.positions[c], state.sensor_positions, float(state.ei_log_scale[c])
+        key = _axle_key(state, x, axle, r, scale)
         if key not in self._cache:
-            interpolant = self.interpolant(state, scale)
-            offset = np.array([self.case.vehicle.axle_offsets[axle]], float)
-            weights = interpolant.weights(x, offset, np.ones(1))
-            ramp = self._ramp(state, x, offset, np.ones(1))
-            if ramp is not None:
-                weights = weights + interpolant.end_weights(*ramp)
-            self._cache[key] = interpolant.readings(weights)
+            self._fill(state, r, scale, {self._lines_key(state, x, r, scale): x}, jacobian=True)
         return self._cache[key] * (self.case.vehicle.axle_loads[axle] * state.axle_factors[axle])
 
     # -- evaluation ------------------------------------------------------------------------
