@@ -22,7 +22,16 @@ gap.
 
 Run: python studies/diagnosis/pairs.py [--seeds N] [--first ...] [--bridges ...] [--six]
 
-Last run (2026-11-26, after the piecewise-cubic lines (no new solve for shifted loads or single
+Last run (2026-11-26, third session: the noise scale after each pick iterated to MacKay's fixed
+point instead of one step, and a model that crawls at the new scale kept there with its ceiling;
+both runs side by side with the validation study on the 2-core machine): case layouts: the same
+90 verdicts, 50/90 = 56 %, lenient 79/90; CPU median 4.6 s, max 10.1 s, 0/90 above 15 s.
+--six: 70/90 = 78 % (vertical 37/45, rotational 33/45: two-span restraint + thermal drift seeds 0
+and 2 now name both -- after one step the noise scale stayed at 1.19 and the restraint's log BF
+was 2.8, at the fixed point 0.99 and 4.4); lenient 86/90; CPU median 7.0 s, max 15.5 s, 1/90
+above 15 s (two-span settled bearing + sensor gain, 12 crossings; 14.3-15.5 s for the three seeds
+with three jobs on two cores, 10.3 s for seed 1 alone on the idle machine).
+Run before (2026-11-26, after the piecewise-cubic lines (no new solve for shifted loads or single
 axles), the column-sparse normal equations and the absolute convergence floor of the refits; the
 two runs side by side with the test suite and the benchmark on the 2-core machine): the same
 verdicts as the run below except one: single-span restraint + axle loads seed 2 (12 crossings)
