@@ -368,3 +368,22 @@ def test_noise_rescale_reaches_the_evidence_maximum_in_the_noise_scale():
     assert fit.noise_scale == ctx.alpha
     assert ctx.alpha == pytest.approx(math.exp(best.x), rel=0.005)  # one fixed-point step: 2 % off
     assert fit.log_evidence == pytest.approx(-best.fun, abs=0.5)
+
+
+def test_normal_equations_on_each_crossings_columns_equal_the_full_jacobian():
+    # reference: J^T J, J^T r and |r|^2 from the full whitened rows (every column of every crossing,
+    # JointProblem.rows) against evaluate, which forms each crossing's Jacobian on its own columns only;
+    # AR(1) noise so that whitening mixes the rows, and effects with per-crossing parameters
+    case = small_case()
+    case = replace(case, noise=sp.NoiseModel(case.noise.std, 1.5))
+    data = simulate_crossings(case, 3, noise=True, rng=2)
+    effects = [make_effect(n) for n in ("thermal_drift", "position_offset", "dynamic_amplification", "sensor_gain")]
+    problem = JointProblem(case, data, effects, GMRFPrior())
+    rng = np.random.default_rng(3)
+    theta = problem.theta0 + 0.05 * rng.standard_normal(problem.n_params) * np.sqrt(1.0 / np.diag(problem.fixed))
+    r, jac, *_ = problem.rows(theta)
+    lin = problem.evaluate(theta)
+    assert sum(c.size for c in problem.columns) < problem.n_crossings * problem.n_params
+    np.testing.assert_allclose(lin.jtj, jac.T @ jac, rtol=1e-10, atol=1e-10 * np.abs(jac.T @ jac).max())
+    np.testing.assert_allclose(lin.jtr, jac.T @ r, rtol=1e-10, atol=1e-10 * np.abs(jac.T @ r).max())
+    assert lin.rr == pytest.approx(float(r @ r), rel=1e-12)

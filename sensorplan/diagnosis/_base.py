@@ -52,12 +52,21 @@ class Effect:
     def apply(self, state, phi):
         """Modify ``state`` in place (structural effects)."""
 
+    def columns(self, ctx, c):
+        """Indices of the parameters that can act on crossing ``c`` (None: all of them).
+
+        The Jacobian blocks of crossing ``c`` hold these columns only: a
+        parameter of one crossing (an offset, a shift) is zero in the others.
+        """
+        return
+
     def structural_jacobian(self, ctx, state, phi, c, y):
-        """dy/dphi for crossing ``c`` (S, K, n) of a structural effect."""
+        """dy/dphi for crossing ``c`` (S, K, n) of a structural effect, n over ``columns(ctx, c)``."""
         raise NotImplementedError
 
     def output(self, ctx, state, phi, c, y):
-        """Return (y', dy'/dphi (S, K, n), multiplier (scalar, applied to earlier Jacobians))."""
+        """Return (y', dy'/dphi (S, K, n) over ``columns(ctx, c)``, multiplier (scalar, applied to earlier
+        Jacobians))."""
         return y, None, 1.0
 
 

@@ -132,12 +132,15 @@ class SensorOffset(Effect):
         self.std = np.tile(ctx.offset_scale, n_c)
         return self
 
+    def columns(self, ctx, c):
+        return np.arange(c * ctx.n_sensors, (c + 1) * ctx.n_sensors)
+
     def output(self, ctx, state, phi, c, y):
         s = ctx.n_sensors
         b = phi[c * s:(c + 1) * s]
-        jac = np.zeros(y.shape + (self.n_params,))
+        jac = np.zeros(y.shape + (s,))
         for i in range(s):
-            jac[i, :, c * s + i] = 1.0
+            jac[i, :, i] = 1.0
         return y + b[:, None], jac, 1.0
 
 
@@ -160,17 +163,20 @@ class ThermalDrift(Effect):
         self.std = np.tile(np.repeat(ctx.offset_scale, 2), n_c)
         return self
 
+    def columns(self, ctx, c):
+        return np.arange(2 * c * ctx.n_sensors, 2 * (c + 1) * ctx.n_sensors)
+
     def output(self, ctx, state, phi, c, y):
         s = ctx.n_sensors
         x = ctx.crossings.crossings[c].positions
         t = (x - 0.5 * (x[0] + x[-1])) / max(x[-1] - x[0], 1e-9)
-        jac = np.zeros(y.shape + (self.n_params,))
+        jac = np.zeros(y.shape + (2 * s,))
         out = y.copy()
         for i in range(s):
             k0 = 2 * (c * s + i)
             out[i] += phi[k0] + phi[k0 + 1] * t
-            jac[i, :, k0] = 1.0
-            jac[i, :, k0 + 1] = t
+            jac[i, :, 2 * i] = 1.0
+            jac[i, :, 2 * i + 1] = t
         return out, jac, 1.0
 
 
@@ -190,14 +196,14 @@ class PositionOffset(Effect):
     def apply(self, state, phi):
         state.positions = [x + phi[c] + phi[-1] * x for c, x in enumerate(state.positions)]
 
+    def columns(self, ctx, c):
+        return np.array([c, self.n_params - 1])
+
     def structural_jacobian(self, ctx, state, phi, c, y):
         # exact: the slope of the piecewise-cubic lines in the load position (JointProblem.line_slopes)
         dydx = ctx.line_slopes(state, c) * ctx.load_factor(c)[None, :]
-        jac = np.zeros(y.shape + (self.n_params,))
-        jac[:, :, c] = dydx
         recorded = ctx.crossings.crossings[c].positions
-        jac[:, :, -1] = dydx * recorded[None, :]
-        return jac
+        return np.stack([dydx, dydx * recorded[None, :]], axis=-1)
 
 
 class AxleLoads(Effect):
@@ -269,10 +275,11 @@ class DynamicAmplification(Effect):
         self.std = np.full(ctx.n_crossings, 0.1)
         return self
 
+    def columns(self, ctx, c):
+        return np.array([c])
+
     def output(self, ctx, state, phi, c, y):
-        jac = np.zeros(y.shape + (self.n_params,))
-        jac[:, :, c] = y
-        return y * (1.0 + phi[c]), jac, 1.0 + phi[c]
+        return y * (1.0 + phi[c]), y[:, :, None].copy(), 1.0 + phi[c]
 
 
 EFFECTS = {cls.name: cls for cls in (SupportRotationalSpring, VerticalSupportSpring, SensorOffset, ThermalDrift,

@@ -80,6 +80,19 @@ class JointProblem(WhitenedData):
         # drift too, and was chosen for shrinking the drift's prior cost: a false second cause)
         self._outputs = sorted([(e, sl) for e, sl in zip(self.effects, self.slices) if not e.structural],
                                key=lambda item: item[0].additive)
+        # per crossing: the parameters that can act on it (log EI and each effect's columns(c)), and where each
+        # effect's block sits among them; a crossing's Jacobian is formed on these columns only
+        self.columns, self._places = [], []
+        for c in range(self.n_crossings):
+            cols, places, at = [np.arange(self.n_elements)], {}, self.n_elements
+            for e, sl in zip(self.effects, self.slices):
+                local = e.columns(self, c)
+                local = np.arange(e.n_params) if local is None else np.asarray(local)
+                cols.append(sl.start + local)
+                places[id(e)] = slice(at, at + local.size)
+                at += local.size
+            self.columns.append(np.concatenate(cols))
+            self._places.append(places)
         self.theta0 = np.concatenate([np.log(case.ei)] + [e.mean for e in self.effects])
         self.param_names = [f"log_ei_{j}" for j in range(self.n_elements)] + [
             f"{e.name}:{n}" for e in self.effects for n in e.names]
@@ -264,6 +277,17 @@ class JointProblem(WhitenedData):
 
     def predict(self, theta, *, jacobian=True):
         """Unwhitened predictions and Jacobians per crossing: list of (y (S,K), J (S,K,P) or None)."""
+        out = []
+        for c, (y, jac) in enumerate(self.predict_columns(theta, jacobian=jacobian)):
+            if jac is not None:
+                full = np.zeros(y.shape + (self.n_params,))
+                full[:, :, self.columns[c]] = jac
+                jac = full
+            out.append((y, jac))
+        return out
+
+    def predict_columns(self, theta, *, jacobian=True):
+        """As :meth:`predict`, each crossing's Jacobian on its own columns only (``self.columns[c]``)."""
         # the lines depend on EI and on the state (positions, springs, loads: in the cache keys); kept while EI
         # is unchanged, so that the Jacobian at an accepted trial point reuses the trial's forward solve
         ei_key = theta[:self.n_elements].tobytes()
@@ -283,19 +307,20 @@ class JointProblem(WhitenedData):
             lf = self.load_factor(c)
             y = lines.predictions * lf[None, :]
             jac = None
+            places = self._places[c]
             if jacobian:
-                jac = np.zeros(y.shape + (self.n_params,))
+                jac = np.zeros(y.shape + (self.columns[c].size,))
                 if id(lines) not in log_ei_jacobians:
                     log_ei_jacobians[id(lines)] = lines.jacobian("log_ei")
                 jac[:, :, :self.n_elements] = log_ei_jacobians[id(lines)] * lf[None, :, None]
                 for e, sl in zip(self.effects, self.slices):
                     if e.structural:
-                        jac[:, :, sl] = e.structural_jacobian(self, state, theta[sl], c, y)
+                        jac[:, :, places[id(e)]] = e.structural_jacobian(self, state, theta[sl], c, y)
             for e, sl in self._outputs:
                 y, block, mult = e.output(self, state, theta[sl], c, y)
                 if jac is not None:
                     jac *= np.reshape(mult, (-1, 1, 1)) if np.ndim(mult) else mult
-                    jac[:, :, sl] += block
+                    jac[:, :, places[id(e)]] += block
             out.append((y, jac))
         return out
 
@@ -303,7 +328,7 @@ class JointProblem(WhitenedData):
         if not np.all(np.isfinite(theta)) or np.any(np.abs(theta[:self.n_elements]) > 60):
             return None
         try:
-            return self.predict(theta, jacobian=jacobian)
+            return self.predict_columns(theta, jacobian=jacobian)
         except ConfigError:  # an effect drove the model out of its domain (e.g. unstable springs)
             return None
 
@@ -311,9 +336,10 @@ class JointProblem(WhitenedData):
         """Residual sum of squares, J^T J and J^T r of the whitened problem at ``theta`` (None: out of domain).
 
         A crossing's Jacobian is zero in the columns of the other crossings'
-        own parameters (offsets, drift, shifts, amplification): its J^T J is
-        formed on its non-zero columns only (with per-crossing drift on six
-        sensors that is a quarter of the columns).
+        own parameters (offsets, drift, shifts, amplification): it is formed,
+        whitened and multiplied on its own columns only (``self.columns``; with
+        per-crossing drift on six sensors and ten crossings a tenth of the
+        drift columns).
         """
         theta_key = theta.tobytes()
         if (self._last is not None and self._last[0] == theta_key
@@ -347,14 +373,14 @@ class JointProblem(WhitenedData):
             rr += float(r @ r)
             if jacobian:
                 key = x.tobytes() + m.tobytes()
-                if key in shared and np.array_equal(shared[key][0], jac):
-                    _, cols, wj, block = shared[key]
+                cols = self.columns[c]
+                hit = shared.get(key)
+                if hit is not None and np.array_equal(hit[0], cols) and np.array_equal(hit[1], jac):
+                    wj, block = hit[2], hit[3]
                 else:
-                    rows = jac[:, m]
-                    cols = np.flatnonzero(np.any(rows != 0.0, axis=(0, 1)))
-                    wj = self.noise.whiten(rows[:, :, cols], x).reshape(-1, cols.size)
+                    wj = self.noise.whiten(jac[:, m], x).reshape(-1, cols.size)
                     block = wj.T @ wj
-                    shared[key] = (jac, cols, wj, block)
+                    shared[key] = (cols, jac, wj, block)
                 jtj[np.ix_(cols, cols)] += block
                 jtr[cols] += wj.T @ r
         out = Linearisation(rr, jtj, jtr)
