@@ -289,18 +289,33 @@ def test_moved_loads_roll_onto_an_elastic_end_bearing_continuously():
     # a point-load model jumps there by the bearing's response: the ramp is what removes it
     plain = JointProblem(case, data, [make_effect("vertical_support_spring")], GMRFPrior())
     assert plain.entry == 0.0
-    # inside the ramp the Jacobian (shift, springs, EI) still equals finite differences of the predictions
-    theta = problem.theta0.copy()
-    theta[sl.start] = -crossing - 0.5 * ENTRY  # the rear axle half-way up the ramp
-    _, jac = problem.predict(theta)[0]
-    for j in [sl.start] + list(range(problem.n_elements, sl.start)) + [0, problem.n_elements - 1]:
-        h = 1e-6 if j < problem.n_elements or j == sl.start else 1e-4
-        up, down = theta.copy(), theta.copy()
-        up[j] += h
-        down[j] -= h
-        fd = (problem.predict(up, jacobian=False)[0][0] - problem.predict(down, jacobian=False)[0][0]) / (2 * h)
-        scale = max(np.abs(fd).max(), np.abs(jac[:, :, j]).max(), 1e-30)
-        np.testing.assert_allclose(jac[:, :, j], fd, atol=2e-4 * scale, err_msg=problem.param_names[j])
+    # the ramp is centred on the end: half the load is on at the end, and over [-ENTRY, ENTRY] it carries as
+    # much load as a point load stepping on at the end (the jump is not moved; reference: that step's
+    # integral ENTRY, against the trapezoidal rule on a fine grid; a ramp wholly outside gives 1.5 ENTRY)
+    from scipy.integrate import trapezoid
+
+    u = np.linspace(-ENTRY, ENTRY, 4001)
+    state = problem.initial_state()
+    for effect, block in zip(problem.effects, problem.slices):
+        if effect.structural:
+            effect.apply(state, problem.theta0[block])  # elastic ends (the spring effect's prior means)
+    _, g, _ = problem._ramp(state, u, np.zeros(1))
+    assert g[0, 2000] == pytest.approx(0.5)
+    assert trapezoid(g[0], u) == pytest.approx(ENTRY, rel=1e-6)
+    # inside the ramp the Jacobian (shift, springs, EI) still equals finite differences of the predictions,
+    # with the rear axle just outside the end and just on the bridge
+    for where in (-0.25 * ENTRY, 0.25 * ENTRY):
+        theta = problem.theta0.copy()
+        theta[sl.start] = -crossing + where
+        _, jac = problem.predict(theta)[0]
+        for j in [sl.start] + list(range(problem.n_elements, sl.start)) + [0, problem.n_elements - 1]:
+            h = 1e-6 if j < problem.n_elements or j == sl.start else 1e-4
+            up, down = theta.copy(), theta.copy()
+            up[j] += h
+            down[j] -= h
+            fd = (problem.predict(up, jacobian=False)[0][0] - problem.predict(down, jacobian=False)[0][0]) / (2 * h)
+            scale = max(np.abs(fd).max(), np.abs(jac[:, :, j]).max(), 1e-30)
+            np.testing.assert_allclose(jac[:, :, j], fd, atol=2e-4 * scale, err_msg=problem.param_names[j])
 
 
 def test_gains_act_on_the_response_and_drift_is_added_whatever_the_order():

@@ -28,14 +28,13 @@ ENTRY = 0.1  # m over which an axle moved by an effect rolls onto the bridge (ha
 
 
 def _smooth_step(s):
-    """3 s^2 - 2 s^3 on [0, 1] (0 below, where u is on the bridge or beyond the ramp): C1, 0 at 0 and 1 at 1."""
+    """s^2 (3 - 2 s) on [0, 1], 0 below and 1 above: C1."""
     s = np.clip(s, 0.0, 1.0)
-    return np.where((s > 0.0) & (s < 1.0), s * s * (3.0 - 2.0 * s), 0.0)
+    return s * s * (3.0 - 2.0 * s)
 
 
 def _smooth_step_slope(s):
-    """d/ds of :func:`_smooth_step` (0 outside the open ramp)."""
-    s = np.clip(s, 0.0, 1.0)
+    """d/ds of :func:`_smooth_step` (0 outside the open interval)."""
     return np.where((s > 0.0) & (s < 1.0), 6.0 * s * (1.0 - s), 0.0)
 
 
@@ -206,10 +205,22 @@ class JointProblem(WhitenedData):
                 self._cache[_axle_key(state, x, a, r, scale)] = unit[:, sl]
 
     def _weights(self, interpolant, state, x, bases, offsets, loads, derivative=False):
-        """Interpolation weights of the axles (``bases`` at ``x`` - offsets), with the entry ramps added."""
-        weights = interpolant.combine(bases, loads, derivative=derivative)
-        ramp = self._ramp(state, x, offsets, loads, derivative=derivative)
-        return weights if ramp is None else weights + interpolant.end_weights(*ramp)
+        """Interpolation weights of the axles (``bases`` at ``x`` - offsets), with the entry ramps."""
+        ramp = self._ramp(state, x, offsets)
+        if ramp is None:
+            return interpolant.combine(bases, loads, derivative=derivative)
+        u, g, dg = ramp
+        length = state.bridge.length
+        # on the bridge: the response at u scaled by g(u); outside: the response at the end scaled by g(u)
+        weights = interpolant.combine(bases, [load * g[a] for a, load in enumerate(loads)], derivative=derivative)
+        factor = dg if derivative else g
+        if derivative:  # d/dx (g R) = g R' + g' R
+            weights = weights + interpolant.combine(bases, [load * dg[a] for a, load in enumerate(loads)])
+        before = loads @ np.where(u < 0.0, factor, 0.0)
+        after = loads @ np.where(u > length, factor, 0.0)
+        if before.any() or after.any():
+            weights = weights + interpolant.end_weights(before, after)
+        return weights
 
     def _lines_key(self, state, x, r, scale):
         return (x.tobytes(), r.tobytes(), state.bridge, state.axle_factors.tobytes(), scale)
@@ -222,40 +233,54 @@ class JointProblem(WhitenedData):
             self._fill(state, r, scale, {key: x}, jacobian=True)
         return self._cache[("slope",) + key]
 
-    def _ramp(self, state, x, offsets, loads, *, derivative=False):
-        """Each axle's entry onto the bridge spread over ``self.entry`` (with a load-moving effect).
+    def _ramp(self, state, x, offsets):
+        """Each axle's entry onto an elastic end bearing spread over ``self.entry`` (with a load-moving effect).
 
-        An axle within ``entry`` outside an end adds the response to its load
-        at that end, scaled by a smooth step from 1 at the end to 0 at
-        ``entry`` outside (s^2 (3 - 2 s): no kinks of its own; a tyre's
-        contact patch rolling on).  Over an elastic end
-        bearing a point load jumps from zero to the bearing's response as it
-        steps on; with the load positions as parameters the fit then sits on
-        that jump (line searches fail, Levenberg-Marquardt crawls: 20-30
-        evaluations per tau node of a settled end bearing with position
-        offsets).  The ramp makes the lines continuous in the positions.
+        Over an elastic end bearing a point load jumps from zero to the
+        bearing's response as it steps on; with the load positions as
+        parameters the fit then sits on that jump (line searches fail,
+        Levenberg-Marquardt crawls: 20-30 evaluations per tau node of a
+        settled end bearing with position offsets).  The response of an axle
+        at u (x less its offset) is scaled by g(u), a smooth step
+        s^2 (3 - 2 s) from 0 at ``entry``/2 outside the end to 1 at
+        ``entry``/2 inside (a tyre's contact patch rolling on); outside the
+        bridge the response is the one at the end.  Centred on the end, the
+        ramp crosses the jump where a point load does: a ramp that lay wholly
+        outside moved the jump out by half its width, which a fit of shifts
+        and axle loads then tried to absorb (a single span with a settled end
+        bearing named axle loads as a third cause).  Rigid ends carry no
+        jump and no ramp.
 
-        Returns None (no axle on a ramp) or the weights (N,) of the responses
-        to a unit load at the left and at the right end -- or their
-        derivatives in x.
+        Returns None (no axle within a ramp) or (u (A, N), g (A, N), dg/dx (A, N)).
         """
         if not self.entry:
             return None
-        length = state.bridge.length
+        length, half = state.bridge.length, 0.5 * self.entry
         u = x[None, :] - offsets[:, None]
-        step = _smooth_step_slope if derivative else _smooth_step
-        rate = 1.0 / self.entry if derivative else 1.0  # d s / d x on the left ramp (minus that on the right)
-        before = loads @ step(np.where(u < 0.0, 1.0 + u / self.entry, 0.0)) * rate
-        after_rate = -rate if derivative else 1.0
-        after = loads @ step(np.where(u > length, 1.0 - (u - length) / self.entry, 0.0)) * after_rate
         vertical = state.bridge.vertical_springs
-        if np.isinf(vertical[0]):  # a load on a rigid bearing moves nothing: no jump to spread
-            before = np.zeros_like(before)
-        if np.isinf(vertical[-1]):
-            after = np.zeros_like(after)
-        if not (before.any() or after.any()):
+        elastic = (not np.isinf(vertical[0]), not np.isinf(vertical[-1]))
+        near = np.zeros(u.shape, bool)
+        if elastic[0]:
+            near |= np.abs(u) < half
+        if elastic[1]:
+            near |= np.abs(u - length) < half
+        if not near.any():
             return None
-        return before, after
+        g = np.where((u >= 0.0) & (u <= length), 1.0, 0.0)
+        dg = np.zeros(u.shape)
+        if elastic[0]:
+            s = (u + half) / self.entry
+            left, left_slope = _smooth_step(s), _smooth_step_slope(s) / self.entry
+        else:
+            left, left_slope = np.where(u >= 0.0, 1.0, 0.0), np.zeros(u.shape)
+        if elastic[1]:
+            s = (length - u + half) / self.entry
+            right, right_slope = _smooth_step(s), -_smooth_step_slope(s) / self.entry
+        else:
+            right, right_slope = np.where(u <= length, 1.0, 0.0), np.zeros(u.shape)
+        g = left * right
+        dg = left_slope * right + left * right_slope
+        return u, g, dg
 
     def _vehicle(self, state):
         return Vehicle(self.case.vehicle.axle_offsets,

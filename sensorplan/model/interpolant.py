@@ -91,12 +91,16 @@ class LineInterpolant:
         return self.combine([self.basis(x - offset) for offset in offsets], loads, derivative=derivative)
 
     def combine(self, bases, loads, *, derivative=False):
-        """:meth:`weights` from the :meth:`basis` of each axle's positions (shared by several combinations)."""
+        """:meth:`weights` from the :meth:`basis` of each axle's positions (shared by several combinations).
+
+        Each load is a number or one value per position (a load that varies
+        along the sweep).
+        """
         n = self.points.size
         count = bases[0][0].size
         rows = np.tile(np.arange(count), 4 * len(bases))
         cols = np.concatenate([np.concatenate([i, n + i, i + 1, n + i + 1]) for i, _, _ in bases])
-        vals = np.concatenate([load * (slope if derivative else value).ravel()
+        vals = np.concatenate([(load * (slope if derivative else value)).ravel()
                                for (_, value, slope), load in zip(bases, loads)])
         return scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(count, 2 * n))
 

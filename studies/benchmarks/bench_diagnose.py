@@ -42,7 +42,14 @@ four held-out folds and in every selection round.
 
 Run: python studies/benchmarks/bench_diagnose.py [--quick]
 
-Last run (2026-11-26, third session: the noise scale after each pick iterated to its fixed point,
+Last run (2026-11-26, third session, final code: also the entry ramp centred on an elastic end;
+idle machine, CPU seconds, one BLAS thread):
+  small median 1.68 s, max 4.24 s, ratio median 6.9x, max 14.6x; three median 3.72 s, max 6.69 s,
+  ratio max 9.1x; pairs median 3.72 s, max 6.74 s, ratio max 11.1x; pairs6 median 7.10 s, max
+  10.46 s, ratio max 18.0x (thermal drift + settled bearing: 7.10 s against an invert of 0.39 s).
+  Every dataset < 15 s: met (max 10.46 s); ratio <= 20x: met (median 6.9x, max 18.0x).
+  Verdicts: the same as in the runs below.
+Run before (2026-11-26, third session: the noise scale after each pick iterated to its fixed point,
 and each crossing's Jacobian formed on its own columns only; idle machine, CPU seconds, one BLAS
 thread):
   small median 1.50 s, max 3.70 s, ratio median 7.2x, max 11.4x; three median 3.38 s, max 6.39 s,

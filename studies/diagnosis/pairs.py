@@ -22,7 +22,16 @@ gap.
 
 Run: python studies/diagnosis/pairs.py [--seeds N] [--first ...] [--bridges ...] [--six]
 
-Last run (2026-11-26, third session: the noise scale after each pick iterated to MacKay's fixed
+Last run (2026-11-26, third session, final code: also each crossing's Jacobian on its own columns
+(verdicts unchanged by it) and the entry ramp at an elastic end centred on the end instead of lying
+wholly outside it; the two runs side by side): case layouts 51/90 = 57 % (vertical 37/45,
+rotational 14/45), lenient 80/90, CPU median 3.5 s, max 9.4 s; --six 72/90 = 80 % (vertical
+39/45, rotational 33/45), lenient 88/90, CPU median 5.7 s, max 13.7 s, 0/90 above 15 s.  Changed
+verdicts: single-span settled bearing + position offsets no longer adds a third cause (seed 1 of
+the case layout: support_rotational_spring; seeds 1 and 2 with six tiltmeters: axle_loads, log BF
+38): the outside ramp had moved the bearing's jump out by 0.05 m and shifts and axle loads
+absorbed it; nothing else changed.
+Run before (2026-11-26, third session: the noise scale after each pick iterated to MacKay's fixed
 point instead of one step, and a model that crawls at the new scale kept there with its ceiling;
 both runs side by side with the validation study on the 2-core machine): case layouts: the same
 90 verdicts, 50/90 = 56 %, lenient 79/90; CPU median 4.6 s, max 10.1 s, 0/90 above 15 s.
