@@ -178,3 +178,19 @@ def test_a_flipped_sign_is_a_discrete_choice_with_its_prior():
         flips = signs.count(-1.0)
         expected = flips * np.log(FLIP_PROBABILITY) + (2 - flips) * np.log(1 - FLIP_PROBABILITY)
         assert problem.log_prior_constant == pytest.approx(expected)
+
+
+@pytest.mark.parametrize("gains, significant", [
+    ([-2.3, -0.8, 1.1, 6.4], True),  # one fold carries it, the others level: an effect at one end
+    ([-2.0, -2.0, -1.0, 10.0], False),  # one fold gains while the others lose 5 together: an artefact
+    ([1.0, 1.0, 1.0, 1.0], True),
+    ([0.5, 0.5, 0.5, 0.5], False),  # total 2: below the threshold
+])
+def test_heldout_gain_may_sit_in_one_fold_but_not_at_the_others_expense(gains, significant):
+    from sensorplan.diagnosis.refit import gain_is_significant
+
+    current = Heldout(np.zeros(4), 1.0, np.ones(1), 1.0)
+    new = Heldout(np.array(gains), 1.0, np.ones(1), 1.0)
+    ok, total = gain_is_significant(new, current, 3.0)
+    assert ok is significant
+    assert total == pytest.approx(sum(gains))

@@ -20,22 +20,12 @@ from ..model.forward import InfluenceLines
 from ..model.interpolant import LineInterpolant
 from ..model.loads import Vehicle
 from ..model.sensors import SensorLayout
+from ._entry import entry_ramp
 from .effects import CaseSprings, State
 
 __all__ = []
 
 ENTRY = 0.1  # m over which an axle moved by an effect rolls onto the bridge (half a tyre contact length)
-
-
-def _smooth_step(s):
-    """s^2 (3 - 2 s) on [0, 1], 0 below and 1 above: C1."""
-    s = np.clip(s, 0.0, 1.0)
-    return s * s * (3.0 - 2.0 * s)
-
-
-def _smooth_step_slope(s):
-    """d/ds of :func:`_smooth_step` (0 outside the open interval)."""
-    return np.where((s > 0.0) & (s < 1.0), 6.0 * s * (1.0 - s), 0.0)
 
 
 def _axle_key(state, x, axle, r, scale):
@@ -234,53 +224,12 @@ class JointProblem(WhitenedData):
         return self._cache[("slope",) + key]
 
     def _ramp(self, state, x, offsets):
-        """Each axle's entry onto an elastic end bearing spread over ``self.entry`` (with a load-moving effect).
-
-        Over an elastic end bearing a point load jumps from zero to the
-        bearing's response as it steps on; with the load positions as
-        parameters the fit then sits on that jump (line searches fail,
-        Levenberg-Marquardt crawls: 20-30 evaluations per tau node of a
-        settled end bearing with position offsets).  The response of an axle
-        at u (x less its offset) is scaled by g(u), a smooth step
-        s^2 (3 - 2 s) from 0 at ``entry``/2 outside the end to 1 at
-        ``entry``/2 inside (a tyre's contact patch rolling on); outside the
-        bridge the response is the one at the end.  Centred on the end, the
-        ramp crosses the jump where a point load does: a ramp that lay wholly
-        outside moved the jump out by half its width, which a fit of shifts
-        and axle loads then tried to absorb (a single span with a settled end
-        bearing named axle loads as a third cause).  Rigid ends carry no
-        jump and no ramp.
-
-        Returns None (no axle within a ramp) or (u (A, N), g (A, N), dg/dx (A, N)).
-        """
+        """The axles' entry ramps at elastic end bearings (see :func:`._entry.entry_ramp`)."""
         if not self.entry:
             return None
-        length, half = state.bridge.length, 0.5 * self.entry
-        u = x[None, :] - offsets[:, None]
         vertical = state.bridge.vertical_springs
-        elastic = (not np.isinf(vertical[0]), not np.isinf(vertical[-1]))
-        near = np.zeros(u.shape, bool)
-        if elastic[0]:
-            near |= np.abs(u) < half
-        if elastic[1]:
-            near |= np.abs(u - length) < half
-        if not near.any():
-            return None
-        g = np.where((u >= 0.0) & (u <= length), 1.0, 0.0)
-        dg = np.zeros(u.shape)
-        if elastic[0]:
-            s = (u + half) / self.entry
-            left, left_slope = _smooth_step(s), _smooth_step_slope(s) / self.entry
-        else:
-            left, left_slope = np.where(u >= 0.0, 1.0, 0.0), np.zeros(u.shape)
-        if elastic[1]:
-            s = (length - u + half) / self.entry
-            right, right_slope = _smooth_step(s), -_smooth_step_slope(s) / self.entry
-        else:
-            right, right_slope = np.where(u <= length, 1.0, 0.0), np.zeros(u.shape)
-        g = left * right
-        dg = left_slope * right + left * right_slope
-        return u, g, dg
+        return entry_ramp(x[None, :] - offsets[:, None], state.bridge.length, self.entry,
+                          (not np.isinf(vertical[0]), not np.isinf(vertical[-1])))
 
     def _vehicle(self, state):
         return Vehicle(self.case.vehicle.axle_offsets,

@@ -218,16 +218,22 @@ def heldout(fit, test_masks):
 
 
 def gain_is_significant(new, current, threshold):
-    """Held-out gain of ``new`` over ``current``: total above ``threshold``, and not carried by one fold.
+    """Held-out gain of ``new`` over ``current``: total above ``threshold``, and not bought by losses elsewhere.
 
-    With three folds or more the gain must stay positive when the best fold
-    is left out (a gain that one block of load positions carries alone is
-    an artefact of that block, not a better model).
+    With three folds or more, the folds other than the best one must not
+    lose more than ``threshold`` together: a gain that one block of load
+    positions carries while the others get worse is an artefact of that
+    block, not a better model.  A gain that one block carries while the
+    others stay level is not: an effect at one end of the bridge (a
+    restraint at the far end of three spans) shows mainly while the loads
+    are near that end, which one fold's blocks hold (fold gains -2.3, -0.8,
+    1.1, 6.4 with a log Bayes factor of 9.4; the rule that the others had to
+    gain in sum, used before, dropped it).
     """
     if new is None or current is None:
         return False, None
     d = new.log_density - current.log_density
     total = float(d.sum())
     if d.size >= 3:
-        return bool(total > threshold and total - float(d.max()) > 0.0), total
+        return bool(total > threshold and total - float(d.max()) > -threshold), total
     return bool(total > threshold), total

@@ -42,8 +42,14 @@ four held-out folds and in every selection round.
 
 Run: python studies/benchmarks/bench_diagnose.py [--quick]
 
-Last run (2026-11-26, third session, final code: also the entry ramp centred on an elastic end;
-idle machine, CPU seconds, one BLAS thread):
+Last run (2026-11-26, third session, final code: also the held-out rule; the clean-clone CI running
+beside it, CPU seconds, one BLAS thread): the same verdicts as the run below; small median 1.10 s,
+  max 3.44 s, ratio max 12.9x; three median 2.37 s, max 4.53 s, ratio max 7.1x; pairs median
+  2.56 s, max 6.25 s, ratio max 10.4x; pairs6 median 4.51 s, max 7.80 s, ratio max 14.4x; every
+  dataset < 15 s: met; ratio <= 20x: met (median 6.6x, max 14.4x).  Faster than the idle run
+  below on the same datasets: this machine's CPU seconds vary by tens of per cent between runs.
+Run before (2026-11-26, third session: also the entry ramp centred on an elastic end; idle
+machine, CPU seconds, one BLAS thread):
   small median 1.68 s, max 4.24 s, ratio median 6.9x, max 14.6x; three median 3.72 s, max 6.69 s,
   ratio max 9.1x; pairs median 3.72 s, max 6.74 s, ratio max 11.1x; pairs6 median 7.10 s, max
   10.46 s, ratio max 18.0x (thermal drift + settled bearing: 7.10 s against an invert of 0.39 s).

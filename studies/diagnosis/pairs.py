@@ -22,7 +22,13 @@ gap.
 
 Run: python studies/diagnosis/pairs.py [--seeds N] [--first ...] [--bridges ...] [--six]
 
-Last run (2026-11-26, third session, final code: also each crossing's Jacobian on its own columns
+Last run (2026-11-26, third session, final code: also the held-out gain may sit in one fold as long
+as the other folds do not lose more than 3 together; beside the validation study and the CI):
+case layouts 51/90 = 57 % (the same verdicts), lenient 80/90, CPU median 4.2 s, max 9.2 s; --six
+73/90 = 81 % (vertical 39/45, rotational 34/45: three-span far-end restraint + thermal drift seed
+0 now names both -- log BF 9.4, fold gains -2.3, -0.8, 1.1, 6.4: the restraint shows while the
+loads are near that end), lenient 88/90, CPU median 6.5 s, max 13.9 s, 0/90 above 15 s.
+Run before (2026-11-26, third session: also each crossing's Jacobian on its own columns
 (verdicts unchanged by it) and the entry ramp at an elastic end centred on the end instead of lying
 wholly outside it; the two runs side by side): case layouts 51/90 = 57 % (vertical 37/45,
 rotational 14/45), lenient 80/90, CPU median 3.5 s, max 9.4 s; --six 72/90 = 80 % (vertical
