@@ -299,7 +299,7 @@ def test_moved_loads_roll_onto_an_elastic_end_bearing_continuously():
     for effect, block in zip(problem.effects, problem.slices):
         if effect.structural:
             effect.apply(state, problem.theta0[block])  # elastic ends (the spring effect's prior means)
-    _, g, _ = problem._ramp(state, u, np.zeros(1))
+    g, _ = problem._ramp(state, u[None, :])
     assert g[0, 2000] == pytest.approx(0.5)
     assert trapezoid(g[0], u) == pytest.approx(ENTRY, rel=1e-6)
     # inside the ramp the Jacobian (shift, springs, EI) still equals finite differences of the predictions,

@@ -33,7 +33,7 @@ def _smooth_step_slope(s):
 
 
 def entry_ramp(u, length, entry, elastic):
-    """(u, g, dg/du) of axle positions ``u`` (A, N); None when no axle is within a ramp.
+    """(g, dg/du) at axle positions ``u`` (A, N); None when no axle is within a ramp.
 
     ``elastic``: whether the (left, right) end bearings are elastic.
     """
@@ -55,4 +55,4 @@ def entry_ramp(u, length, entry, elastic):
         right, right_slope = _smooth_step(s), -_smooth_step_slope(s) / entry
     else:
         right, right_slope = np.where(u <= length, 1.0, 0.0), np.zeros(u.shape)
-    return u, left * right, left_slope * right + left * right_slope
+    return left * right, left_slope * right + left * right_slope

@@ -196,10 +196,11 @@ class JointProblem(WhitenedData):
 
     def _weights(self, interpolant, state, x, bases, offsets, loads, derivative=False):
         """Interpolation weights of the axles (``bases`` at ``x`` - offsets), with the entry ramps."""
-        ramp = self._ramp(state, x, offsets)
+        u = x[None, :] - offsets[:, None]
+        ramp = self._ramp(state, u)
         if ramp is None:
             return interpolant.combine(bases, loads, derivative=derivative)
-        u, g, dg = ramp
+        g, dg = ramp
         length = state.bridge.length
         # on the bridge: the response at u scaled by g(u); outside: the response at the end scaled by g(u)
         weights = interpolant.combine(bases, [load * g[a] for a, load in enumerate(loads)], derivative=derivative)
@@ -223,12 +224,12 @@ class JointProblem(WhitenedData):
             self._fill(state, r, scale, {key: x}, jacobian=True)
         return self._cache[("slope",) + key]
 
-    def _ramp(self, state, x, offsets):
+    def _ramp(self, state, u):
         """The axles' entry ramps at elastic end bearings (see :func:`._entry.entry_ramp`)."""
         if not self.entry:
             return None
         vertical = state.bridge.vertical_springs
-        return entry_ramp(x[None, :] - offsets[:, None], state.bridge.length, self.entry,
+        return entry_ramp(u, state.bridge.length, self.entry,
                           (not np.isinf(vertical[0]), not np.isinf(vertical[-1])))
 
     def _vehicle(self, state):
