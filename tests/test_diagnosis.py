@@ -402,3 +402,21 @@ def test_normal_equations_on_each_crossings_columns_equal_the_full_jacobian():
     np.testing.assert_allclose(lin.jtj, jac.T @ jac, rtol=1e-10, atol=1e-10 * np.abs(jac.T @ jac).max())
     np.testing.assert_allclose(lin.jtr, jac.T @ r, rtol=1e-10, atol=1e-10 * np.abs(jac.T @ r).max())
     assert lin.rr == pytest.approx(float(r @ r), rel=1e-12)
+
+
+def test_a_problem_sent_to_another_process_evaluates_the_same():
+    # the screening and selection refits run in worker processes (--workers, Dask) and come back pickled; the
+    # per-crossing column places were keyed by the effects' id(), which unpickling changes (KeyError in the
+    # selection's noise-scale refit with --workers 2); reference: the problem that never left this process
+    import pickle
+
+    case = small_case()
+    data = simulate_crossings(case, 2, noise=True, rng=4)
+    effects = [make_effect(n) for n in ("thermal_drift", "position_offset", "sensor_gain")]
+    problem = JointProblem(case, data, effects, GMRFPrior())
+    theta = problem.theta0 + 0.01
+    sent = pickle.dumps(problem)  # before any evaluation: nothing cached travels with it
+    here = problem.evaluate(theta)
+    there = pickle.loads(sent).evaluate(theta)
+    assert there.rr == pytest.approx(here.rr, rel=1e-12)
+    np.testing.assert_allclose(there.jtj, here.jtj, rtol=1e-12, atol=1e-12 * np.abs(here.jtj).max())

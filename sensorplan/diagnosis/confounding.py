@@ -7,7 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..model.crossings import Crossing, Crossings
+from ..model.crossings import Crossings
 from ..model.noise import NoiseModel
 from ..model.sensors import SensorLayout
 from .effects import make_effect
@@ -73,14 +73,22 @@ def kept_fraction(info, problem, tau, sl):
 def _separating_sensor(case, crossings, name, prior, theta, base_info, alpha, tau, kept, estimate_springs):
     """The candidate position (41 along the bridge, all in one forward evaluation) that raises ``kept`` most."""
     kind = case.sensors.kinds[0]
-    std = float(np.median(case.noise.std)) if case.noise is not None else 1e-6
+    binned = getattr(crossings[0], "noise", None)  # binned data (binning.py): the readings' noise model
+    noise = binned if binned is not None else case.noise
+    std = float(np.median(noise.std)) if noise is not None else 1e-6
     xs = np.linspace(0.0, case.bridge.length, N_CANDIDATES)
     names = tuple(f"candidate_{i}" for i in range(xs.size))
     sensors = SensorLayout(xs, kind, names, [std] * xs.size)
-    corr = case.noise.correlation_length if case.noise is not None else 0.0
-    cand_case = replace(case, sensors=sensors, noise=NoiseModel([std] * xs.size, corr))
-    dummy = Crossings(names, tuple(Crossing(c.label, c.positions, np.zeros((xs.size, c.n_loads)), c.load_factor)
-                                   for c in crossings))
+    corr = noise.correlation_length if noise is not None else 0.0
+    cand_noise = NoiseModel([std] * xs.size, corr)
+    if binned is None:
+        cand_case = replace(case, sensors=sensors, noise=cand_noise)
+        dummy = Crossings(names, tuple(replace(c, values=np.zeros((xs.size, c.n_loads))) for c in crossings))
+    else:  # the candidates' readings whitened and binned as the data's
+        cand_case = replace(case, sensors=sensors, noise=NoiseModel(np.ones(xs.size), 0.0))
+        dummy = Crossings(names, tuple(replace(c, values=np.zeros((xs.size, c.n_loads)), noise=cand_noise,
+                                               raw_values=np.zeros((xs.size, c.raw_positions.size)))
+                                       for c in crossings))
     cand = JointProblem(cand_case, dummy, [make_effect(name)], prior, estimate_springs=estimate_springs)
     base = JointProblem(case, crossings, [make_effect(name)], prior, estimate_springs=estimate_springs)
     if cand.n_params != base.n_params:

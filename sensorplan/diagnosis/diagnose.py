@@ -39,6 +39,7 @@ from .._threads import single_threaded
 from ..inference.screening import check_case_data_scale
 from ..model.crossings import Crossings
 from ..model.prior import GMRFPrior
+from .binning import KEEP, bin_crossings, choose_size
 from .confounding import confounding
 from .describe import describe, informed
 from .effects import EFFECTS, make_effect
@@ -192,6 +193,18 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
         if reason is not None:
             not_offered[n] = reason
     names = [n for n in names if n not in not_offered]
+    # dense records: fitted in whitened bins of consecutive readings (the exact model of a bin; binning.py);
+    # the gap before and after is reported on the readings themselves
+    raw_case, raw_crossings = case, crossings
+    size = choose_size(case, crossings, prior)
+    binning = {}
+    if size > 1:
+        case, crossings = bin_crossings(case, crossings, size)
+        step = float(np.median([np.median(np.diff(c.raw_positions)) for c in crossings]))
+        binning = {"size": size, "width_m": round(size * step, 9), "rows": int(sum(c.raw_positions.size for c in crossings)),
+                   "bins": int(sum(c.n_loads for c in crossings)), "keep": KEEP}
+        say(f"fitting bins of {size} consecutive readings ({size * step:.2f} m; they keep >= "
+            f"{100 * KEEP:.0f} % of the information on EI)")
     folds = _folds(crossings, n_folds)
     say("base fit (EI and the case's elastic springs, hyperparameters integrated as in invert)")
     base_problem = JointProblem(case, crossings, [], prior, estimate_springs=estimate_springs)
@@ -203,7 +216,8 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
     _, _, cross, load, _ = base_problem.rows(base.theta)
     test_masks = fold_rows(crossings, folds, cross, load)
     base_held = heldout(base, test_masks)
-    gap, residual_map = residual_gap(base_problem, base.theta, alpha)
+    gap, residual_map = residual_gap(_on_rows(base_problem, raw_case, raw_crossings, [], prior, estimate_springs),
+                                     base.theta, alpha)
     predictions = [y for y, _ in base_problem.predict(base_problem.theta0, jacobian=False)]  # nominal model
     ctx = _Context(case, crossings, prior, estimate_springs, alpha, tau, blocks_of(base_problem, base.theta),
                    test_masks, predictions)
@@ -233,7 +247,8 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
              if final_problem._safe_predict(t, False) is not None]
     theta_final = valid[0] if valid else current.theta
     final_ok = bool(valid) and final.converged
-    gap_after, _ = residual_gap(final_problem, theta_final, final.noise_scale)
+    gap_after, _ = residual_gap(_on_rows(final_problem, raw_case, raw_crossings, selected, prior, estimate_springs),
+                                theta_final, final.noise_scale)
     n_el = final_problem.n_elements
     sd_all = np.sqrt(np.clip(np.diag(final.mixture.covariance), 0, None))
     findings = {}
@@ -265,7 +280,15 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
         springs=springs, springs_estimated=bool(estimate_springs and case.bridge.spring_names),
         noise_scale=float(final.noise_scale), converged=bool(base_full.converged and final_ok),
         heldout_ratio_after=None if current_held is None else current_held.ratio,
-        heldout_ratio_before=None if base_held is None else base_held.ratio, corrected_model=corrected)
+        heldout_ratio_before=None if base_held is None else base_held.ratio, corrected_model=corrected,
+        binning=binning)
+
+
+def _on_rows(problem, case, crossings, selected, prior, estimate_springs):
+    """``problem`` on the unbinned readings (itself when the data were not binned)."""
+    if crossings is problem.crossings:
+        return problem
+    return JointProblem(case, crossings, [make_effect(n) for n in selected], prior, estimate_springs=estimate_springs)
 
 
 def _corrected_model(problem, theta, std):

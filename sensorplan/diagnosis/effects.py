@@ -168,7 +168,7 @@ class ThermalDrift(Effect):
 
     def output(self, ctx, state, phi, c, y):
         s = ctx.n_sensors
-        x = ctx.crossings.crossings[c].positions
+        x = ctx.model_positions[c]
         t = (x - 0.5 * (x[0] + x[-1])) / max(x[-1] - x[0], 1e-9)
         jac = np.zeros(y.shape + (2 * s,))
         out = y.copy()
@@ -202,7 +202,7 @@ class PositionOffset(Effect):
     def structural_jacobian(self, ctx, state, phi, c, y):
         # exact: the slope of the piecewise-cubic lines in the load position (JointProblem.line_slopes)
         dydx = ctx.line_slopes(state, c) * ctx.load_factor(c)[None, :]
-        recorded = ctx.crossings.crossings[c].positions
+        recorded = ctx.model_positions[c]
         return np.stack([dydx, dydx * recorded[None, :]], axis=-1)
 
 

@@ -97,8 +97,10 @@ def _data_gains(ctx):
     """Least-squares gain of each sensor's data on the nominal model's predictions (all crossings)."""
     case = ctx.case
     lines = influence_lines(case.bridge, case.mesh, case.ei, ctx.sensors, case.vehicle,
-                            np.concatenate([c.positions for c in ctx.crossings]))
-    pred = lines.predictions * np.concatenate([c.load_factor for c in ctx.crossings])[None, :]
+                            np.concatenate(ctx.model_positions))
+    pred = lines.predictions * np.concatenate([ctx.load_factor(c) for c in range(ctx.n_crossings)])[None, :]
+    ends = np.cumsum([x.size for x in ctx.model_positions])[:-1]
+    pred = np.concatenate([ctx.to_bins(c, p) for c, p in enumerate(np.split(pred, ends, axis=1))], axis=1)
     data = np.concatenate([c.values for c in ctx.crossings], axis=1)
     norm = np.sum(pred * pred, axis=1)
     # a sensor the model says reads nothing (a deflection at a rigid bearing, zero up to round-off) has gain 0

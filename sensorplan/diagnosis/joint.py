@@ -21,6 +21,7 @@ from ..model.interpolant import LineInterpolant
 from ..model.loads import Vehicle
 from ..model.sensors import SensorLayout
 from ._entry import entry_ramp
+from .binning import model_rows
 from .effects import CaseSprings, State
 
 __all__ = []
@@ -43,8 +44,18 @@ class JointProblem(WhitenedData):
         self.sensor_names = self.sensors.names
         self.n_crossings = len(crossings)
         self.labels = crossings.labels
-        peak = np.array([max(float(np.max(np.abs(c.values[i]))) for c in crossings) for i in range(self.n_sensors)])
-        self.offset_scale = np.maximum(0.2 * peak, 3.0 * self.noise.std)
+        # binned crossings (binning.py): the model is evaluated at the readings and mapped onto the whitened bins
+        self._binned = [c if hasattr(c, "to_bins") else None for c in crossings]
+        rows = [model_rows(c) for c in crossings]
+        self.model_positions = [x for x, _ in rows]
+        self._load_factors = [lf for _, lf in rows]
+        # the readings' noise std in the sensors' units (held-out rms are reported in them)
+        binned = next((c for c in self._binned if c is not None), None)
+        self.sensor_std = self.noise.std if binned is None else binned.noise.std
+        self.bin_size = 1 if binned is None else binned.size  # readings per fitted row
+        values = [getattr(c, "raw_values", c.values) for c in crossings]
+        peak = np.array([max(float(np.max(np.abs(v[i]))) for v in values) for i in range(self.n_sensors)])
+        self.offset_scale = np.maximum(0.2 * peak, 3.0 * self.sensor_std)
         effects = list(effects)
         if estimate_springs:
             freed = {k for e in effects for k in getattr(e, "frees", ())}
@@ -78,7 +89,7 @@ class JointProblem(WhitenedData):
                 local = e.columns(self, c)
                 local = np.arange(e.n_params) if local is None else np.asarray(local)
                 cols.append(sl.start + local)
-                places[id(e)] = slice(at, at + local.size)
+                places[e.name] = slice(at, at + local.size)
                 at += local.size
             self.columns.append(np.concatenate(cols))
             self._places.append(places)
@@ -105,7 +116,11 @@ class JointProblem(WhitenedData):
 
     # -- context used by the effects -----------------------------------------------------
     def load_factor(self, c):
-        return self.crossings.crossings[c].load_factor
+        return self._load_factors[c]
+
+    def to_bins(self, c, y):
+        """Model ``y`` of crossing ``c`` at its readings as it enters the fit (whitened bins if binned)."""
+        return y if self._binned[c] is None else self._binned[c].to_bins(y)
 
     def interpolant(self, state, scale, sensor_positions=None):
         """The exact piecewise-cubic unit-load lines at the current EI (x exp(scale)), cached per EI and state."""
@@ -247,7 +262,7 @@ class JointProblem(WhitenedData):
     # -- evaluation ------------------------------------------------------------------------
     def initial_state(self):
         """The case's model state before any effect acts."""
-        return State(self.case.bridge, self.sensors.positions.copy(), [c.positions.copy() for c in self.crossings],
+        return State(self.case.bridge, self.sensors.positions.copy(), [x.copy() for x in self.model_positions],
                      np.ones(self.case.vehicle.n_axles), np.zeros(self.n_crossings))
 
     def predict(self, theta, *, jacobian=True):
@@ -290,12 +305,15 @@ class JointProblem(WhitenedData):
                 jac[:, :, :self.n_elements] = log_ei_jacobians[id(lines)] * lf[None, :, None]
                 for e, sl in zip(self.effects, self.slices):
                     if e.structural:
-                        jac[:, :, places[id(e)]] = e.structural_jacobian(self, state, theta[sl], c, y)
+                        jac[:, :, places[e.name]] = e.structural_jacobian(self, state, theta[sl], c, y)
             for e, sl in self._outputs:
                 y, block, mult = e.output(self, state, theta[sl], c, y)
                 if jac is not None:
                     jac *= np.reshape(mult, (-1, 1, 1)) if np.ndim(mult) else mult
-                    jac[:, :, places[id(e)]] += block
+                    jac[:, :, places[e.name]] += block
+            if self._binned[c] is not None:
+                y = self._binned[c].to_bins(y)
+                jac = None if jac is None else self._binned[c].to_bins(jac)
             out.append((y, jac))
         return out
 

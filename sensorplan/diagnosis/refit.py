@@ -174,9 +174,9 @@ class Heldout:
     """Held-out log predictive density per fold and held-out residuals (internal)."""
 
     log_density: np.ndarray  # per fold
-    rms: float  # in the sensors' units (whitened rms times the sensor's noise std)
+    rms: float  # per reading, in the sensors' units (whitened rms times the sensor's noise std)
     rms_by_sensor: np.ndarray  # per sensor, in its unit
-    ratio: float  # whitened held-out rms (1 = the configured noise)
+    ratio: float  # whitened held-out rms per reading (1 = the configured noise)
 
 
 def heldout(fit, test_masks):
@@ -209,12 +209,19 @@ def heldout(fit, test_masks):
         logp.append(-0.5 * quad - 0.5 * logdet - 0.5 * n_t * math.log(2 * math.pi))
         pred[test] = rp
     used = np.any(np.stack(test_masks), axis=0)
-    std = problem.noise.std
-    by_sensor = np.array([math.sqrt(float(np.mean(pred[used & (sensor == i)] ** 2))) * std[i]
+    std = problem.sensor_std
+
+    def per_reading(ms):
+        # whitened bins of k readings (binning.py): unit noise plus sqrt(k) x the readings' mean model error, so
+        # a bin's mean square is 1 + k e^2 where a reading's is 1 + e^2 (e smooth within a bin)
+        return max(1.0 + (ms - 1.0) / problem.bin_size, 0.0)
+
+    by_sensor = np.array([math.sqrt(per_reading(float(np.mean(pred[used & (sensor == i)] ** 2)))) * std[i]
                           for i in range(problem.n_sensors)])
-    raw = pred[used] * std[sensor[used]]
-    return Heldout(np.array(logp), math.sqrt(float(np.mean(raw**2))), by_sensor,
-                   math.sqrt(float(np.mean(pred[used] ** 2))))
+    ms = np.array([per_reading(float(np.mean(pred[used & (sensor == i)] ** 2))) for i in range(problem.n_sensors)])
+    counts = np.array([np.sum(used & (sensor == i)) for i in range(problem.n_sensors)])
+    raw = float(np.sum(counts * ms * std**2) / np.sum(counts))
+    return Heldout(np.array(logp), math.sqrt(raw), by_sensor, math.sqrt(per_reading(float(np.mean(pred[used] ** 2)))))
 
 
 def gain_is_significant(new, current, threshold):

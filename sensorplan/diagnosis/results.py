@@ -143,6 +143,7 @@ class GapDiagnosis:
     heldout_ratio_before: float | None = None  # held-out rms / configured noise
     heldout_ratio_after: float | None = None
     corrected_model: dict = field(default_factory=dict)  # final MAP state (SI), for a corrected case
+    binning: dict = field(default_factory=dict)  # dense records: size, width_m, rows, bins of the fitted bin means
 
     def summary(self):
         from .summary import summary_lines
@@ -174,6 +175,7 @@ class GapDiagnosis:
             "heldout_ratio_before": self.heldout_ratio_before,
             "heldout_ratio_after": self.heldout_ratio_after,
             "corrected_model": dict(self.corrected_model),
+            "binning": dict(self.binning),
         }
 
 

@@ -24,6 +24,11 @@ def summary_lines(d):
         lines += [f"    {f['text']}" for f in d.springs]
     else:
         lines.append("  springs: held at the case's values (none elastic, or estimate_springs=False)")
+    if d.binning:
+        b = d.binning
+        lines.append(f"  fitted in bins of {b['size']} consecutive readings ({b['width_m']:.2f} m; {b['rows']} "
+                     f"readings in {b['bins']} whitened bins): the bins keep >= {100 * b['keep']:.0f} % of the "
+                     "information on EI")
     for name, reason in d.not_offered.items():
         lines.append(f"  not offered: {name} ({reason})")
     lines.append(f"  {'effect':26s} {'log BF':>8s} {'held-out gain':>14s} {'max EI shift':>13s}")

@@ -22,7 +22,13 @@ gap.
 
 Run: python studies/diagnosis/pairs.py [--seeds N] [--first ...] [--bridges ...] [--six]
 
-Last run (2026-11-26, third session, final code: also the held-out gain may sit in one fold as long
+Last run (2026-11-26, fourth session: dense records fitted in whitened bins (the three-span datasets,
+180 readings per crossing, in bins of 4) and the stall rule of the refits; the two runs side by side):
+case layouts 51/90 = 57 % (the same 51), lenient 79/90 (three-span restraint + sign flip seed 2: the
+restraint no longer listed as confounded with EI), CPU median 2.8 s, max 8.6 s; --six 73/90 = 81 %
+(the same verdicts), lenient 88/90, CPU median 4.3 s, max 14.6 s (two-span settled bearing + sign
+flip, 129 readings per crossing, not binned; 8.4 s on the idle machine), 0/90 above 15 s.
+Run before (2026-11-26, third session, final code: also the held-out gain may sit in one fold as long
 as the other folds do not lose more than 3 together; beside the validation study and the CI):
 case layouts 51/90 = 57 % (the same verdicts), lenient 80/90, CPU median 4.2 s, max 9.2 s; --six
 73/90 = 81 % (vertical 39/45, rotational 34/45: three-span far-end restraint + thermal drift seed
