@@ -54,14 +54,18 @@ class BinnedCrossing(Crossing):
     def __post_init__(self):
         if self.raw_positions is not None:  # the whitening and binning as one sparse map, readings -> bins
             object.__setattr__(self, "_map", _bin_map(self.noise, self.raw_positions, self.size))
+            # crossings with equal keys have equal maps (a model mapped for one serves the others)
+            object.__setattr__(self, "map_key", (self.raw_positions.tobytes(), self.size, self.noise.std.tobytes(),
+                                                 self.noise.correlation_length))
 
     def to_bins(self, values):
         """Whitened bin sums / sqrt(size) of model ``values`` at the readings (sensors first, rows next)."""
         values = np.asarray(values, dtype=float)
-        std = self.noise.std.reshape((-1,) + (1,) * (values.ndim - 1))
-        if values.ndim == 2:
-            return (self._map @ values.T).T / std
-        return np.stack([self._map @ v for v in values]) / std
+        s, k = values.shape[:2]
+        rest = values.shape[2:]
+        flat = np.moveaxis(values, 1, 0).reshape(k, -1)  # one sparse product for every sensor and column
+        out = np.moveaxis((self._map @ flat).reshape((-1, s) + rest), 0, 1)
+        return out / self.noise.std.reshape((-1,) + (1,) * (values.ndim - 1))
 
 
 def _bin_map(noise, positions, size):

@@ -29,6 +29,10 @@ __all__ = []
 ENTRY = 0.1  # m over which an axle moved by an effect rolls onto the bridge (half a tyre contact length)
 
 
+def _unchanged(values):
+    return values
+
+
 def _axle_key(state, x, axle, r, scale):
     """Cache key of one axle's unit-load response (independent of the axle loads)."""
     return ("axle", x.tobytes(), axle, r.tobytes(), state.bridge, scale)
@@ -291,29 +295,33 @@ class JointProblem(WhitenedData):
                 e.apply(state, theta[sl])
         self.prefetch(state, jacobian)
         out = []
-        log_ei_jacobians = {}  # per lines object: crossings at the same positions share it
+        # the log-EI block, per set of lines and load factors: crossings at the same positions share it (mapped
+        # onto the bins once, binning.py; gains, amplifications and the map act on it linearly, in any order)
+        log_ei_jacobians = {}
         for c in range(self.n_crossings):
             lines = self.lines(state, c)
             lf = self.load_factor(c)
+            binned = self._binned[c]
+            to_rows = _unchanged if binned is None else binned.to_bins
             y = lines.predictions * lf[None, :]
             jac = None
             places = self._places[c]
             if jacobian:
-                jac = np.zeros(y.shape + (self.columns[c].size,))
-                if id(lines) not in log_ei_jacobians:
-                    log_ei_jacobians[id(lines)] = lines.jacobian("log_ei")
-                jac[:, :, :self.n_elements] = log_ei_jacobians[id(lines)] * lf[None, :, None]
+                key = (id(lines), lf.tobytes(), None if binned is None else binned.map_key)
+                if key not in log_ei_jacobians:
+                    log_ei_jacobians[key] = to_rows(lines.jacobian("log_ei") * lf[None, :, None])
+                block = log_ei_jacobians[key]
+                jac = np.zeros(block.shape[:2] + (self.columns[c].size,))
+                jac[:, :, :self.n_elements] = block
                 for e, sl in zip(self.effects, self.slices):
                     if e.structural:
-                        jac[:, :, places[e.name]] = e.structural_jacobian(self, state, theta[sl], c, y)
+                        jac[:, :, places[e.name]] = to_rows(e.structural_jacobian(self, state, theta[sl], c, y))
             for e, sl in self._outputs:
                 y, block, mult = e.output(self, state, theta[sl], c, y)
                 if jac is not None:
                     jac *= np.reshape(mult, (-1, 1, 1)) if np.ndim(mult) else mult
-                    jac[:, :, places[e.name]] += block
-            if self._binned[c] is not None:
-                y = self._binned[c].to_bins(y)
-                jac = None if jac is None else self._binned[c].to_bins(jac)
+                    jac[:, :, places[e.name]] += to_rows(block)
+            y = to_rows(y)
             out.append((y, jac))
         return out
 

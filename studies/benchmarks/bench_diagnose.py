@@ -42,7 +42,15 @@ four held-out folds and in every selection round.
 
 Run: python studies/benchmarks/bench_diagnose.py [--quick]
 
-Last run (2026-11-26, fourth session: dense records fitted in whitened bins -- the three-span
+Last run (2026-11-26, fourth session, after: the log-EI block of the Jacobian mapped onto the bins
+once per set of lines, load factors and bins, and one sparse product per block for all sensors; idle
+machine, CPU seconds, one BLAS thread): the same verdicts as the run below; small median 1.12 s, max
+  2.24 s, ratio max 10.2x; three median 1.58 s, max 3.64 s, ratio max 4.9x; pairs median 1.93 s,
+  max 5.62 s, ratio max 12.6x; pairs6 median 3.35 s, max 6.28 s, ratio max 7.0x; dense6 median
+  4.17 s, max 11.74 s (the sign flip; invert 10.49 s), ratio max 6.9x.  Every dataset < 15 s: met;
+  ratio <= 20x: met (median 4.7x, max 12.6x).  Outside the benchmark: dense6 thermal drift at
+  0.02 m (2246 readings per sensor and crossing) 16.1 s -> 7.8 s by this change (invert 2.8 s).
+Run before (2026-11-26, fourth session: dense records fitted in whitened bins -- the three-span
 datasets of "three", "pairs" and "pairs6" (180 readings per crossing) in bins of 4, "dense6" (899)
 in bins of 22 -- and the stall rule of the refits; idle machine, CPU seconds, one BLAS thread):
   small median 0.96 s, max 2.33 s, ratio max 9.4x; three median 1.79 s, max 4.05 s, ratio max
