@@ -53,7 +53,7 @@ def test_bins_are_independent_unit_normals_under_the_dense_covariance(correlatio
 
 @pytest.mark.parametrize("names", [
     ("thermal_drift", "position_offset", "sensor_gain", "vertical_support_spring"),
-    ("sensor_gain", "vertical_support_spring"),  # no shifts: the crossings share their lines
+    ("sensor_gain", "vertical_support_spring", "sensor_position", "axle_loads"),  # no shifts: shared lines
 ])
 def test_binned_problem_is_the_unbinned_model_mapped_onto_the_bins(names):
     # reference: the unbinned problem's predictions and Jacobian at the readings (every effect that reads the

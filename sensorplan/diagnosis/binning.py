@@ -101,11 +101,10 @@ def _noise(case, crossings):
     return NoiseModel([DEFAULT_STD[k] for k in case.sensors.subset(index).kinds])
 
 
-def _information(jac, noise, positions, size):
-    """Fisher information of log EI of one crossing's whitened rows summed in bins of ``size``."""
-    white = bin_sum(noise.whiten(jac, positions), size) / np.sqrt(size)
-    white = white.reshape(-1, jac.shape[-1])
-    return white.T @ white
+def _information(white, size):
+    """Fisher information of log EI of one crossing's whitened Jacobian rows summed in bins of ``size``."""
+    binned = (bin_sum(white, size) / np.sqrt(size)).reshape(-1, white.shape[-1])
+    return binned.T @ binned
 
 
 def choose_size(case, crossings, prior):
@@ -119,16 +118,15 @@ def choose_size(case, crossings, prior):
     groups = {}  # crossings with the same positions and load factors have the same information
     for c in crossings:
         groups.setdefault(c.positions.tobytes() + c.load_factor.tobytes(), [c, 0])[1] += 1
-    jacs = []
+    whites = []  # the whitened log-EI Jacobian of each group, and its count
     for c, count in groups.values():
         lines = influence_lines(case.bridge, case.mesh, case.ei, sensors, case.vehicle, c.positions)
-        jacs.append((lines.jacobian("log_ei") * c.load_factor[None, :, None], c.positions, count))
+        whites.append((noise.whiten(lines.jacobian("log_ei") * c.load_factor[None, :, None], c.positions), count))
     q = prior.precision(case.mesh.n_elements)
-    full = q + sum(n * _information(j, noise, x, 1) for j, x, n in jacs)
+    full = q + sum(n * _information(w, 1) for w, n in whites)
     best = 1
     for size in range(2, n_rows // MIN_BINS + 1):
-        kept = q + sum(n * _information(j[:, :j.shape[1] // size * size], noise, x[:x.size // size * size], size)
-                       for j, x, n in jacs)
+        kept = q + sum(n * _information(w, size) for w, n in whites)  # bin_sum drops an incomplete last bin
         if linalg.eigh(kept, full, eigvals_only=True).min() < KEEP:
             break
         best = size
