@@ -22,7 +22,11 @@ gap.
 
 Run: python studies/diagnosis/pairs.py [--seeds N] [--first ...] [--bridges ...] [--six]
 
-Last run (2026-11-26, fourth session: dense records fitted in whitened bins (the three-span datasets,
+Last run (2026-11-26, fourth session, final code: also the log-EI block mapped onto the bins once per
+set of lines; the two runs side by side): the same verdicts as the run below; case layouts 51/90 =
+57 %, lenient 79/90, CPU median 2.7 s, max 5.4 s; --six 73/90 = 81 %, lenient 88/90, CPU median
+3.9 s, max 10.9 s, 0/90 above 15 s.
+Run before (2026-11-26, fourth session: dense records fitted in whitened bins (the three-span datasets,
 180 readings per crossing, in bins of 4) and the stall rule of the refits; the two runs side by side):
 case layouts 51/90 = 57 % (the same 51), lenient 79/90 (three-span restraint + sign flip seed 2: the
 restraint no longer listed as confounded with EI), CPU median 2.8 s, max 8.6 s; --six 73/90 = 81 %
