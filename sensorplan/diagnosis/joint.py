@@ -10,7 +10,11 @@ which rows (load positions) of each crossing enter the likelihood.
 :meth:`JointProblem.rows` gives the whitened residuals and Jacobian row by
 row (with the crossing and load index of each row), from which the
 held-out folds are scored by exact rank updates of the linearised problem.
+Binned crossings (``binning.py``: dense records) are modelled at their
+readings and mapped onto their whitened bins; the bins are then the rows.
 """
+
+from functools import partial
 
 import numpy as np
 
@@ -27,10 +31,6 @@ from .effects import CaseSprings, State
 __all__ = []
 
 ENTRY = 0.1  # m over which an axle moved by an effect rolls onto the bridge (half a tyre contact length)
-
-
-def _unchanged(values):
-    return values
 
 
 def _axle_key(state, x, axle, r, scale):
@@ -302,7 +302,7 @@ class JointProblem(WhitenedData):
             lines = self.lines(state, c)
             lf = self.load_factor(c)
             binned = self._binned[c]
-            to_rows = _unchanged if binned is None else binned.to_bins
+            to_rows = partial(self.to_bins, c)
             y = lines.predictions * lf[None, :]
             jac = None
             places = self._places[c]

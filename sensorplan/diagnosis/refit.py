@@ -216,12 +216,11 @@ def heldout(fit, test_masks):
         # a bin's mean square is 1 + k e^2 where a reading's is 1 + e^2 (e smooth within a bin)
         return max(1.0 + (ms - 1.0) / problem.bin_size, 0.0)
 
-    by_sensor = np.array([math.sqrt(per_reading(float(np.mean(pred[used & (sensor == i)] ** 2)))) * std[i]
-                          for i in range(problem.n_sensors)])
     ms = np.array([per_reading(float(np.mean(pred[used & (sensor == i)] ** 2))) for i in range(problem.n_sensors)])
     counts = np.array([np.sum(used & (sensor == i)) for i in range(problem.n_sensors)])
     raw = float(np.sum(counts * ms * std**2) / np.sum(counts))
-    return Heldout(np.array(logp), math.sqrt(raw), by_sensor, math.sqrt(per_reading(float(np.mean(pred[used] ** 2)))))
+    return Heldout(np.array(logp), math.sqrt(raw), np.sqrt(ms) * std,
+                   math.sqrt(per_reading(float(np.mean(pred[used] ** 2)))))
 
 
 def gain_is_significant(new, current, threshold):
