@@ -3,6 +3,7 @@
 import csv
 import json
 import re
+from importlib import resources
 
 import numpy as np
 import pytest
@@ -321,6 +322,30 @@ def test_diagnose_writes_json_and_figures(tmp_path, capsys):
     assert f"  verdict: {d['verdict']}" in printed
     for name in ("residual_map.png", "shrinkage.png", "ei_before_after.png"):
         assert (tmp_path / name).exists()
+
+
+def test_diagnose_fits_a_dense_record_in_bins_and_reports_the_readings(tmp_path, capsys):
+    # a reading every 0.05 m through the CSV format: the case file's sweep, simulate, diagnose; the truth has the
+    # middle bearing settling (2 x 48 EI / L^3 with EI = 1e10 N m^2, L = 15 m) on a finer mesh
+    text = (resources.files("sensorplan.examples") / "openlab-like.toml").read_text()
+    model = text.replace("step = 0.25", "step = 0.05") + "\n[noise]\ncorrelation_length = 0.5\n"
+    (tmp_path / "model.toml").write_text(model)
+    truth = model.replace("vertical_springs = [inf, inf, inf]", "vertical_springs = [inf, 2.84e8, inf]")
+    (tmp_path / "truth.toml").write_text(truth.replace("elements = 30", "elements = 90"))
+    data, js = tmp_path / "d.csv", tmp_path / "d.json"
+    assert main(["simulate", "--config", str(tmp_path / "truth.toml"), "--crossings", "6", "--noise", "--seed", "2",
+                 "--out", str(data), "--quiet"]) == 0
+    assert main(["diagnose", "--config", str(tmp_path / "model.toml"), "--data", str(data), "--json", str(js),
+                 "--out", str(tmp_path)]) == 0
+    d = json.loads(js.read_text())
+    printed = capsys.readouterr().out
+    assert d["causes"] == ["vertical_support_spring"]
+    assert d["binning"]["size"] > 1 and f"fitted in bins of {d['binning']['size']} consecutive readings" in printed
+    (finding,) = d["findings"]["vertical_support_spring"]
+    assert finding["low"] < 2.84e8 < finding["high"]
+    # the residuals are those of the readings (5 urad of noise each), not of the bins
+    for s in d["shrinkage"].values():
+        assert s["rms_after"] == pytest.approx(5e-6, rel=0.1)
 
 
 def test_recommend_kind_follows_the_case_and_refuses_unit_mixups(tmp_path, capsys):
