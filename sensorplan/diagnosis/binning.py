@@ -24,7 +24,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import linalg, sparse
 
-from ..inference.laplace import DEFAULT_STD
+from ..inference.laplace import data_sensors
 from ..model.crossings import Crossing, Crossings
 from ..model.forward import influence_lines
 from ..model.noise import NoiseModel
@@ -94,13 +94,6 @@ def bin_sum(values, size):
     return values[:, :n * size].reshape((values.shape[0], n, size) + values.shape[2:]).sum(axis=2)
 
 
-def _noise(case, crossings):
-    index = [case.sensors.names.index(n) for n in crossings.sensor_names]
-    if case.noise is not None:
-        return case.noise.subset(index)
-    return NoiseModel([DEFAULT_STD[k] for k in case.sensors.subset(index).kinds])
-
-
 def _information(white, size):
     """Fisher information of log EI of one crossing's whitened Jacobian rows summed in bins of ``size``."""
     binned = (bin_sum(white, size) / np.sqrt(size)).reshape(-1, white.shape[-1])
@@ -112,9 +105,7 @@ def choose_size(case, crossings, prior):
     n_rows = min(c.n_loads for c in crossings)
     if n_rows < MIN_ROWS or any(isinstance(c, BinnedCrossing) for c in crossings):
         return 1
-    noise = _noise(case, crossings)
-    index = [case.sensors.names.index(n) for n in crossings.sensor_names]
-    sensors = case.sensors.subset(index)
+    sensors, noise = data_sensors(case, crossings.sensor_names)
     groups = {}  # crossings with the same positions and load factors have the same information
     for c in crossings:
         groups.setdefault(c.positions.tobytes() + c.load_factor.tobytes(), [c, 0])[1] += 1
@@ -137,7 +128,7 @@ def bin_crossings(case, crossings, size):
     """``(case, crossings)`` fitted in whitened bins of ``size`` rows: unit white noise per bin."""
     if size == 1:
         return case, crossings
-    noise = _noise(case, crossings)
+    noise = data_sensors(case, crossings.sensor_names)[1]
     out = []
     for c in crossings:
         n = c.n_loads // size * size

@@ -30,6 +30,15 @@ LOG_NOISE_FLOOR = math.log(1e-3)
 DEFAULT_STD = {"rotation": 1e-6, "deflection": 1e-4}
 
 
+def data_sensors(case, names):
+    """The case's sensors ``names`` (in that order) and their noise model (``DEFAULT_STD`` where none is set)."""
+    index = [case.sensors.names.index(n) for n in names]
+    sensors = case.sensors.subset(index)
+    if case.noise is not None:
+        return sensors, case.noise.subset(index)
+    return sensors, NoiseModel([DEFAULT_STD[k] for k in sensors.kinds])
+
+
 class WhitenedData:
     """Sensors, noise and whitened data of ``crossings`` (rows selected by ``masks``).
 
@@ -40,12 +49,7 @@ class WhitenedData:
     def __init__(self, case, crossings, *, masks=None):
         self.case = case
         self.crossings = crossings
-        index = [case.sensors.names.index(n) for n in crossings.sensor_names]
-        self.sensors = case.sensors.subset(index)
-        if case.noise is not None:
-            self.noise = case.noise.subset(index)
-        else:
-            self.noise = NoiseModel([DEFAULT_STD[k] for k in self.sensors.kinds])
+        self.sensors, self.noise = data_sensors(case, crossings.sensor_names)
         self.masks = [np.ones(c.n_loads, bool) for c in crossings] if masks is None else masks
         self.white_data = [self.noise.whiten(c.values[:, m], c.positions[m])
                            for c, m in zip(crossings, self.masks)]
