@@ -11,7 +11,10 @@
    Bayes factor, with its held-out predictive gain (blocks of load
    positions held out in every crossing; whole crossings for static load
    steps) from rank updates of the linearised problem.  Non-converged fits
-   are flagged and never selected.
+   are flagged and never selected.  When the base fit is grossly distorted
+   (noise scale above ``DISTORTED``: EI twisted to mimic a settled bearing)
+   and a support-spring fit from the base MAP does not converge, it is also
+   fitted from the nominal EI and springs; the better fit counts.
 4. Stepwise selection (:mod:`.selection`): the effect with the largest
    Bayes factor among those with a significant held-out gain over the
    current model is added (effects within ``bf_threshold`` of it are
@@ -54,6 +57,10 @@ if TYPE_CHECKING:
 
 __all__ = ["diagnose"]
 
+# base noise scale above which the base EI is taken as distorted by the gap: the support-spring effects are then
+# also fitted from the nominal EI (_Context.fit)
+DISTORTED = 3.0
+
 
 def _folds(crossings, n_folds=4):
     """Masks (train, test) per fold.
@@ -93,6 +100,7 @@ class _Context:
         self.case, self.crossings, self.prior = case, crossings, prior
         self.estimate_springs, self.alpha, self.tau = estimate_springs, alpha, tau
         self.blocks, self.test_masks, self.predictions = blocks, test_masks, predictions
+        self.base_alpha = alpha
 
     def fit(self, names, blocks=None, *, initial=True, max_iter=40, floor=None):
         problem = JointProblem(self.case, self.crossings, [make_effect(n) for n in names], self.prior,
@@ -106,7 +114,22 @@ class _Context:
             start = warm_start(problem, {"log_ei": problem.theta0[:problem.n_elements]} if blocks is None
                                else blocks)
             start[sl] = init
-        return self._scored(quick_fit(problem, start, self.alpha, self.tau, max_iter=max_iter, floor=floor))
+        fit = quick_fit(problem, start, self.alpha, self.tau, max_iter=max_iter, floor=floor)
+        distorted = self.base_alpha > DISTORTED
+        if effect.frees and initial and distorted and (fit is None or not (fit.converged or fit.abandoned)):
+            # a support that settles or restrains is what the base EI twisted to mimic (EI off by orders of
+            # magnitude next to a settled bearing): from there the spring's fit crawls or stops in a worse
+            # optimum, so it also starts from the nominal EI and springs (other effects' blocks kept); the
+            # better fit counts
+            nominal = problem.theta0.copy()
+            for e, s in zip(problem.effects, problem.slices):
+                if not e.structural:
+                    nominal[s] = start[s]
+            cold = quick_fit(problem, nominal, self.alpha, self.tau, max_iter=max_iter, floor=floor)
+            if cold is not None and (fit is None or (cold.converged, cold.log_evidence) > (fit.converged,
+                                                                                             fit.log_evidence)):
+                fit = cold
+        return self._scored(fit)
 
     def resume(self, fit, *, max_iter=40, floor=None):
         """``fit`` continued from where it stopped."""

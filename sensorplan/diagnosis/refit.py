@@ -21,6 +21,7 @@ Owns: quick fits and held-out scores.  May import: inference, model and the foun
 """
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -67,7 +68,9 @@ def _evidence(problem, lin, theta, alpha, q):
     hess = lin.jtj / alpha**2 + q
     grad = -lin.jtr / alpha**2 + q @ (theta - problem.theta0)
     try:
-        decrement = float(grad @ scipy.linalg.solve(hess, grad, assume_a="pos"))
+        with warnings.catch_warnings():  # ill-conditioned far from the optimum: a large decrement, a high ceiling
+            warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
+            decrement = float(grad @ scipy.linalg.solve(hess, grad, assume_a="pos"))
     except (np.linalg.LinAlgError, ValueError):
         decrement = math.inf
     # Far from the optimum Levenberg-Marquardt converges linearly along curved valleys; on the slow fits

@@ -12,6 +12,7 @@ Owns: MAP, Laplace, evidence.  May import: model, errors.
 """
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -108,7 +109,11 @@ def solve_map(problem, theta, alpha, q, theta0, *, max_iter, tol, stop=None, ato
         accepted = False
         for _ in range(30):
             try:
-                step = -scipy.linalg.solve(hess + mu * np.diag(diag), grad, assume_a="pos")
+                with warnings.catch_warnings():
+                    # an ill-conditioned system (a stiff spring the data barely inform, far from the optimum)
+                    # is solved all the same: a step counts only if it lowers the objective, else it is damped
+                    warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
+                    step = -scipy.linalg.solve(hess + mu * np.diag(diag), grad, assume_a="pos")
             except (np.linalg.LinAlgError, scipy.linalg.LinAlgError):
                 mu = max(10 * mu, 1e-6)
                 continue

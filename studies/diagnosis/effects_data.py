@@ -26,6 +26,9 @@ def _fine(case):
 def generate(case, effect, rng, n_crossings=6, *, ei=None, return_noise_rms=False):
     """Crossings of ``case`` with ``effect`` present (None: effect-free; "vibration": out of library).
 
+    ``effect`` may also be a tuple of effects, applied together (each as it is
+    applied alone, in the order given).
+
     With ``return_noise_rms=True`` return ``(crossings, noise_rms)``, where
     ``noise_rms`` is the rms of the noise actually added to the data (all
     crossings, sensors and load positions): the floor a correct model's
@@ -44,49 +47,50 @@ def generate(case, effect, rng, n_crossings=6, *, ei=None, return_noise_rms=Fals
     gain = np.ones(sensors.n_sensors)
     load_factor = np.ones(n_crossings)
     ei_factor = np.ones(n_crossings)
-    if effect == "support_rotational_spring":
-        rot = list(bridge.rotational_springs)
-        i = int(rng.integers(0, len(rot)))
-        ei0 = float(np.median(case.ei))
-        span = bridge.spans[min(i, len(bridge.spans) - 1)]
-        rot[i] = (3.0 if rot[i] == 0 else 0.3) * ei0 / span * (1 if rot[i] == 0 else rot[i] * span / ei0)
-        bridge = sp.Bridge(bridge.spans, tuple(rot), bridge.vertical_springs)
-    elif effect == "vertical_support_spring":
-        vert = list(bridge.vertical_springs)
-        i = int(rng.integers(0, len(vert)))
-        ei0 = float(np.median(case.ei))
-        span = bridge.spans[min(i, len(bridge.spans) - 1)]
-        vert[i] = 2.0 * 48 * ei0 / span**3  # settles noticeably
-        bridge = sp.Bridge(bridge.spans, bridge.rotational_springs, tuple(vert))
-    elif effect == "sensor_offset":
-        add += (rng.choice([-1, 1], (n_crossings, sensors.n_sensors)) * rng.uniform(6, 12, (n_crossings, sensors.n_sensors))
-                * std[None, :])[:, :, None]
-    elif effect == "thermal_drift":
-        t = (pos - pos.mean()) / (pos[-1] - pos[0])
-        slope = rng.choice([-1, 1], (n_crossings, sensors.n_sensors)) * rng.uniform(10, 20, (n_crossings, sensors.n_sensors))
-        add += slope[:, :, None] * std[None, :, None] * t[None, None, :]
-    elif effect == "position_offset":
-        shifts = rng.choice([-1, 1], n_crossings) * rng.uniform(0.4, 0.8, n_crossings)
-    elif effect == "axle_loads":
-        loads = np.array(vehicle.axle_loads) * rng.uniform(1.15, 1.3, vehicle.n_axles)
-        vehicle = sp.Vehicle(vehicle.axle_offsets, tuple(loads))
-    elif effect == "sensor_position":
-        moved = sensors.positions + rng.choice([-1, 1], sensors.n_sensors) * rng.uniform(0.4, 0.7, sensors.n_sensors)
-        sensors = sp.SensorLayout(np.clip(moved, 0.0, bridge.length), sensors.kinds, sensors.names, sensors.noise_std)
-    elif effect == "dynamic_amplification":
-        mult = 1.0 + rng.uniform(0.05, 0.15, n_crossings)
-    elif effect == "sensor_gain":  # one sensor mounted the wrong way round
-        gain[int(rng.integers(0, sensors.n_sensors))] = -1.0
-    elif effect == "load_dependent_stiffness":  # heavier crossings see a softer (cracked) bridge
-        load_factor = np.linspace(0.6, 1.4, n_crossings)
-        total = float(np.sum(vehicle.axle_loads))
-        ei_factor = np.exp(-rng.uniform(0.15, 0.3) * (load_factor - load_factor.mean()) * total / 100e3)
-    elif effect == "vibration":  # out of the library: a free vibration along the crossing
-        phase = rng.uniform(0, 2 * np.pi, n_crossings)
-        wave = np.sin(2 * np.pi * pos[None, :] / 2.3 + phase[:, None])
-        add += 0.08 * peak[None, :, None] * wave[:, None, :]
-    elif effect is not None:
-        raise ValueError(effect)
+    for name in (effect,) if effect is None or isinstance(effect, str) else tuple(effect):
+        if name == "support_rotational_spring":
+            rot = list(bridge.rotational_springs)
+            i = int(rng.integers(0, len(rot)))
+            ei0 = float(np.median(case.ei))
+            span = bridge.spans[min(i, len(bridge.spans) - 1)]
+            rot[i] = (3.0 if rot[i] == 0 else 0.3) * ei0 / span * (1 if rot[i] == 0 else rot[i] * span / ei0)
+            bridge = sp.Bridge(bridge.spans, tuple(rot), bridge.vertical_springs)
+        elif name == "vertical_support_spring":
+            vert = list(bridge.vertical_springs)
+            i = int(rng.integers(0, len(vert)))
+            ei0 = float(np.median(case.ei))
+            span = bridge.spans[min(i, len(bridge.spans) - 1)]
+            vert[i] = 2.0 * 48 * ei0 / span**3  # settles noticeably
+            bridge = sp.Bridge(bridge.spans, bridge.rotational_springs, tuple(vert))
+        elif name == "sensor_offset":
+            add += (rng.choice([-1, 1], (n_crossings, sensors.n_sensors)) * rng.uniform(6, 12, (n_crossings, sensors.n_sensors))
+                    * std[None, :])[:, :, None]
+        elif name == "thermal_drift":
+            t = (pos - pos.mean()) / (pos[-1] - pos[0])
+            slope = rng.choice([-1, 1], (n_crossings, sensors.n_sensors)) * rng.uniform(10, 20, (n_crossings, sensors.n_sensors))
+            add += slope[:, :, None] * std[None, :, None] * t[None, None, :]
+        elif name == "position_offset":
+            shifts = rng.choice([-1, 1], n_crossings) * rng.uniform(0.4, 0.8, n_crossings)
+        elif name == "axle_loads":
+            loads = np.array(vehicle.axle_loads) * rng.uniform(1.15, 1.3, vehicle.n_axles)
+            vehicle = sp.Vehicle(vehicle.axle_offsets, tuple(loads))
+        elif name == "sensor_position":
+            moved = sensors.positions + rng.choice([-1, 1], sensors.n_sensors) * rng.uniform(0.4, 0.7, sensors.n_sensors)
+            sensors = sp.SensorLayout(np.clip(moved, 0.0, bridge.length), sensors.kinds, sensors.names, sensors.noise_std)
+        elif name == "dynamic_amplification":
+            mult = 1.0 + rng.uniform(0.05, 0.15, n_crossings)
+        elif name == "sensor_gain":  # one sensor mounted the wrong way round
+            gain[int(rng.integers(0, sensors.n_sensors))] = -1.0
+        elif name == "load_dependent_stiffness":  # heavier crossings see a softer (cracked) bridge
+            load_factor = np.linspace(0.6, 1.4, n_crossings)
+            total = float(np.sum(vehicle.axle_loads))
+            ei_factor = np.exp(-rng.uniform(0.15, 0.3) * (load_factor - load_factor.mean()) * total / 100e3)
+        elif name == "vibration":  # out of the library: a free vibration along the crossing
+            phase = rng.uniform(0, 2 * np.pi, n_crossings)
+            wave = np.sin(2 * np.pi * pos[None, :] / 2.3 + phase[:, None])
+            add += 0.08 * peak[None, :, None] * wave[:, None, :]
+        elif name is not None:
+            raise ValueError(name)
     truth = replace(fine, bridge=bridge, sensors=sensors, vehicle=vehicle)
     noise = case.noise.sample(pos, rng, n_crossings)
     crossings = []

@@ -1,0 +1,206 @@
+"""The diagnosis on bridges it was never tuned on: random cases, one or two withheld effects (issue 18).
+
+validation.py and pairs.py use three fixed bridges; the acceptance of issue
+18 is checked on bridges nobody has seen.  This study draws each case at
+random -- one to three spans of 12-35 m, EI 3e9-4e10 N m^2 per span, pinned
+or elastically restrained ends, rigid or elastic interior bearings, a two- or
+three-axle vehicle, two to six tiltmeters anywhere on the bridge, white or
+AR(1) noise at 1/40-1/150 of the peak rotation, 8-12 crossings -- and
+generates the data with ``effects_data.generate`` (a finer truth mesh, the
+effect applied directly, never through the effect library):
+
+- single: each library effect, effect-free controls, local damage (EI 30 %
+  lower over a fifth of a span) and the out-of-library vibration;
+- pairs: two library effects at once.
+
+Scored as in validation.py (top cause right, or the true effect reported as
+confounded with EI, or the case's elastic springs estimated as in invert)
+and pairs.py (both named and nothing else; leniently, the causes named are
+true and a missing one is reported as confounded with EI).
+
+Run: python studies/diagnosis/unseen.py [--cases N] [--pairs N] [--workers 2] [--seed S]
+"""
+
+import os
+import sys
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import time  # noqa: E402
+import warnings  # noqa: E402
+from concurrent.futures import ProcessPoolExecutor  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parents[1]))  # this checkout's sensorplan
+
+import sensorplan as sp  # noqa: E402
+from effects_data import EFFECT_NAMES, generate  # noqa: E402
+
+CONTROLS = ("none", "local_damage", "vibration")
+SPRINGS = ("support_rotational_spring", "vertical_support_spring")
+
+
+def random_case(rng):
+    """A random bridge, vehicle, layout and noise model (the nominal model the diagnosis gets)."""
+    n_spans = int(rng.integers(1, 4))
+    main = rng.uniform(12.0, 35.0)
+    spans = [main] if n_spans == 1 else [main * rng.uniform(0.6, 1.0) for _ in range(n_spans)]
+    spans = [round(s, 1) for s in spans]
+    ei0 = float(np.exp(rng.uniform(np.log(3e9), np.log(4e10))))
+    ei = [ei0 * rng.uniform(0.8, 1.25) for _ in spans]
+    rot = [0.0] * (n_spans + 1)
+    vert = [np.inf] * (n_spans + 1)
+    for end in (0, n_spans):
+        if rng.random() < 0.4:  # an end restrained by its abutment, estimated with EI (as invert does)
+            rot[end] = ei0 / spans[min(end, n_spans - 1)] * rng.uniform(1.0, 5.0)
+    for k in range(1, n_spans):
+        if rng.random() < 0.4:  # an elastic interior bearing
+            vert[k] = 48 * ei0 / spans[k] ** 3 * rng.uniform(10.0, 40.0)
+    bridge = sp.Bridge(spans, rot, vert)
+    length = bridge.length
+    n_elements = int(np.clip(round(length / 0.8), 20, 60))
+    n_axles = int(rng.integers(2, 4))
+    offsets = np.concatenate([[0.0], np.cumsum(rng.uniform(1.3, 4.5, n_axles - 1))])
+    loads = rng.uniform(20e3, 120e3, n_axles)
+    vehicle = sp.Vehicle(tuple(np.round(offsets, 2)), tuple(np.round(loads, -2)))
+    n_sensors = int(rng.integers(2, 7))
+    while True:
+        pos = np.sort(rng.uniform(0.03, 0.97, n_sensors)) * length
+        supports = np.concatenate([[0.0], np.cumsum(spans)])
+        if np.all(np.diff(pos) > 1.0) and np.min(np.abs(pos[:, None] - supports[None, :])) > 0.5:
+            break
+    names = [f"T{i + 1}" for i in range(n_sensors)]
+    step = float(rng.choice([0.1, 0.2, 0.25]))
+    sweep = sp.LoadSweep.from_range(0.0, length + vehicle.length, step)
+    mesh = sp.Mesh.uniform(bridge, n_elements)
+    trial = sp.Case(bridge, mesh, ei, vehicle, sp.SensorLayout(np.round(pos, 2), "rotation", names, [1e-6] * n_sensors),
+                    sweep=sweep)
+    peak = np.abs(trial.influence_lines(trial.ei).predictions).max(axis=1)
+    std = float(np.median(peak)) / rng.uniform(40.0, 150.0)
+    std = float(np.clip(std, 2e-7, 5e-4))
+    corr = 0.0 if rng.random() < 0.5 else float(rng.uniform(0.3, 1.0))
+    sensors = sp.SensorLayout(np.round(pos, 2), "rotation", names, [std] * n_sensors)
+    return sp.Case(bridge, mesh, ei, vehicle, sensors, sp.NoiseModel([std] * n_sensors, corr), sweep=sweep,
+                   name="random")
+
+
+def describe_case(case):
+    b = case.bridge
+    return (f"{'+'.join(f'{s:g}' for s in b.spans)} m, {case.vehicle.n_axles} axles, {case.sensors.n_sensors} tilt, "
+            f"{'AR(1)' if case.noise.correlation_length else 'white'}, step {case.sweep.positions[1]:g} m, "
+            f"rot {sum(0 < r < np.inf for r in b.rotational_springs)} vert {sum(v < np.inf for v in b.vertical_springs)}")
+
+
+def run_one(job):
+    kind, index, effects, seed = job
+    ss = np.random.SeedSequence((seed, index))
+    case_rng, data_rng = (np.random.default_rng(s) for s in ss.spawn(2))
+    case = random_case(case_rng)
+    n_cr = int(case_rng.integers(8, 13))
+    ei = None
+    true = tuple(e for e in effects if e in EFFECT_NAMES) + (("vibration",) if "vibration" in effects else ())
+    if "local_damage" in effects:
+        span = case.bridge.spans[0]
+        ei_case = case.ei_at
+        ei = lambda x: np.where((x > 0.3 * span) & (x < 0.5 * span), 0.7, 1.0) * ei_case(x)  # noqa: E731
+    t0 = time.process_time()
+    try:
+        data = generate(case, true or None, data_rng, n_cr, ei=ei)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            d = sp.diagnose(case, data)
+    except Exception as exc:  # keep the study going; the record says what failed
+        return {"kind": kind, "index": index, "effects": effects, "case": describe_case(case),
+                "error": f"{type(exc).__name__}: {exc}", "cpu": time.process_time() - t0}
+    cpu = time.process_time() - t0
+    causes = tuple(d.causes)
+    conf = {c.name for c in d.confounded}
+    springs_differ = any(f.get("differs") for f in d.springs)
+    lib = [e for e in effects if e in EFFECT_NAMES]
+    if kind == "single" and lib:
+        e = lib[0]
+        right = (causes[:1] == (e,) or (not causes and not d.unexplained and e in conf)
+                 or (not causes and e in SPRINGS and springs_differ))
+    elif kind == "single":
+        # controls and local damage: no cause; vibration: reported unexplained or partly explained
+        partly = bool(causes) and d.heldout_ratio_after is not None and d.heldout_ratio_after > 1.2
+        right = not causes if effects[0] in ("none", "local_damage") else (d.unexplained or partly)
+    else:
+        right = set(causes) == set(lib)
+    lenient = right or (kind == "pairs" and set(causes) <= set(lib) and not d.unexplained
+                        and set(lib) - set(causes) <= conf | ({e for e in SPRINGS} if springs_differ else set()))
+    return {"kind": kind, "index": index, "effects": effects, "case": describe_case(case), "crossings": n_cr,
+            "causes": causes, "confounded": sorted(conf), "unexplained": bool(d.unexplained),
+            "springs_differ": springs_differ, "right": bool(right), "lenient": bool(lenient), "cpu": cpu,
+            "heldout": float("nan") if d.heldout_ratio_after is None else d.heldout_ratio_after,
+            "bfs": " ".join(f"{e.name[:10]}={e.log_bayes_factor:.0f}" for e in d.effects[:4]), "error": ""}
+
+
+def jobs(n_cases, n_pairs, seed):
+    rng = np.random.default_rng(seed)
+    out = []
+    index = 0
+    singles = list(EFFECT_NAMES) + list(CONTROLS)
+    for _ in range(n_cases):
+        for e in singles:
+            out.append(("single", index, (e,), seed))
+            index += 1
+    for _ in range(n_pairs):
+        a, b = rng.choice(len(EFFECT_NAMES), 2, replace=False)
+        out.append(("pairs", index, (EFFECT_NAMES[a], EFFECT_NAMES[b]), seed))
+        index += 1
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", type=int, default=4, help="random bridges per single effect")
+    ap.add_argument("--pairs", type=int, default=45, help="random two-effect datasets")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--seed", type=int, default=2026)
+    ap.add_argument("--kind", choices=("single", "pairs", "both"), default="both")
+    args = ap.parse_args(argv)
+    todo = jobs(args.cases, args.pairs, args.seed)
+    if args.kind != "both":
+        todo = [j for j in todo if j[0] == args.kind]
+    recs = []
+    with ProcessPoolExecutor(args.workers) as pool:
+        for r in pool.map(run_one, todo):
+            recs.append(r)
+            if r["error"]:
+                print(f"  {r['index']:3d} {'+'.join(r['effects'])}: ERROR {r['error']} [{r['case']}]", flush=True)
+                continue
+            print(f"  {r['index']:3d} {'+'.join(r['effects']):45s} -> {', '.join(r['causes']) or '-'}"
+                  f"{' unexpl' if r['unexplained'] else ''} {'ok' if r['right'] else ('lenient' if r['lenient'] else 'MISS')}"
+                  f" (cpu {r['cpu']:.1f} s, held-out {r['heldout']:.2f}) [{r['bfs']}] conf {r['confounded']} "
+                  f"[{r['case']}, {r['crossings']} cr]", flush=True)
+    for kind in ("single", "pairs"):
+        sub = [r for r in recs if r["kind"] == kind]
+        if not sub:
+            continue
+        ok = [r for r in sub if not r["error"]]
+        print(f"\n{kind}: right {sum(r['right'] for r in ok)}/{len(sub)}, lenient {sum(r['lenient'] for r in ok)}/"
+              f"{len(sub)}, errors {len(sub) - len(ok)}")
+        if kind == "single":
+            for e in list(EFFECT_NAMES) + list(CONTROLS):
+                s = [r for r in ok if r["effects"] == (e,)]
+                print(f"  {e:27s} {sum(r['right'] for r in s)}/{len(s)}")
+            lib = [r for r in ok if r["effects"][0] in EFFECT_NAMES]
+            print(f"  library effects: {sum(r['right'] for r in lib)}/{len(lib)}")
+        cpu = [r["cpu"] for r in ok]
+        if cpu:
+            print(f"  cpu median {np.median(cpu):.1f} s, max {max(cpu):.1f} s, above 15 s {sum(c > 15 for c in cpu)}")
+        fit = [r["heldout"] for r in ok if r["causes"] and r["right"]]
+        if fit:
+            print(f"  held-out ratio after (right verdicts with causes): within 1.2 {sum(h <= 1.2 for h in fit)}/"
+                  f"{len(fit)}, max {max(fit):.2f}")
+
+
+if __name__ == "__main__":
+    main()
