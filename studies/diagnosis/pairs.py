@@ -22,7 +22,11 @@ gap.
 
 Run: python studies/diagnosis/pairs.py [--seeds N] [--first ...] [--bridges ...] [--six]
 
-Last run (2026-11-26, fourth session, final code: also the log-EI block mapped onto the bins once per
+Last run (2026-11-26, fifth session: support-spring fits also from the nominal EI on a grossly distorted
+base fit, and the look-ahead pick; the study beside other jobs): the same 180 verdicts as the run below;
+case layouts 51/90 = 57 %, lenient 79/90, CPU median 2.7 s, max 7.7 s; --six 73/90 = 81 %, lenient 88/90,
+CPU median 4.1 s, max 11.1 s.  Random bridges with any two library effects: studies/diagnosis/unseen.py.
+Run before (2026-11-26, fourth session, final code: also the log-EI block mapped onto the bins once per
 set of lines; the two runs side by side): the same verdicts as the run below; case layouts 51/90 =
 57 %, lenient 79/90, CPU median 2.7 s, max 5.4 s; --six 73/90 = 81 %, lenient 88/90, CPU median
 3.9 s, max 10.9 s, 0/90 above 15 s.
