@@ -223,3 +223,35 @@ def test_no_look_ahead_without_a_large_cut_of_the_held_out_rms():
     models = {**_LOOK_AHEAD, frozenset("G"): (2531, -1811, 6.0)}
     selected, _, _, ctx = _run(models)
     assert selected == [] and not any(len(c) == 2 for c in ctx.calls)
+
+
+class _Crawl(_Slow):
+    """ctx stand-in whose continued fits follow ``passes``: (evidence, converged, ceiling) per resume."""
+
+    def __init__(self, first, passes):
+        super().__init__(first, {})
+        self.passes = passes
+
+    def resume(self, fit, *, max_iter=40, floor=None):
+        name = next(n for n, p in self.passes.items() if fit.log_evidence in [self.first[n][0]] + [q[0] for q in p])
+        k = sum(1 for r in self.resumed if r[0] == name)
+        self.resumed.append((name, max_iter))
+        evidence, converged, ceiling = self.passes[name][k]
+        return self._fit(evidence, converged, ceiling), _held(evidence) if converged else None
+
+
+def test_a_leader_still_crawling_after_two_passes_gets_a_third():
+    # S (sensor positions on precise data) leads everything converged by far but crawls through the second pass
+    ctx = _Crawl({"A": (100, True, 100), "S": (200, False, 400)}, {"S": [(330, False, 360), (334, True, 334)]})
+    out = fit_models(ctx, {n: ([n], None) for n in "AS"}, 3.0, bf_threshold=3.0, runner=None,
+                     say=lambda text: None, label="")
+    assert [r[0] for r in ctx.resumed] == ["S", "S"] and ctx.resumed[1][1] > ctx.resumed[0][1]
+    assert out["S"][0].converged and out["S"][0].log_evidence == 334
+
+
+def test_no_third_pass_for_a_crawling_fit_that_does_not_lead():
+    # S is still crawling but no better than A, which converged: it cannot decide the step alone
+    ctx = _Crawl({"A": (100, True, 100), "S": (90, False, 120)}, {"S": [(101, False, 110), (150, True, 150)]})
+    out = fit_models(ctx, {n: ([n], None) for n in "AS"}, 3.0, bf_threshold=3.0, runner=None,
+                     say=lambda text: None, label="")
+    assert [r[0] for r in ctx.resumed] == ["S"] and not out["S"][0].converged
