@@ -64,6 +64,7 @@ __all__ = []
 
 AMBIGUOUS = 2  # a later pick with this many alternatives within bf_threshold is not made
 FIRST_PASS = 15  # iterations every candidate gets; most converge within them (2-12 on the validation datasets)
+SECOND_PASS = 40  # further iterations of the candidates that may still matter after the first pass (fit_models)
 THIRD_PASS = 60  # further iterations of a leading candidate still crawling after the second pass (fit_models)
 RESCALE_MAX_ITER = 40  # the refit at a re-estimated noise scale (see _rescale)
 LOOK_AHEAD_RATIO = 0.8  # a pick that cuts the held-out rms this much may pay off with the next one (_look_ahead)
@@ -81,9 +82,9 @@ def _first_pass(item):
     return _light(ctx.fit(names, blocks, max_iter=FIRST_PASS, floor=floor))
 
 
-def _second_pass(item):
-    ctx, fit, floor = item
-    return _light(ctx.resume(fit, floor=floor))
+def _continued(item):
+    ctx, fit, floor, max_iter = item
+    return _light(ctx.resume(fit, max_iter=max_iter, floor=floor))
 
 
 def fit_models(ctx, models, level, *, bf_threshold, runner, say, label, strict=False):
@@ -112,7 +113,7 @@ def fit_models(ctx, models, level, *, bf_threshold, runner, say, label, strict=F
         if n not in todo:
             out[n] = (replace(out[n][0], abandoned=True), None)
     if todo:
-        again = map_ordered(runner, _second_pass, [(ctx, out[n][0], floor) for n in todo], chunksize=1,
+        again = map_ordered(runner, _continued, [(ctx, out[n][0], floor, SECOND_PASS) for n in todo], chunksize=1,
                             progress=lambda k, n: say(f"{prefix}continued {k} of {n}: {todo[k - 1]}"))
         out.update(zip(todo, again))
         # the leader still crawling: a strongly nonlinear effect on precise data (six sensor positions at
@@ -124,13 +125,8 @@ def fit_models(ctx, models, level, *, bf_threshold, runner, say, label, strict=F
         if (fit is not None and not fit.converged and not fit.abandoned and math.isfinite(fit.log_evidence)
                 and fit.log_evidence >= max(done, default=-math.inf) + bf_threshold):
             say(f"{prefix}continued further: {best}")
-            out[best] = _third_pass((ctx, fit, floor))
+            out[best] = _continued((ctx, fit, floor, THIRD_PASS))
     return out
-
-
-def _third_pass(item):
-    ctx, fit, floor = item
-    return _light(ctx.resume(fit, max_iter=THIRD_PASS, floor=floor))
 
 
 def _better(fit, held, current, current_held, threshold, folds):
@@ -214,7 +210,6 @@ def select(ctx, names, screened, base, base_held, *, bf_threshold, gain_threshol
             if first is not None:
                 selected.append(first)
                 alternatives[first] = ()
-                remaining = [n for n in remaining if n != first]
         if not eligible:
             break
         eligible.sort(reverse=True)
