@@ -2,6 +2,8 @@
 import sys, pathlib
 sys.path.insert(0, str(pathlib.Path(__file__).parent))
 
+import math
+
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -61,3 +63,21 @@ def test_lines_kernels_and_slopes_equal_the_force_method(geometry, seed):
     slopes = interpolant.readings(interpolant.weights(z, vehicle.axle_offsets, vehicle.axle_loads,
                                                       derivative=True))
     np.testing.assert_allclose(slopes, fd, rtol=0, atol=1e-6 * np.abs(fd).max())
+
+
+@settings(max_examples=40, deadline=None)
+@given(random_bridges(), st.integers(0, 2**32 - 1), st.floats(0.2, 5.0))
+def test_a_uniform_ei_factor_without_elastic_springs_needs_no_solve(geometry, seed, factor):
+    # reference: influence_lines at EI x factor (its own force-method solve).  With an elastic spring the
+    # diagrams change with the factor, and scaled() must refuse (None) rather than answer wrongly.
+    spans, rot, vert = geometry
+    rng, bridge, mesh, ei, sensors = _setup(geometry, seed)
+    assert (LineInterpolant(bridge, mesh, ei, sensors).scaled(factor) is None) == bool(bridge.spring_parameters)
+    rigid = sp.Bridge(spans, [k if k in (0.0, math.inf) else math.inf for k in rot], [math.inf] * len(vert))
+    scaled = LineInterpolant(rigid, mesh, ei, sensors).scaled(factor)
+    x = np.concatenate([rng.uniform(-1.0, rigid.length + 1.0, 20), mesh.edges, sensors.positions])
+    vehicle = sp.Vehicle((0.0, 1.3), (5e4, 7e4))
+    got = scaled.lines(scaled.weights(x, vehicle.axle_offsets, vehicle.axle_loads))
+    ref = sp.influence_lines(rigid, mesh, ei * factor, sensors, vehicle, x)
+    for mine, theirs in zip(got[:2], (ref.predictions, ref.kernel)):
+        np.testing.assert_allclose(mine, theirs, rtol=0, atol=1e-11 * np.abs(theirs).max(initial=1e-300))

@@ -53,7 +53,7 @@ class BinnedCrossing(Crossing):
 
     def __post_init__(self):
         if self.raw_positions is not None:  # the whitening and binning as one sparse map, readings -> bins
-            object.__setattr__(self, "_map", _bin_map(self.noise, self.raw_positions, self.size))
+            object.__setattr__(self, "bin_map", _bin_map(self.noise, self.raw_positions, self.size))
             # crossings with equal keys have equal maps (a model mapped for one serves the others)
             object.__setattr__(self, "map_key", (self.raw_positions.tobytes(), self.size, self.noise.std.tobytes(),
                                                  self.noise.correlation_length))
@@ -63,8 +63,8 @@ class BinnedCrossing(Crossing):
         values = np.asarray(values, dtype=float)
         s, k = values.shape[:2]
         rest = values.shape[2:]
-        flat = np.moveaxis(values, 1, 0).reshape(k, -1)  # one sparse product for every sensor and column
-        out = np.moveaxis((self._map @ flat).reshape((-1, s) + rest), 0, 1)
+        flat = values.swapaxes(0, 1).reshape(k, -1)  # one sparse product for every sensor and column
+        out = (self.bin_map @ flat).reshape((-1, s) + rest).swapaxes(0, 1)
         return out / self.noise.std.reshape((-1,) + (1,) * (values.ndim - 1))
 
 

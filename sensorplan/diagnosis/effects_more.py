@@ -142,6 +142,5 @@ class LoadDependentStiffness(Effect):
         state.ei_log_scale = state.ei_log_scale + phi[0] * self.level
 
     def structural_jacobian(self, ctx, state, phi, c, y):
-        lines = ctx.lines(state, c)
-        dy = lines.jacobian("log_ei").sum(axis=2) * ctx.load_factor(c)[None, :]
+        dy = ctx.lines(state, c).log_ei_total * ctx.load_factor(c)[None, :]
         return (dy * self.level[c])[:, :, None]

@@ -20,25 +20,16 @@ import numpy as np
 
 from .._errors import ConfigError
 from ..inference.laplace import Linearisation, WhitenedData
-from ..model.forward import InfluenceLines
-from ..model.interpolant import LineInterpolant
-from ..model.loads import Vehicle
-from ..model.sensors import SensorLayout
-from ._entry import entry_ramp
 from .binning import model_rows
 from .effects import CaseSprings, State
+from .lines import LineSource
 
 __all__ = []
 
 ENTRY = 0.1  # m over which an axle moved by an effect rolls onto the bridge (half a tyre contact length)
 
 
-def _axle_key(state, x, axle, r, scale):
-    """Cache key of one axle's unit-load response (independent of the axle loads)."""
-    return ("axle", x.tobytes(), axle, r.tobytes(), state.bridge, scale)
-
-
-class JointProblem(WhitenedData):
+class JointProblem(WhitenedData, LineSource):
     """The case's model extended by ``effects``, fitted jointly with log EI (rows in ``masks``)."""
 
     def __init__(self, case, crossings, effects, prior, *, masks=None, estimate_springs=True):
@@ -108,6 +99,7 @@ class JointProblem(WhitenedData):
         self._ei = None
         self._cache = {}
         self._cache_ei = None
+        self._weight_maps = {}  # interpolation maps of the load positions (independent of EI)
         self._last = None
         self.n_evaluations = 0
 
@@ -125,143 +117,6 @@ class JointProblem(WhitenedData):
     def to_bins(self, c, y):
         """Model ``y`` of crossing ``c`` at its readings as it enters the fit (whitened bins if binned)."""
         return y if self._binned[c] is None else self._binned[c].to_bins(y)
-
-    def interpolant(self, state, scale, sensor_positions=None):
-        """The exact piecewise-cubic unit-load lines at the current EI (x exp(scale)), cached per EI and state."""
-        r = state.sensor_positions if sensor_positions is None else sensor_positions
-        key = ("interpolant", r.tobytes(), state.bridge, scale)
-        if key not in self._cache:
-            sensors = SensorLayout(r, self.sensors.kinds, self.sensors.names)
-            self._cache[key] = LineInterpolant(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors)
-        return self._cache[key]
-
-    def _axles(self, state):
-        return (np.asarray(self.case.vehicle.axle_offsets, float),
-                np.asarray(self.case.vehicle.axle_loads, float) * state.axle_factors)
-
-    def lines(self, state, c, *, positions=None, sensor_positions=None):
-        """The vehicle's influence lines for crossing ``c`` (or at ``positions`` / ``sensor_positions``).
-
-        Sums of the unit-load lines of every axle, read off the exact
-        piecewise-cubic interpolant (:class:`~sensorplan.model.interpolant.LineInterpolant`):
-        one small force-method solve per EI serves every crossing, shifted
-        position and axle (the crossings' positions differ once an effect
-        moves them).
-        """
-        x = state.positions[c] if positions is None else positions
-        r = state.sensor_positions if sensor_positions is None else sensor_positions
-        scale = float(state.ei_log_scale[c])
-        key = self._lines_key(state, x, r, scale)
-        if key not in self._cache:
-            if positions is None:  # every crossing at these sensor positions at once (sensor-position Jacobian)
-                self.prefetch(state, sensor_positions=r)
-            else:
-                self._fill(state, r, scale, {key: x})
-        return self._cache[key]
-
-    def prefetch(self, state, jacobian=False, sensor_positions=None):
-        """The lines of every crossing, read off the interpolant in one sparse product per EI factor.
-
-        With ``jacobian``, also the slopes in the load position (effects that
-        move the loads) and each axle's own response (axle loads), from the
-        same interpolation weights.
-        """
-        r = state.sensor_positions if sensor_positions is None else sensor_positions
-        groups = {}
-        for c in range(self.n_crossings):
-            scale = float(state.ei_log_scale[c])
-            x = state.positions[c]
-            key = self._lines_key(state, x, r, scale)
-            missing = key not in self._cache or jacobian and (
-                (self.entry_moves and ("slope",) + key not in self._cache)
-                or (self.axle_responses and _axle_key(state, x, 0, r, scale) not in self._cache))
-            if missing:
-                groups.setdefault(scale, {})[key] = x
-        for scale, items in groups.items():
-            self._fill(state, r, scale, items, jacobian)
-
-    def _fill(self, state, r, scale, items, jacobian=False):
-        """Cache the lines of every {key: positions} in ``items`` (one sparse product).
-
-        With ``jacobian``, also their slopes in the load position (when an
-        effect moves the loads) and each axle's own response (axle loads).
-        """
-        interpolant = self.interpolant(state, scale, r)
-        offsets, loads = self._axles(state)
-        every = np.concatenate(list(items.values()))
-        bases = [interpolant.basis(every - off) for off in offsets]
-        predictions, kernel, spring_kernel = interpolant.lines(
-            self._weights(interpolant, state, every, bases, offsets, loads))
-        slopes, axles = None, []
-        if jacobian and self.entry_moves:
-            slopes = interpolant.readings(self._weights(interpolant, state, every, bases, offsets, loads,
-                                                        derivative=True))
-        if jacobian and self.axle_responses:
-            axles = [interpolant.readings(self._weights(interpolant, state, every, bases[a:a + 1],
-                                                        offsets[a:a + 1], np.ones(1)))
-                     for a in range(offsets.size)]
-        sensors = SensorLayout(r, self.sensors.kinds, self.sensors.names)
-        vehicle, ei, stiffness = self._vehicle(state), self._ei * np.exp(scale), state.bridge.spring_stiffness()
-        start = 0
-        for key, x in items.items():
-            sl = slice(start, start + x.size)
-            start += x.size
-            self._cache[key] = InfluenceLines(state.bridge, self.case.mesh, sensors, vehicle, x, ei, stiffness,
-                                              predictions[:, sl], kernel[:, sl], spring_kernel[:, sl])
-            if slopes is not None:
-                self._cache[("slope",) + key] = slopes[:, sl]
-            for a, unit in enumerate(axles):
-                self._cache[_axle_key(state, x, a, r, scale)] = unit[:, sl]
-
-    def _weights(self, interpolant, state, x, bases, offsets, loads, derivative=False):
-        """Interpolation weights of the axles (``bases`` at ``x`` - offsets), with the entry ramps."""
-        u = x[None, :] - offsets[:, None]
-        ramp = self._ramp(state, u)
-        if ramp is None:
-            return interpolant.combine(bases, loads, derivative=derivative)
-        g, dg = ramp
-        length = state.bridge.length
-        # on the bridge: the response at u scaled by g(u); outside: the response at the end scaled by g(u)
-        weights = interpolant.combine(bases, [load * g[a] for a, load in enumerate(loads)], derivative=derivative)
-        factor = dg if derivative else g
-        if derivative:  # d/dx (g R) = g R' + g' R
-            weights = weights + interpolant.combine(bases, [load * dg[a] for a, load in enumerate(loads)])
-        before = loads @ np.where(u < 0.0, factor, 0.0)
-        after = loads @ np.where(u > length, factor, 0.0)
-        if before.any() or after.any():
-            weights = weights + interpolant.end_weights(before, after)
-        return weights
-
-    def _lines_key(self, state, x, r, scale):
-        return (x.tobytes(), r.tobytes(), state.bridge, state.axle_factors.tobytes(), scale)
-
-    def line_slopes(self, state, c):
-        """d(vehicle lines)/d(load position) for crossing ``c`` (S, K): exact, from the interpolant."""
-        x, r, scale = state.positions[c], state.sensor_positions, float(state.ei_log_scale[c])
-        key = self._lines_key(state, x, r, scale)
-        if ("slope",) + key not in self._cache:
-            self._fill(state, r, scale, {key: x}, jacobian=True)
-        return self._cache[("slope",) + key]
-
-    def _ramp(self, state, u):
-        """The axles' entry ramps at elastic end bearings (see :func:`._entry.entry_ramp`)."""
-        if not self.entry:
-            return None
-        vertical = state.bridge.vertical_springs
-        return entry_ramp(u, state.bridge.length, self.entry,
-                          (not np.isinf(vertical[0]), not np.isinf(vertical[-1])))
-
-    def _vehicle(self, state):
-        return Vehicle(self.case.vehicle.axle_offsets,
-                       tuple(np.asarray(self.case.vehicle.axle_loads) * state.axle_factors))
-
-    def axle_lines(self, state, c, axle):
-        """Response to axle ``axle`` alone (with its current load), cached like :meth:`lines`."""
-        x, r, scale = state.positions[c], state.sensor_positions, float(state.ei_log_scale[c])
-        key = _axle_key(state, x, axle, r, scale)
-        if key not in self._cache:
-            self._fill(state, r, scale, {self._lines_key(state, x, r, scale): x}, jacobian=True)
-        return self._cache[key] * (self.case.vehicle.axle_loads[axle] * state.axle_factors[axle])
 
     # -- evaluation ------------------------------------------------------------------------
     def initial_state(self):
@@ -309,7 +164,7 @@ class JointProblem(WhitenedData):
             if jacobian:
                 key = (id(lines), lf.tobytes(), None if binned is None else binned.map_key)
                 if key not in log_ei_jacobians:
-                    log_ei_jacobians[key] = to_rows(lines.jacobian("log_ei") * lf[None, :, None])
+                    log_ei_jacobians[key] = lines.log_ei_rows(lf, binned)
                 block = log_ei_jacobians[key]
                 jac = np.zeros(block.shape[:2] + (self.columns[c].size,))
                 jac[:, :, :self.n_elements] = block

@@ -28,13 +28,10 @@ Signs: w(x) downward, theta = dw/dx, x from the left end.  Under a sagging
 load a tiltmeter near a span's left support reads positive.
 """
 
-import threading
-from collections import OrderedDict
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import ArrayLike
 
 from .._errors import ConfigError
@@ -45,10 +42,8 @@ from .diagrams import (
     STEP,
     Diagrams,
     element_products,
-    end_value_and_slope,
-    point_actions,
-    weighted_products,
 )
+from .force_method import _force_method, _ForceMethod
 from .loads import LoadSweep, Vehicle
 from .sensors import SensorLayout
 from .structure import Bridge, Mesh
@@ -155,97 +150,6 @@ def expand_ei(bridge, mesh, ei):
         raise ConfigError("The 'ei' parameter of the forward model must be positive everywhere. "
                           f"Got a minimum of {arr.min()!r} instead.")
     return arr
-
-
-class _ForceMethod:
-    """Support reactions by minimum complementary energy, for one bridge and EI."""
-
-    def __init__(self, bridge, mesh, ei):
-        self.bridge = bridge
-        self.edges = mesh.edges
-        self.length = bridge.length
-        self.v = 1.0 / ei
-        xs = bridge.support_positions
-        n_sup = xs.size
-        rot = np.asarray(bridge.rotational_springs)
-        vert = np.asarray(bridge.vertical_springs)
-        has_couple = rot > 0.0
-        # Unknowns: R_i for every support, then C_i where a rotational restraint exists.
-        self.kind = np.concatenate([np.full(n_sup, RAMP), np.full(has_couple.sum(), STEP)])
-        self.where = np.concatenate([xs, xs[has_couple]])
-        self.support = np.concatenate([np.arange(n_sup), np.nonzero(has_couple)[0]])
-        stiffness = np.concatenate([vert, rot[has_couple]])
-        self.compliance = 1.0 / stiffness  # 0 for rigid restraints
-        # Scale couples by the length so that all unknowns have comparable size.
-        self.scale = np.where(self.kind == STEP, self.length, 1.0)
-        n_u = self.kind.size
-        self.basis = point_actions(self.edges, np.broadcast_to(self.where, (n_u, n_u)),
-                                   np.diag(self.scale), np.broadcast_to(self.kind, (n_u, n_u)))
-        # Map each elastic spring parameter of the bridge to its unknown.
-        self.spring_unknown = []
-        for i, kind in bridge.spring_parameters:
-            want = RAMP if kind == "vertical" else STEP
-            self.spring_unknown.append(int(np.nonzero((self.support == i) & (self.kind == want))[0][0]))
-        self.spring_unknown = np.array(self.spring_unknown, dtype=int)
-        # Energy matrix and equilibrium rows (scaled).
-        bb = element_products(self.edges, self.basis, self.basis) @ self.v
-        self.v_ref = float(np.mean(self.v))
-        ref = self.v_ref * self.length**3
-        energy = bb + np.diag(self.compliance * self.scale**2)
-        value_row = np.where(self.kind == RAMP, self.length - self.where, self.scale)
-        slope_row = np.where(self.kind == RAMP, 1.0, 0.0)
-        constraints = np.vstack([slope_row, value_row / self.length])
-        kkt = np.zeros((n_u + 2, n_u + 2))
-        kkt[:n_u, :n_u] = energy / ref
-        kkt[:n_u, n_u:] = constraints.T
-        kkt[n_u:, :n_u] = constraints
-        self.ref = ref
-        self.n_u = n_u
-        try:
-            self.lu = scipy.linalg.lu_factor(kkt, check_finite=True)
-        except (ValueError, np.linalg.LinAlgError) as exc:  # pragma: no cover - defensive
-            raise ConfigError(f"The bridge is not stable (singular equilibrium): {exc}") from exc
-        cond = np.linalg.cond(kkt)
-        if not np.isfinite(cond) or cond > 1e13:
-            raise ConfigError(
-                "The bridge is unstable or nearly so (the force-method system is singular, "
-                f"condition number {cond:.2e}). Check the support springs.")
-
-    def solve(self, positions, weights, kinds):
-        """Actual diagrams and reactions for free-body atoms (n_funcs, n_actions)."""
-        free = point_actions(self.edges, positions, weights, kinds)
-        g = weighted_products(self.edges, self.basis, free, self.v)  # (n_u, n_funcs)
-        value, slope = end_value_and_slope(self.length, positions, weights, kinds)
-        rhs = np.vstack([-g / self.ref, -slope[None, :], -value[None, :] / self.length])
-        sol = scipy.linalg.lu_solve(self.lu, rhs)
-        x_scaled = sol[: self.n_u]  # (n_u, n_funcs)
-        reactions = x_scaled * self.scale[:, None]  # physical R [N] and C [N m]
-        return free.plus_linear(x_scaled.T @ self.basis.left, x_scaled.T @ self.basis.right), reactions
-
-
-_METHODS: OrderedDict = OrderedDict()  # the last few force methods, by (bridge, mesh, EI)
-_METHODS_LOCK = threading.Lock()
-_METHODS_KEPT = 8
-
-
-def _force_method(bridge, mesh, ei):
-    """:class:`_ForceMethod` of ``bridge`` at ``ei``, shared by calls at the same EI.
-
-    A fit asks for the lines at one EI several times (the crossings' load
-    positions, the ends, each axle): the factorisation is done once.
-    """
-    key = (bridge, mesh.edges.tobytes(), np.asarray(ei, dtype=float).tobytes())
-    with _METHODS_LOCK:
-        method = _METHODS.get(key)
-        if method is not None:
-            _METHODS.move_to_end(key)
-            return method
-    method = _ForceMethod(bridge, mesh, ei)
-    with _METHODS_LOCK:
-        _METHODS[key] = method
-        while len(_METHODS) > _METHODS_KEPT:
-            _METHODS.popitem(last=False)
-    return method
 
 
 def _sensor_actions(sensors):

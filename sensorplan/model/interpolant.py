@@ -14,16 +14,24 @@ at any load position -- and their derivative in it -- without a new solve.
 
 Used where load positions change from one evaluation to the next (a fitted
 position offset, each axle's response): the cost per EI is 2 x (breakpoints)
-load cases instead of (crossings x positions x axles).
+load cases instead of (crossings x positions x axles).  And not even those:
+the free-body diagrams of the table rows and of the sensors, and their
+element products with each other and with the unknown reactions' diagrams,
+do not depend on EI (:class:`_Tables`, kept per support layout, mesh and
+sensors); at a new EI or spring stiffness the actual kernels follow from the
+force method's small solve for the unknowns and three matrix products.
 
 Owns: the interpolant.  May import: the force method and the foundations.
 """
 
+import copy
+
 import numpy as np
 import scipy.sparse
 
-from .diagrams import RAMP, STEP, element_products
-from .forward import _force_method, _sensor_actions, expand_ei
+from .diagrams import RAMP, STEP, element_products, end_value_and_slope, point_actions
+from .force_method import Kept, _force_method
+from .forward import _sensor_actions, expand_ei
 
 __all__ = []
 
@@ -36,6 +44,40 @@ def _hermite(t, h):
     value = np.stack([2 * t3 - 3 * t2 + 1, (t3 - 2 * t2 + t) * h, -2 * t3 + 3 * t2, (t3 - t2) * h])
     slope = np.stack([(6 * t2 - 6 * t) / h, 3 * t2 - 4 * t + 1, (-6 * t2 + 6 * t) / h, 3 * t2 - 2 * t])
     return value, slope
+
+
+class _Tables:
+    """The interpolant's EI-independent element products, for one frame, mesh and sensor layout.
+
+    The free-body diagrams of a unit load and a unit couple at every
+    breakpoint (the table rows) and of the sensors' unit actions, and the
+    element integrals of their products with each other and with the
+    unknowns' diagrams: a new EI or spring stiffness then costs small
+    solves and matrix products, not new diagrams.
+    """
+
+    def __init__(self, frame, edges, sensors):
+        points = np.union1d(edges, sensors.positions)
+        keep = np.concatenate([[True], np.diff(points) > _MERGE])
+        points = points[keep]
+        points[-1] = edges[-1]
+        n = points.size
+        self.points = points
+        # a unit downward load (ramp of weight -1) and its derivative in position (step of weight +1)
+        where = np.concatenate([points, points])[:, None]
+        weights = np.concatenate([np.full(n, -1.0), np.full(n, 1.0)])[:, None]
+        kinds = np.concatenate([np.full(n, RAMP), np.full(n, STEP)])[:, None]
+        loads = point_actions(edges, where, weights, kinds)
+        actions = _sensor_actions(sensors)
+        units = point_actions(edges, *actions)
+        self.load_ends = end_value_and_slope(frame.length, where, weights, kinds)
+        self.sensor_ends = end_value_and_slope(frame.length, *actions)
+        self.free = np.ascontiguousarray(element_products(edges, units, loads).transpose(1, 0, 2))  # (2n, S, E)
+        self.basis_loads = element_products(edges, frame.basis, loads)  # (n_u, 2n, E)
+        self.basis_sensors = element_products(edges, frame.basis, units)  # (n_u, S, E)
+
+
+_TABLES = Kept(16)
 
 
 class LineInterpolant:
@@ -57,29 +99,44 @@ class LineInterpolant:
         ei = expand_ei(bridge, mesh, ei)
         method = _force_method(bridge, mesh, ei)
         edges = mesh.edges
-        points = np.union1d(edges, sensors.positions)
-        keep = np.concatenate([[True], np.diff(points) > _MERGE])
-        points = points[keep]
-        points[-1] = edges[-1]
-        n = points.size
-        # a unit downward load (ramp of weight -1) and its derivative in position (step of weight +1)
-        where = np.concatenate([points, points])[:, None]
-        weights = np.concatenate([np.full(n, -1.0), np.full(n, 1.0)])[:, None]
-        kinds = np.concatenate([np.full(n, RAMP), np.full(n, STEP)])[:, None]
-        loads, load_reactions = method.solve(where, weights, kinds)
-        sensor_diagrams, sensor_reactions = method.solve(*_sensor_actions(sensors))
-        kernel = element_products(edges, sensor_diagrams, loads)  # (S, 2n, E)
+        key = (method.frame.key, sensors.positions.tobytes(), tuple(sensors.kinds))
+        tables = _TABLES.get(key, lambda: _Tables(method.frame, edges, sensors))
+        v, n_u = method.v, method.n_u
+        n_sensors, n_rows, n_elements = tables.free.shape[1], tables.free.shape[0], edges.size - 1
+        # the actual diagrams are the free ones plus the unknowns' diagrams b x: for sensor r and table row l,
+        # int_j (m0_r + b x_r)(M0_l + b x_l) = free + x_r.(b M0_l) + x_l.(b m0_r) + x_r.(b b).x_l per element j
+        loads = method.redundants(tables.basis_loads @ v, *tables.load_ends)  # (n_u, 2n), scaled
+        units = method.redundants(tables.basis_sensors @ v, *tables.sensor_ends)  # (n_u, S)
+        mixed = tables.basis_sensors.transpose(1, 0, 2) + np.einsum("us,uve->sve", units, method.frame.products)
+        kernel = (tables.free
+                  + (units.T @ tables.basis_loads.reshape(n_u, -1)).reshape(n_sensors, n_rows, n_elements)
+                  .transpose(1, 0, 2)
+                  + (loads.T @ mixed.transpose(1, 0, 2).reshape(n_u, -1)).reshape(n_rows, n_sensors, n_elements))
+        load_reactions = loads * method.scale[:, None]
+        sensor_reactions = units * method.scale[:, None]
         springs = method.spring_unknown
         self.bridge, self.length = bridge, float(bridge.length)
-        self.points = points
-        self.n_sensors, self.n_elements = kernel.shape[0], kernel.shape[2]
+        self.points = tables.points
+        self.n_sensors, self.n_elements = n_sensors, n_elements
         self.sensor_reactions = sensor_reactions[springs].T  # (S, n_springs)
-        predictions = kernel @ method.v + np.einsum("ur,u,uk->rk", sensor_reactions, method.compliance,
-                                                   load_reactions)
         # tables over [values at the breakpoints, slopes at the breakpoints] (2n rows), read by weights()
-        self._predictions = np.ascontiguousarray(predictions.T)  # (2n, S)
-        self._kernel = np.ascontiguousarray(kernel.transpose(1, 0, 2)).reshape(2 * n, -1)  # (2n, S E)
+        self._predictions = kernel @ v + np.einsum("ur,u,uk->kr", sensor_reactions, method.compliance,
+                                                   load_reactions)  # (2n, S)
+        self._kernel = kernel.reshape(n_rows, -1)  # (2n, S E)
         self._reactions = np.ascontiguousarray(load_reactions[springs].T)  # (2n, n_springs)
+
+    def scaled(self, factor):
+        """The interpolant at EI x ``factor``, without a solve, on a bridge without elastic springs (else None).
+
+        With rigid or free supports only, a uniform factor on EI leaves the
+        moment diagrams unchanged (the redundants depend on ratios of EI) and
+        divides every deflection and rotation by it.
+        """
+        if self._reactions.shape[1]:
+            return None
+        out = copy.copy(self)
+        out._predictions = self._predictions / factor
+        return out
 
     def weights(self, x, offsets=(0.0,), loads=(1.0,), *, derivative=False):
         """Sparse (N, 2n) map from the tables to a vehicle at reference positions ``x`` (or its x-derivative).
@@ -98,11 +155,13 @@ class LineInterpolant:
         """
         n = self.points.size
         count = bases[0][0].size
-        rows = np.tile(np.arange(count), 4 * len(bases))
-        cols = np.concatenate([np.concatenate([i, n + i, i + 1, n + i + 1]) for i, _, _ in bases])
-        vals = np.concatenate([(load * (slope if derivative else value)).ravel()
-                               for (_, value, slope), load in zip(bases, loads)])
-        return scipy.sparse.csr_matrix((vals, (rows, cols)), shape=(count, 2 * n))
+        per_row = 4 * len(bases)
+        # built as CSR directly, row by row: the four Hermite weights of each axle (duplicates add up)
+        cols = np.concatenate([np.stack([i, n + i, i + 1, n + i + 1], axis=1) for i, _, _ in bases], axis=1)
+        vals = np.concatenate([((slope if derivative else value) * load).T
+                               for (_, value, slope), load in zip(bases, loads)], axis=1)
+        return scipy.sparse.csr_matrix((vals.ravel(), cols.ravel(), np.arange(0, per_row * count + 1, per_row)),
+                                       shape=(count, 2 * n))
 
     def end_weights(self, before, after):
         """Sparse (N, 2n) weights of the responses to a unit load at x = 0 and x = L."""
@@ -115,13 +174,19 @@ class LineInterpolant:
         """Readings (S, N) of the loads described by ``weights``."""
         return np.asarray(weights @ self._predictions).T
 
+    def kernel(self, weights):
+        """Element kernels dy/dv (S, N, E) of the loads described by ``weights`` (v = 1/EI)."""
+        count = weights.shape[0]
+        return np.asarray(weights @ self._kernel).reshape(count, self.n_sensors, self.n_elements).transpose(1, 0, 2)
+
+    def spring_terms(self, weights):
+        """dy/dc (S, N, n_springs) of the elastic springs' compliances c = 1/k."""
+        reactions = np.asarray(weights @ self._reactions)  # (N, n_springs)
+        return self.sensor_reactions[:, None, :] * reactions[None, :, :]
+
     def lines(self, weights):
         """(predictions (S, N), kernel (S, N, E), spring kernel (S, N, n_springs)) of ``weights``."""
-        count = weights.shape[0]
-        kernel = np.asarray(weights @ self._kernel).reshape(count, self.n_sensors, self.n_elements)
-        reactions = np.asarray(weights @ self._reactions)  # (N, n_springs)
-        return (self.readings(weights), kernel.transpose(1, 0, 2),
-                self.sensor_reactions[:, None, :] * reactions[None, :, :])
+        return self.readings(weights), self.kernel(weights), self.spring_terms(weights)
 
     def basis(self, x):
         """Interval index, Hermite weights (4, N) and their x-derivatives at load positions ``x`` (0 off the bridge)."""

@@ -1,0 +1,256 @@
+"""The vehicle's influence lines of every crossing, read off the exact line interpolant, for the diagnosis.
+
+:class:`LineSource` is the part of :class:`~.joint.JointProblem` that turns
+a model state (EI, springs, load and sensor positions, axle loads, a
+crossing's own EI factor) into each crossing's lines.  Everything that does
+not depend on EI is kept across evaluations: the interpolant's element
+products (:mod:`sensorplan.model.interpolant`), and here the sparse
+interpolation maps of the load positions.  A crossing's lines
+(:class:`CrossingLines`) carry the readings and spring terms at once and
+form the element kernel (readings x sensors x elements, the bulk of the
+work) only when a Jacobian asks for it -- for a binned crossing on its bins
+directly, by mapping the interpolation weights first.
+
+Owns: the lines of the diagnosis model.  May import: the model layer.
+"""
+
+from functools import cached_property
+
+import numpy as np
+from scipy import sparse
+
+from ..model.interpolant import LineInterpolant
+from ..model.loads import Vehicle
+from ..model.sensors import SensorLayout
+from ._entry import entry_ramp
+
+__all__ = []
+
+
+def _axle_key(state, x, axle, r, scale):
+    """Cache key of one axle's unit-load response (independent of the axle loads)."""
+    return ("axle", x.tobytes(), axle, r.tobytes(), state.bridge, scale)
+
+
+
+class CrossingLines:
+    """One crossing's vehicle lines: readings (S, N) and spring terms now, the element kernel on demand.
+
+    ``weights`` are the crossing's rows (from ``start``) of the sparse
+    interpolation map ``maps["lines"]``; ``maps`` also keeps them mapped onto
+    bins across evaluations.
+    """
+
+    def __init__(self, interpolant, weights, maps, start, ei, stiffness, predictions, spring_kernel):
+        self.interpolant, self.weights, self._maps, self._start = interpolant, weights, maps, start
+        self.ei, self.spring_stiffness = ei, stiffness
+        self.predictions, self.spring_kernel = predictions, spring_kernel
+
+    @cached_property
+    def kernel(self):
+        """Element integrals dy/dv (S, N, E), v = 1/EI."""
+        return self.interpolant.kernel(self.weights)
+
+    def jacobian(self, parameterisation="log_ei"):
+        """dy/dlog EI per element (S, N, E) (the only parameterisation the diagnosis uses)."""
+        if parameterisation != "log_ei":
+            raise ValueError(f"CrossingLines.jacobian supports 'log_ei' only. Got {parameterisation!r} instead.")
+        return self.kernel * (-1.0 / self.ei)
+
+    @cached_property
+    def spring_log_jacobian(self):
+        """dy/dlog k for the elastic springs, shape (S, N, n_springs)."""
+        return -self.spring_kernel / self.spring_stiffness
+
+    @cached_property
+    def log_ei_total(self):
+        """d y / d(a common log EI shift) (S, N): minus the beam's share of the readings."""
+        beam = self.predictions - self.spring_kernel @ (1.0 / self.spring_stiffness)
+        return -beam
+
+    def log_ei_rows(self, load_factor, binned):
+        """dy/dlog EI times the load factor, on the fitted rows (S, rows, E): the readings, or ``binned``'s bins.
+
+        For a binned crossing the weights are mapped onto the bins first
+        (bins x breakpoints), so the kernel is formed on the bins only; the
+        map and the load factor act linearly, so this equals binning the
+        kernel at the readings.
+        """
+        if binned is None:
+            return self.jacobian() * load_factor[None, :, None]
+        key = ("mapped", self._start, load_factor.tobytes(), binned.map_key)
+        mapped = self._maps.get(key)
+        if mapped is None:
+            mapped = self._maps[key] = (binned.bin_map @ sparse.diags(load_factor) @ self.weights).tocsr()
+        kernel = self.interpolant.kernel(mapped) * (-1.0 / self.ei)
+        return kernel / binned.noise.std[:, None, None]
+
+
+class LineSource:
+    """The lines of every crossing at a model state, for :class:`~.joint.JointProblem` (a mixin).
+
+    Uses the problem's ``case``, ``sensors``, ``n_crossings``, ``entry``,
+    ``entry_moves``, ``axle_responses``, the current ``_ei`` and the caches
+    ``_cache`` (per EI) and ``_weight_maps`` (independent of EI).
+    """
+
+    def interpolant(self, state, scale, sensor_positions=None):
+        """The exact piecewise-cubic unit-load lines at the current EI (x exp(scale)), cached per EI and state."""
+        r = state.sensor_positions if sensor_positions is None else sensor_positions
+        key = ("interpolant", r.tobytes(), state.bridge, scale)
+        if key not in self._cache:
+            # a crossing's own EI factor (load-dependent stiffness) needs no solve without elastic springs
+            scaled = None if scale == 0.0 else self.interpolant(state, 0.0, r).scaled(np.exp(scale))
+            if scaled is None:
+                sensors = SensorLayout(r, self.sensors.kinds, self.sensors.names)
+                scaled = LineInterpolant(state.bridge, self.case.mesh, self._ei * np.exp(scale), sensors)
+            self._cache[key] = scaled
+        return self._cache[key]
+
+    def _axles(self, state):
+        return (np.asarray(self.case.vehicle.axle_offsets, float),
+                np.asarray(self.case.vehicle.axle_loads, float) * state.axle_factors)
+
+    def lines(self, state, c, *, positions=None, sensor_positions=None):
+        """The vehicle's influence lines for crossing ``c`` (or at ``positions`` / ``sensor_positions``).
+
+        Sums of the unit-load lines of every axle, read off the exact
+        piecewise-cubic interpolant (:class:`~sensorplan.model.interpolant.LineInterpolant`):
+        one small force-method solve per EI serves every crossing, shifted
+        position and axle (the crossings' positions differ once an effect
+        moves them).
+        """
+        x = state.positions[c] if positions is None else positions
+        r = state.sensor_positions if sensor_positions is None else sensor_positions
+        scale = float(state.ei_log_scale[c])
+        key = self._lines_key(state, x, r, scale)
+        if key not in self._cache:
+            if positions is None:  # every crossing at these sensor positions at once (sensor-position Jacobian)
+                self.prefetch(state, sensor_positions=r)
+            else:
+                self._fill(state, r, scale, {key: x})
+        return self._cache[key]
+
+    def prefetch(self, state, jacobian=False, sensor_positions=None):
+        """The lines of every crossing, read off the interpolant in one sparse product per EI factor.
+
+        With ``jacobian``, also the slopes in the load position (effects that
+        move the loads) and each axle's own response (axle loads), from the
+        same interpolation weights.
+        """
+        r = state.sensor_positions if sensor_positions is None else sensor_positions
+        groups = {}
+        for c in range(self.n_crossings):
+            scale = float(state.ei_log_scale[c])
+            x = state.positions[c]
+            key = self._lines_key(state, x, r, scale)
+            missing = key not in self._cache or jacobian and (
+                (self.entry_moves and ("slope",) + key not in self._cache)
+                or (self.axle_responses and _axle_key(state, x, 0, r, scale) not in self._cache))
+            if missing:
+                groups.setdefault(scale, {})[key] = x
+        for scale, items in groups.items():
+            self._fill(state, r, scale, items, jacobian)
+
+    def _fill(self, state, r, scale, items, jacobian=False):
+        """Cache the lines of every {key: positions} in ``items`` (one sparse product).
+
+        With ``jacobian``, also their slopes in the load position (when an
+        effect moves the loads) and each axle's own response (axle loads).
+        """
+        interpolant = self.interpolant(state, scale, r)
+        every = np.concatenate(list(items.values()))
+        maps = self._maps(interpolant, state, every, jacobian)
+        predictions, spring_kernel = interpolant.readings(maps["lines"]), interpolant.spring_terms(maps["lines"])
+        slopes = interpolant.readings(maps["slopes"]) if jacobian and "slopes" in maps else None
+        axles = [interpolant.readings(w) for w in maps.get("axles", ())] if jacobian else []
+        ei, stiffness = self._ei * np.exp(scale), state.bridge.spring_stiffness()
+        start = 0
+        for key, x in items.items():
+            sl = slice(start, start + x.size)
+            start += x.size
+            rows = maps.get(("rows", sl.start))
+            if rows is None:
+                rows = maps[("rows", sl.start)] = maps["lines"][sl]
+            self._cache[key] = CrossingLines(interpolant, rows, maps, sl.start, ei, stiffness, predictions[:, sl],
+                                             spring_kernel[:, sl])
+            if slopes is not None:
+                self._cache[("slope",) + key] = slopes[:, sl]
+            for a, unit in enumerate(axles):
+                self._cache[_axle_key(state, x, a, r, scale)] = unit[:, sl]
+
+    def _maps(self, interpolant, state, every, jacobian):
+        """The interpolation maps of the loads at ``every``: lines, and with ``jacobian`` slopes and each axle.
+
+        They depend on the positions, the breakpoints, the axle loads and
+        which end bearings are elastic, not on EI: kept across evaluations.
+        """
+        offsets, loads = self._axles(state)
+        vertical = state.bridge.vertical_springs
+        key = (interpolant.points.tobytes(), every.tobytes(), loads.tobytes(),
+               np.isinf(vertical[0]), np.isinf(vertical[-1]))
+        maps = self._weight_maps.get(key)
+        if maps is None:
+            if len(self._weight_maps) >= 64:
+                self._weight_maps.clear()
+            bases = [interpolant.basis(every - off) for off in offsets]
+            maps = self._weight_maps[key] = {
+                "bases": bases, "lines": self._weights(interpolant, state, every, bases, offsets, loads)}
+        bases = maps["bases"]
+        if jacobian and self.entry_moves and "slopes" not in maps:
+            maps["slopes"] = self._weights(interpolant, state, every, bases, offsets, loads, derivative=True)
+        if jacobian and self.axle_responses and "axles" not in maps:
+            maps["axles"] = [self._weights(interpolant, state, every, bases[a:a + 1], offsets[a:a + 1], np.ones(1))
+                             for a in range(offsets.size)]
+        return maps
+
+    def _weights(self, interpolant, state, x, bases, offsets, loads, derivative=False):
+        """Interpolation weights of the axles (``bases`` at ``x`` - offsets), with the entry ramps."""
+        u = x[None, :] - offsets[:, None]
+        ramp = self._ramp(state, u)
+        if ramp is None:
+            return interpolant.combine(bases, loads, derivative=derivative)
+        g, dg = ramp
+        length = state.bridge.length
+        # on the bridge: the response at u scaled by g(u); outside: the response at the end scaled by g(u)
+        weights = interpolant.combine(bases, [load * g[a] for a, load in enumerate(loads)], derivative=derivative)
+        factor = dg if derivative else g
+        if derivative:  # d/dx (g R) = g R' + g' R
+            weights = weights + interpolant.combine(bases, [load * dg[a] for a, load in enumerate(loads)])
+        before = loads @ np.where(u < 0.0, factor, 0.0)
+        after = loads @ np.where(u > length, factor, 0.0)
+        if before.any() or after.any():
+            weights = weights + interpolant.end_weights(before, after)
+        return weights
+
+    def _lines_key(self, state, x, r, scale):
+        return (x.tobytes(), r.tobytes(), state.bridge, state.axle_factors.tobytes(), scale)
+
+    def line_slopes(self, state, c):
+        """d(vehicle lines)/d(load position) for crossing ``c`` (S, K): exact, from the interpolant."""
+        x, r, scale = state.positions[c], state.sensor_positions, float(state.ei_log_scale[c])
+        key = self._lines_key(state, x, r, scale)
+        if ("slope",) + key not in self._cache:
+            self._fill(state, r, scale, {key: x}, jacobian=True)
+        return self._cache[("slope",) + key]
+
+    def _ramp(self, state, u):
+        """The axles' entry ramps at elastic end bearings (see :func:`._entry.entry_ramp`)."""
+        if not self.entry:
+            return None
+        vertical = state.bridge.vertical_springs
+        return entry_ramp(u, state.bridge.length, self.entry,
+                          (not np.isinf(vertical[0]), not np.isinf(vertical[-1])))
+
+    def _vehicle(self, state):
+        return Vehicle(self.case.vehicle.axle_offsets,
+                       tuple(np.asarray(self.case.vehicle.axle_loads) * state.axle_factors))
+
+    def axle_lines(self, state, c, axle):
+        """Response to axle ``axle`` alone (with its current load), cached like :meth:`lines`."""
+        x, r, scale = state.positions[c], state.sensor_positions, float(state.ei_log_scale[c])
+        key = _axle_key(state, x, axle, r, scale)
+        if key not in self._cache:
+            self._fill(state, r, scale, {self._lines_key(state, x, r, scale): x}, jacobian=True)
+        return self._cache[key] * (self.case.vehicle.axle_loads[axle] * state.axle_factors[axle])
+
