@@ -81,3 +81,23 @@ def test_a_uniform_ei_factor_without_elastic_springs_needs_no_solve(geometry, se
     ref = sp.influence_lines(rigid, mesh, ei * factor, sensors, vehicle, x)
     for mine, theirs in zip(got[:2], (ref.predictions, ref.kernel)):
         np.testing.assert_allclose(mine, theirs, rtol=0, atol=1e-11 * np.abs(theirs).max(initial=1e-300))
+
+
+@settings(max_examples=30, deadline=None)
+@given(random_bridges(), st.integers(0, 2**32 - 1))
+def test_kept_tables_serve_a_new_ei_and_new_spring_stiffnesses(geometry, seed):
+    # the EI-independent tables are kept per support layout, mesh and sensors; an interpolant formed after
+    # another one at a different EI and different (elastic) stiffnesses must still equal influence_lines there
+    spans, rot, vert = geometry
+    rng, bridge, mesh, ei, sensors = _setup(geometry, seed)
+    LineInterpolant(bridge, mesh, ei, sensors)  # fills the tables
+    soften = lambda k: k * rng.uniform(0.3, 3.0) if 0.0 < k < math.inf else k  # noqa: E731
+    other = sp.Bridge(spans, [soften(k) for k in rot], [soften(k) for k in vert])
+    ei2 = ei * rng.uniform(0.5, 2.0, ei.size)
+    interpolant = LineInterpolant(other, mesh, ei2, sensors)
+    x = np.concatenate([rng.uniform(0.0, other.length, 15), sensors.positions])
+    vehicle = sp.Vehicle((0.0, 2.1), (4e4, 9e4))
+    got = interpolant.lines(interpolant.weights(x, vehicle.axle_offsets, vehicle.axle_loads))
+    ref = sp.influence_lines(other, mesh, ei2, sensors, vehicle, x)
+    for mine, theirs in zip(got, (ref.predictions, ref.kernel, ref.spring_kernel)):
+        np.testing.assert_allclose(mine, theirs, rtol=0, atol=1e-11 * np.abs(theirs).max(initial=1e-300))

@@ -33,18 +33,33 @@ def _axle_key(state, x, axle, r, scale):
 
 
 
+def _row_block(weights, rows):
+    """Rows ``rows`` (a slice) of the CSR matrix ``weights``, as views of its arrays."""
+    a, b = weights.indptr[rows.start], weights.indptr[rows.stop]
+    return sparse.csr_matrix((weights.data[a:b], weights.indices[a:b], weights.indptr[rows.start:rows.stop + 1] - a),
+                             shape=(rows.stop - rows.start, weights.shape[1]))
+
+
 class CrossingLines:
     """One crossing's vehicle lines: readings (S, N) and spring terms now, the element kernel on demand.
 
-    ``weights`` are the crossing's rows (from ``start``) of the sparse
-    interpolation map ``maps["lines"]``; ``maps`` also keeps them mapped onto
-    bins across evaluations.
+    ``rows``: the crossing's rows (a slice) of the sparse interpolation map
+    ``maps["lines"]``; ``maps`` also keeps them, and them mapped onto bins,
+    across evaluations.
     """
 
-    def __init__(self, interpolant, weights, maps, start, ei, stiffness, predictions, spring_kernel):
-        self.interpolant, self.weights, self._maps, self._start = interpolant, weights, maps, start
+    def __init__(self, interpolant, maps, rows, ei, stiffness, predictions, spring_kernel):
+        self.interpolant, self._maps, self._rows = interpolant, maps, rows
         self.ei, self.spring_stiffness = ei, stiffness
         self.predictions, self.spring_kernel = predictions, spring_kernel
+
+    @property
+    def weights(self):
+        """The crossing's rows of the interpolation map (sliced when first asked for, then kept)."""
+        key = ("rows", self._rows.start)
+        if key not in self._maps:
+            self._maps[key] = _row_block(self._maps["lines"], self._rows)
+        return self._maps[key]
 
     @cached_property
     def kernel(self):
@@ -78,10 +93,10 @@ class CrossingLines:
         """
         if binned is None:
             return self.jacobian() * load_factor[None, :, None]
-        key = ("mapped", self._start, load_factor.tobytes(), binned.map_key)
+        key = ("mapped", self._rows.start, load_factor.tobytes(), binned.map_key)
         mapped = self._maps.get(key)
         if mapped is None:
-            mapped = self._maps[key] = (binned.bin_map @ sparse.diags(load_factor) @ self.weights).tocsr()
+            mapped = self._maps[key] = binned.map_with(load_factor) @ self.weights
         kernel = self.interpolant.kernel(mapped) * (-1.0 / self.ei)
         return kernel / binned.noise.std[:, None, None]
 
@@ -169,10 +184,7 @@ class LineSource:
         for key, x in items.items():
             sl = slice(start, start + x.size)
             start += x.size
-            rows = maps.get(("rows", sl.start))
-            if rows is None:
-                rows = maps[("rows", sl.start)] = maps["lines"][sl]
-            self._cache[key] = CrossingLines(interpolant, rows, maps, sl.start, ei, stiffness, predictions[:, sl],
+            self._cache[key] = CrossingLines(interpolant, maps, sl, ei, stiffness, predictions[:, sl],
                                              spring_kernel[:, sl])
             if slopes is not None:
                 self._cache[("slope",) + key] = slopes[:, sl]
@@ -193,7 +205,8 @@ class LineSource:
         if maps is None:
             if len(self._weight_maps) >= 64:
                 self._weight_maps.clear()
-            bases = [interpolant.basis(every - off) for off in offsets]
+            i, value, slope = interpolant.basis(every[None, :] - offsets[:, None])  # every axle at once
+            bases = [(i[a], value[:, a], slope[:, a]) for a in range(offsets.size)]
             maps = self._weight_maps[key] = {
                 "bases": bases, "lines": self._weights(interpolant, state, every, bases, offsets, loads)}
         bases = maps["bases"]

@@ -23,7 +23,7 @@ Owns: fit_warnings.  May import: model, errors.
 """
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 __all__ = ["fit_warnings", "residual_p_values", "NOISE_SCALE_RANGE", "RESIDUAL_LEVEL"]
 
@@ -56,7 +56,7 @@ def residual_p_values(noise, fits, noise_scale):
         dof += 1 + h
     if dof == 0:
         return np.full(n_sensors, np.nan)
-    return np.where(square / count >= 0.25, stats.chi2.sf(q, dof), np.nan)
+    return np.where(square / count >= 0.25, special.chdtrc(dof, q), np.nan)
 
 
 def fit_warnings(noise, fits, sensor_names, *, noise_scale, noise_configured, tau_at_bound, tau_side):

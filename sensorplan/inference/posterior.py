@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from .._errors import ConfigError
 from .hyperposterior import BOUND_MASS
@@ -53,7 +53,7 @@ class CrossingFit:
 
     def predictive_band(self, level=0.95):
         """Posterior predictive band of the readings, shape (2, n_sensors, n_loads)."""
-        z = stats.norm.ppf(0.5 + level / 2)
+        z = special.ndtri(0.5 + level / 2)
         std = np.sqrt(self.model_std**2 + self.noise_std[:, None] ** 2)
         return np.stack([self.model - z * std, self.model + z * std])
 
@@ -185,7 +185,7 @@ class PosteriorResult:
         """Lower and upper equal-tailed quantiles of the parameters ``index`` under the posterior."""
         mix = self.mixture
         if mix.n_components == 1:
-            z = stats.norm.ppf(0.5 + level / 2)
+            z = special.ndtri(0.5 + level / 2)
             t, s = mix.thetas[0, index], mix.component_stds[0, index]
             return t - z * s, t + z * s
         return mix.quantile(0.5 - level / 2, index), mix.quantile(0.5 + level / 2, index)
@@ -206,7 +206,7 @@ class PosteriorResult:
         if not 0.0 < level < 1.0:
             raise ConfigError(f"The 'level' parameter must be in (0, 1). Got {level!r} instead.")
         n = self.n_elements
-        z = stats.norm.ppf(0.5 + level / 2)
+        z = special.ndtri(0.5 + level / 2)
         s = self.std[:n]
         to_ei = np.exp if self.parameterisation == "log_ei" else (lambda v: 1.0 / v)
         if method == "lognormal":

@@ -77,7 +77,7 @@ class _Tables:
         self.basis_sensors = element_products(edges, frame.basis, units)  # (n_u, S, E)
 
 
-_TABLES = Kept(16)
+_TABLES = Kept(8)  # each (2n, S, E) doubles: a few MB at most for a diagnosis-sized case
 
 
 class LineInterpolant:
@@ -189,7 +189,7 @@ class LineInterpolant:
         return self.readings(weights), self.kernel(weights), self.spring_terms(weights)
 
     def basis(self, x):
-        """Interval index, Hermite weights (4, N) and their x-derivatives at load positions ``x`` (0 off the bridge)."""
+        """Interval index, Hermite weights (4, *x.shape) and their x-derivatives at ``x`` (0 off the bridge)."""
         on = (x >= 0.0) & (x <= self.length)
         i = np.clip(np.searchsorted(self.points, x, side="right") - 1, 0, self.points.size - 2)
         h = self.points[i + 1] - self.points[i]

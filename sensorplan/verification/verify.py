@@ -21,7 +21,7 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from .._errors import ConfigError, SensorplanWarning
 from .._executors import executor_for, map_ordered
@@ -134,7 +134,7 @@ def detection_limit(case, layout, scenarios, *, kind="rotation", noise_std=None,
                               length=length, nuisance=nuisance)
     d = sig.projected_norms("damage") * math.sqrt(n_crossings)
     m = max(1, int(math.floor(case.bridge.length / length)))
-    return float(np.mean(stats.norm.cdf(d - stats.norm.isf(false_alarm / m))))
+    return float(np.mean(special.ndtr(d + special.ndtri(false_alarm / m))))
 
 
 @single_threaded
