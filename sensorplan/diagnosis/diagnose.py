@@ -11,10 +11,12 @@
    Bayes factor, with its held-out predictive gain (blocks of load
    positions held out in every crossing; whole crossings for static load
    steps) from rank updates of the linearised problem.  Non-converged fits
-   are flagged and never selected.  When the base fit is grossly distorted
-   (noise scale above ``DISTORTED``: EI twisted to mimic a settled bearing)
-   and a support-spring fit from the base MAP does not converge, it is also
-   fitted from the nominal EI and springs; the better fit counts.
+   are flagged and never selected.  When the model a fit starts from is
+   grossly distorted (its noise scale above ``DISTORTED``: EI twisted to
+   mimic a settled bearing) and a support-spring fit from its MAP does not
+   converge, it is also fitted from the nominal EI and springs; the better
+   fit counts.  After a pick the noise scale is re-estimated, so once the
+   selected effects explain most of the gap this second start stops.
 4. Stepwise selection (:mod:`.selection`): the effect with the largest
    Bayes factor among those with a significant held-out gain over the
    current model is added (effects within ``bf_threshold`` of it are
@@ -100,7 +102,6 @@ class _Context:
         self.case, self.crossings, self.prior = case, crossings, prior
         self.estimate_springs, self.alpha, self.tau = estimate_springs, alpha, tau
         self.blocks, self.test_masks, self.predictions = blocks, test_masks, predictions
-        self.base_alpha = alpha
 
     def fit(self, names, blocks=None, *, initial=True, max_iter=40, floor=None):
         problem = JointProblem(self.case, self.crossings, [make_effect(n) for n in names], self.prior,
@@ -115,7 +116,7 @@ class _Context:
                                else blocks)
             start[sl] = init
         fit = quick_fit(problem, start, self.alpha, self.tau, max_iter=max_iter, floor=floor)
-        distorted = self.base_alpha > DISTORTED
+        distorted = self.alpha > DISTORTED  # the noise scale of the model the fit starts from
         if effect.frees and initial and distorted and (fit is None or not (fit.converged or fit.abandoned)):
             # a support that settles or restrains is what the base EI twisted to mimic (EI off by orders of
             # magnitude next to a settled bearing): from there the spring's fit crawls or stops in a worse

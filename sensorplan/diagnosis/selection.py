@@ -73,7 +73,7 @@ LOOK_AHEAD_RATIO = 0.8  # a pick that cuts the held-out rms this much may pay of
 def _light(out):
     fit = out[0]
     if fit is not None:  # the influence-line cache is not needed any more (and not worth sending back)
-        fit.problem._cache, fit.problem._last = {}, None
+        fit.problem._cache, fit.problem._weight_maps, fit.problem._last = {}, {}, None
     return out
 
 

@@ -124,7 +124,10 @@ class _ForceMethod:
                 f"condition number {cond:.2e}). Check the support springs.")
 
     def redundants(self, g, value, slope):
-        """Scaled unknowns (n_u, n_funcs) of free-body diagrams with int b_u M0 v ds = ``g``, end ``value``, ``slope``."""
+        """Scaled unknowns (n_u, n_funcs) of free-body diagrams M0 with int b_u M0 v ds = ``g``.
+
+        ``value`` and ``slope``: M0 just beyond the right end (the equilibrium of the free beam).
+        """
         rhs = np.vstack([-g / self.ref, -slope[None, :], -value[None, :] / self.length])
         return scipy.linalg.lu_solve(self.lu, rhs)[:self.n_u]
 

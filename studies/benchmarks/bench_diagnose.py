@@ -48,7 +48,28 @@ four held-out folds and in every selection round.
 
 Run: python studies/benchmarks/bench_diagnose.py [--quick]
 
-Last run (2026-11-26, fifth session, after: support-spring fits also from the nominal EI on a grossly
+Last run (2026-11-26, sixth session, after: the force method split where EI enters, the line
+interpolant's EI-independent element products kept, a crossing's own EI factor without elastic
+springs applied without a solve, the interpolation maps kept across evaluations, the element
+kernel formed only for Jacobians and on the bins directly, and the second (nominal) start of a
+support-spring fit only while the model it starts from is grossly distorted; studies/diagnosis/
+pairs.py --six ran beside it on the other core): identical verdicts in all 52 datasets; small
+  median 0.84 s, max 1.55 s, ratio max 8.8x; three median 1.15 s, max 3.09 s, ratio max 4.2x;
+  pairs median 1.54 s, max 3.41 s, ratio max 12.1x; pairs6 median 2.17 s, max 3.55 s, ratio max
+  5.4x; dense6 median 3.05 s, max 7.81 s, ratio max 5.2x; random median 3.83 s, max 7.05 s,
+  ratio median 3.4x, max 10.3x (the dataset that was 23.5x before).  Every dataset < 15 s: met
+  (max 7.81 s); ratio <= 20x: met (median 3.6x, max 12.1x).  A run between the changes (the test
+  suite beside it): identical verdicts, ratio max 13.1x.
+  Where the time goes now (cProfile of the slowest random two-effect dataset of
+  studies/diagnosis/unseen.py, thermal drift + a settled bearing on 24.6 m with 4 tiltmeters,
+  12 crossings in bins of 7, where load-position offsets are picked first and dropped later):
+  14.5 s under the profiler: forming the lines 32 % (the interpolation maps of moved loads 17 %,
+  the interpolant at a new EI 9 %), the log-EI block on the bins 12 %, predictions and effect
+  blocks mapped onto the bins 10 %, whitening and normal equations 14 %, the rest spread over
+  small array operations.  Before the change the interpolant alone was 42 % of a
+  load-dependent-stiffness dataset (5476 force-method solves and element products of 2.8 ms
+  each; now 1.1 ms, or none without elastic springs).
+Run before (2026-11-26, fifth session, after: support-spring fits also from the nominal EI on a grossly
 distorted base, the look-ahead pick, and the new group "random"; CPU seconds, one BLAS thread; my
 profiling runs shared the machine during the first groups, so "small" is slower than the run below
 with invert slower alike): small median 1.53 s, max 4.03 s, ratio max 12.7x; three median 1.76 s,

@@ -22,7 +22,12 @@ gap.
 
 Run: python studies/diagnosis/pairs.py [--seeds N] [--first ...] [--bridges ...] [--six]
 
-Last run (2026-11-26, fifth session: support-spring fits also from the nominal EI on a grossly distorted
+Last run (2026-11-26, sixth session: the speed changes of the force method, the line interpolant and
+the diagnosis's lines, and the nominal start of a spring fit only while its starting model is
+distorted; each beside another study): the same 180 verdicts and Bayes factors as the run below;
+case layouts 51/90 = 57 %, lenient 79/90, CPU median 2.2 s, max 6.6 s; --six 73/90 = 81 %, lenient 88/90,
+CPU median 3.0 s, max 10.4 s.
+Run before (2026-11-26, fifth session: support-spring fits also from the nominal EI on a grossly distorted
 base fit, and the look-ahead pick; the study beside other jobs): the same 180 verdicts as the run below;
 case layouts 51/90 = 57 %, lenient 79/90, CPU median 2.7 s, max 7.7 s; --six 73/90 = 81 %, lenient 88/90,
 CPU median 4.1 s, max 11.1 s.  Random bridges with any two library effects: studies/diagnosis/unseen.py.

@@ -55,6 +55,17 @@ listed confounded); CPU median 2.0 s, max 6.8 s.  --cases 0 --pairs 90 (a fresh 
 held-out within 20 % 78/78 (max 1.07); CPU median 6.0 s, max 28.0 s, 5/90 above 15 s
 (load-dependent stiffness with a flipped sensor or a changed restraint on 5-6 tiltmeters,
 23-28 s; 35 s before the swap limit).
+Sixth session (same day; each dataset now also times one default invert of the same data, and
+the ratio is reported): after the speed changes (force method and line interpolant split where EI
+enters, interpolation maps kept, the element kernel only for Jacobians, a crossing's EI factor
+without a solve on bridges without elastic springs, the nominal start of a spring fit only while
+its starting model is distorted): --cases 0 --pairs 90 --workers 1 (pairs.py beside it): the same
+90 verdicts (78/90, lenient 90/90); CPU median 3.5 s, max 13.1 s, none above 15 s; ratio to
+invert median 4.9x, max 44.9x, one above 20x (index 17: thermal drift + a settled end bearing on
+one 24.6 m span with 4 tiltmeters, 9-13 s against an invert of 0.3 s; position offsets picked
+first and dropped two steps later, about 50 refits); the next largest ratios 15.7x, 15.4x.
+--cases 4 --pairs 0 --workers 1: the same 52/52; CPU median 1.8 s, max 8.0 s; ratio median
+4.2x, max 11.0x.
 """
 
 import os
@@ -158,10 +169,13 @@ def run_one(job):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             d = sp.diagnose(case, data)
+            cpu = time.process_time() - t0
+            t1 = time.process_time()  # one default invert of the same data: the reference of issue 18's ratio
+            sp.invert(case, data)
+            invert_cpu = time.process_time() - t1
     except Exception as exc:  # keep the study going; the record says what failed
         return {"kind": kind, "index": index, "effects": effects, "case": "",
                 "error": f"{type(exc).__name__}: {exc}", "cpu": time.process_time() - t0}
-    cpu = time.process_time() - t0
     causes = tuple(d.causes)
     conf = {c.name for c in d.confounded}
     springs_differ = any(f.get("differs") for f in d.springs)
@@ -181,6 +195,7 @@ def run_one(job):
     return {"kind": kind, "index": index, "effects": effects, "case": describe_case(case), "crossings": n_cr,
             "causes": causes, "confounded": sorted(conf), "unexplained": bool(d.unexplained),
             "springs_differ": springs_differ, "right": bool(right), "lenient": bool(lenient), "cpu": cpu,
+            "invert_cpu": invert_cpu,
             "heldout": float("nan") if d.heldout_ratio_after is None else d.heldout_ratio_after,
             "bfs": " ".join(f"{e.name[:10]}={e.log_bayes_factor:.0f}" for e in d.effects[:4]), "error": ""}
 
@@ -221,7 +236,8 @@ def main(argv=None):
                 continue
             print(f"  {r['index']:3d} {'+'.join(r['effects']):45s} -> {', '.join(r['causes']) or '-'}"
                   f"{' unexpl' if r['unexplained'] else ''} {'ok' if r['right'] else ('lenient' if r['lenient'] else 'MISS')}"
-                  f" (cpu {r['cpu']:.1f} s, held-out {r['heldout']:.2f}) [{r['bfs']}] conf {r['confounded']} "
+                  f" (cpu {r['cpu']:.1f} s, {r['cpu'] / r['invert_cpu']:.1f}x invert, held-out {r['heldout']:.2f})"
+                  f" [{r['bfs']}] conf {r['confounded']} "
                   f"[{r['case']}, {r['crossings']} cr]", flush=True)
     for kind in ("single", "pairs"):
         sub = [r for r in recs if r["kind"] == kind]
@@ -239,6 +255,9 @@ def main(argv=None):
         cpu = [r["cpu"] for r in ok]
         if cpu:
             print(f"  cpu median {np.median(cpu):.1f} s, max {max(cpu):.1f} s, above 15 s {sum(c > 15 for c in cpu)}")
+            ratio = [r["cpu"] / r["invert_cpu"] for r in ok]
+            print(f"  ratio to one invert of the same data: median {np.median(ratio):.1f}x, max {max(ratio):.1f}x, "
+                  f"above 20x {sum(x > 20 for x in ratio)}")
         fit = [r["heldout"] for r in ok if r["causes"] and r["right"]]
         if fit:
             print(f"  held-out ratio after (right verdicts with causes): within 1.2 {sum(h <= 1.2 for h in fit)}/"
