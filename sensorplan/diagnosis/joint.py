@@ -14,6 +14,7 @@ Binned crossings (``binning.py``: dense records) are modelled at their
 readings and mapped onto their whitened bins; the bins are then the rows.
 """
 
+from collections import OrderedDict
 from functools import partial
 
 import numpy as np
@@ -99,7 +100,7 @@ class JointProblem(WhitenedData, LineSource):
         self._ei = None
         self._cache = {}
         self._cache_ei = None
-        self._weight_maps = {}  # interpolation maps of the load positions (independent of EI)
+        self._weight_maps = OrderedDict()  # interpolation maps of the load positions (independent of EI)
         self._last = None
         self.n_evaluations = 0
 

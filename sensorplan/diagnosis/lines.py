@@ -201,14 +201,21 @@ class LineSource:
         vertical = state.bridge.vertical_springs
         key = (interpolant.points.tobytes(), every.tobytes(), loads.tobytes(),
                np.isinf(vertical[0]), np.isinf(vertical[-1]))
-        maps = self._weight_maps.get(key)
+        kept = self._weight_maps
+        maps = kept.get(key)
         if maps is None:
-            if len(self._weight_maps) >= 64:
-                self._weight_maps.clear()
             i, value, slope = interpolant.basis(every[None, :] - offsets[:, None])  # every axle at once
             bases = [(i[a], value[:, a], slope[:, a]) for a in range(offsets.size)]
-            maps = self._weight_maps[key] = {
-                "bases": bases, "lines": self._weights(interpolant, state, every, bases, offsets, loads)}
+            maps = kept[key] = {"rows_held": every.size,
+                                "bases": bases, "lines": self._weights(interpolant, state, every, bases, offsets, loads)}
+            # least recently used first out, beyond three times every crossing's rows: loads moved by an effect
+            # make new maps at every evaluation (megabytes each on dense records), a crossing's own EI factor
+            # one per crossing
+            budget = 3 * sum(x.size for x in self.model_positions)
+            while len(kept) > 1 and sum(m["rows_held"] for m in kept.values()) > budget:
+                kept.pop(next(iter(kept)))
+        else:
+            kept.move_to_end(key)
         bases = maps["bases"]
         if jacobian and self.entry_moves and "slopes" not in maps:
             maps["slopes"] = self._weights(interpolant, state, every, bases, offsets, loads, derivative=True)
