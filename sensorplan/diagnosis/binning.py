@@ -54,18 +54,18 @@ class BinnedCrossing(Crossing):
     def __post_init__(self):
         if self.raw_positions is not None:  # the whitening and binning as one sparse map, readings -> bins
             object.__setattr__(self, "bin_map", _bin_map(self.noise, self.raw_positions, self.size))
-            # the map with the readings' load factors folded in (the model's lines are scaled by them first)
-            object.__setattr__(self, "_factor_map",
-                               (self.bin_map @ sparse.diags(self.raw_load_factor)).tocsr())
+            object.__setattr__(self, "_factor_map", None)  # formed on first use (map_with)
             # crossings with equal keys have equal maps (a model mapped for one serves the others)
             object.__setattr__(self, "map_key", (self.raw_positions.tobytes(), self.size, self.noise.std.tobytes(),
                                                  self.noise.correlation_length))
 
     def map_with(self, load_factor):
         """The sparse map readings -> bins applied after scaling the readings by ``load_factor``."""
-        if np.array_equal(load_factor, self.raw_load_factor):
-            return self._factor_map
-        return (self.bin_map @ sparse.diags(load_factor)).tocsr()
+        if not np.array_equal(load_factor, self.raw_load_factor):
+            return (self.bin_map @ sparse.diags(load_factor)).tocsr()
+        if self._factor_map is None:  # the readings' own load factors: kept
+            object.__setattr__(self, "_factor_map", (self.bin_map @ sparse.diags(load_factor)).tocsr())
+        return self._factor_map
 
     def to_bins(self, values):
         """Whitened bin sums / sqrt(size) of model ``values`` at the readings (sensors first, rows next)."""

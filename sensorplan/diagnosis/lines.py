@@ -17,7 +17,6 @@ Owns: the lines of the diagnosis model.  May import: the model layer.
 from functools import cached_property
 
 import numpy as np
-from scipy import sparse
 
 from ..model.interpolant import LineInterpolant
 from ..model.loads import Vehicle
@@ -31,13 +30,6 @@ def _axle_key(state, x, axle, r, scale):
     """Cache key of one axle's unit-load response (independent of the axle loads)."""
     return ("axle", x.tobytes(), axle, r.tobytes(), state.bridge, scale)
 
-
-
-def _row_block(weights, rows):
-    """Rows ``rows`` (a slice) of the CSR matrix ``weights``, as views of its arrays."""
-    a, b = weights.indptr[rows.start], weights.indptr[rows.stop]
-    return sparse.csr_matrix((weights.data[a:b], weights.indices[a:b], weights.indptr[rows.start:rows.stop + 1] - a),
-                             shape=(rows.stop - rows.start, weights.shape[1]))
 
 
 class CrossingLines:
@@ -58,7 +50,7 @@ class CrossingLines:
         """The crossing's rows of the interpolation map (sliced when first asked for, then kept)."""
         key = ("rows", self._rows.start)
         if key not in self._maps:
-            self._maps[key] = _row_block(self._maps["lines"], self._rows)
+            self._maps[key] = self._maps["lines"][self._rows]
         return self._maps[key]
 
     @cached_property
