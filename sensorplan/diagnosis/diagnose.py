@@ -103,7 +103,7 @@ class _Context:
         self.estimate_springs, self.alpha, self.tau = estimate_springs, alpha, tau
         self.blocks, self.test_masks, self.predictions = blocks, test_masks, predictions
 
-    def fit(self, names, blocks=None, *, initial=True, max_iter=40, floor=None):
+    def fit(self, names, blocks=None, *, initial=True, max_iter=40, floor=None, budget=False):
         problem = JointProblem(self.case, self.crossings, [make_effect(n) for n in names], self.prior,
                                estimate_springs=self.estimate_springs)
         start = warm_start(problem, self.blocks if blocks is None else blocks)
@@ -115,7 +115,7 @@ class _Context:
             start = warm_start(problem, {"log_ei": problem.theta0[:problem.n_elements]} if blocks is None
                                else blocks)
             start[sl] = init
-        fit = quick_fit(problem, start, self.alpha, self.tau, max_iter=max_iter, floor=floor)
+        fit = quick_fit(problem, start, self.alpha, self.tau, max_iter=max_iter, floor=floor, budget=budget)
         distorted = self.alpha > DISTORTED  # the noise scale of the model the fit starts from
         if effect.frees and initial and distorted and (fit is None or not (fit.converged or fit.abandoned)):
             # a support that settles or restrains is what the base EI twisted to mimic (EI off by orders of
@@ -126,7 +126,7 @@ class _Context:
             for e, s in zip(problem.effects, problem.slices):
                 if not e.structural:
                     nominal[s] = start[s]
-            cold = quick_fit(problem, nominal, self.alpha, self.tau, max_iter=max_iter, floor=floor)
+            cold = quick_fit(problem, nominal, self.alpha, self.tau, max_iter=max_iter, floor=floor, budget=budget)
             if cold is not None and (fit is None or (cold.converged, cold.log_evidence) > (fit.converged,
                                                                                              fit.log_evidence)):
                 fit = cold

@@ -15,8 +15,6 @@ readings and mapped onto their whitened bins; the bins are then the rows.
 """
 
 from collections import OrderedDict
-from functools import partial
-
 import numpy as np
 
 from .._errors import ConfigError
@@ -28,6 +26,11 @@ from .lines import LineSource
 __all__ = []
 
 ENTRY = 0.1  # m over which an axle moved by an effect rolls onto the bridge (half a tyre contact length)
+
+
+def _shifted(place, start):
+    """The slice ``place`` moved ``start`` columns to the left."""
+    return slice(place.start - start, place.stop - start)
 
 
 class JointProblem(WhitenedData, LineSource):
@@ -150,35 +153,65 @@ class JointProblem(WhitenedData, LineSource):
             if e.structural:
                 e.apply(state, theta[sl])
         self.prefetch(state, jacobian)
-        out = []
         # the log-EI block, per set of lines and load factors: crossings at the same positions share it (mapped
         # onto the bins once, binning.py; gains, amplifications and the map act on it linearly, in any order)
         log_ei_jacobians = {}
+        raw, scaled_blocks = [], []
+        n_el = self.n_elements
         for c in range(self.n_crossings):
             lines = self.lines(state, c)
             lf = self.load_factor(c)
             binned = self._binned[c]
-            to_rows = partial(self.to_bins, c)
             y = lines.predictions * lf[None, :]
-            jac = None
+            extra = block = None  # the effects' columns at the readings; the mapped log-EI block and its factor
             places = self._places[c]
             if jacobian:
                 key = (id(lines), lf.tobytes(), None if binned is None else binned.map_key)
                 if key not in log_ei_jacobians:
                     log_ei_jacobians[key] = lines.log_ei_rows(lf, binned)
-                block = log_ei_jacobians[key]
-                jac = np.zeros(block.shape[:2] + (self.columns[c].size,))
-                jac[:, :, :self.n_elements] = block
+                block, scale = log_ei_jacobians[key], 1.0
+                extra = np.zeros(y.shape + (self.columns[c].size - n_el,))
                 for e, sl in zip(self.effects, self.slices):
                     if e.structural:
-                        jac[:, :, places[e.name]] = to_rows(e.structural_jacobian(self, state, theta[sl], c, y))
+                        extra[:, :, _shifted(places[e.name], n_el)] = e.structural_jacobian(
+                            self, state, theta[sl], c, y)
             for e, sl in self._outputs:
-                y, block, mult = e.output(self, state, theta[sl], c, y)
-                if jac is not None:
-                    jac *= np.reshape(mult, (-1, 1, 1)) if np.ndim(mult) else mult
-                    jac[:, :, places[e.name]] += to_rows(block)
-            y = to_rows(y)
+                y, out_block, mult = e.output(self, state, theta[sl], c, y)
+                if extra is not None:
+                    mult = np.reshape(mult, (-1, 1, 1)) if np.ndim(mult) else mult
+                    extra *= mult
+                    scale = scale * mult
+                    extra[:, :, _shifted(places[e.name], n_el)] += out_block
+            raw.append(y[:, :, None] if extra is None else np.concatenate([y[:, :, None], extra], axis=2))
+            scaled_blocks.append(None if block is None else (block, scale))
+        # onto the fitted rows: every crossing with the same bin map in one sparse product (predictions and the
+        # effects' columns together; the map acts along the readings, gains and amplifications along sensors)
+        mapped = self._map_rows(raw)
+        out = []
+        for c, (rows, scaled) in enumerate(zip(mapped, scaled_blocks)):
+            y = rows[:, :, 0]
+            jac = None
+            if scaled is not None:
+                block, scale = scaled
+                jac = np.empty(block.shape[:2] + (self.columns[c].size,))
+                np.multiply(block, scale, out=jac[:, :, :n_el])
+                jac[:, :, n_el:] = rows[:, :, 1:]
             out.append((y, jac))
+        return out
+
+    def _map_rows(self, raw):
+        """``raw`` (per crossing, (S, K, m) at the readings) on the fitted rows: one product per bin map."""
+        out = list(raw)
+        groups = {}
+        for c, binned in enumerate(self._binned):
+            if binned is not None:
+                groups.setdefault(binned.map_key, []).append(c)
+        for members in groups.values():
+            widths = np.cumsum([raw[c].shape[2] for c in members])[:-1]
+            parts = np.split(self._binned[members[0]].to_bins(np.concatenate([raw[c] for c in members], axis=2)),
+                             widths, axis=2)
+            for c, part in zip(members, parts):
+                out[c] = part
         return out
 
     def _safe_predict(self, theta, jacobian):
