@@ -113,6 +113,13 @@ def test_withheld_effect_is_found(case, effect, seed):
     assert entry.log_bayes_factor > 3 and entry.heldout_score_gain > 0
     # the held-out residual shrinks to near the noise level of the data
     assert entry.heldout_rms_after < 1.2 * float(np.median(case.noise.std)) * 1.05
+    # thermal drift holds the sensor offsets (an offset per sensor and crossing) as a special case: said, not named
+    if effect == "thermal_drift":
+        assert d.includes == {"thermal_drift": ("sensor_offset",)} and "sensor_offset" not in d.causes
+        assert "includes sensor_offset as a special case" in d.summary()
+        assert d.to_dict()["includes"] == {"thermal_drift": ["sensor_offset"]}
+    else:
+        assert d.includes == {}
 
 
 @pytest.mark.slow

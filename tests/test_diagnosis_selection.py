@@ -142,10 +142,10 @@ def test_two_passes_continue_only_fits_that_can_still_matter():
     assert not out["A"][0].abandoned
 
 
-def test_a_fit_gives_up_below_its_floor_and_converges_without_one():
+def _drift_on_a_flipped_sensor():
+    """A JointProblem with thermal drift on data whose second tiltmeter reads with the wrong sign (it misses the flip)."""
     from sensorplan.diagnosis.effects import make_effect
     from sensorplan.diagnosis.joint import JointProblem
-    from sensorplan.diagnosis.refit import quick_fit
     from sensorplan.model.prior import GMRFPrior
 
     case = example_case("openlab-like")
@@ -153,7 +153,13 @@ def test_a_fit_gives_up_below_its_floor_and_converges_without_one():
     data = simulate_crossings(case, 3, noise=True, rng=5)
     flipped = sp.Crossings(data.sensor_names, tuple(replace(c, values=c.values * np.array([[1.0], [-1.0]]))
                                                     for c in data.crossings))
-    problem = JointProblem(case, flipped, [make_effect("thermal_drift")], GMRFPrior())  # misses the flip
+    return JointProblem(case, flipped, [make_effect("thermal_drift")], GMRFPrior())
+
+
+def test_a_fit_gives_up_below_its_floor_and_converges_without_one():
+    from sensorplan.diagnosis.refit import quick_fit
+
+    problem = _drift_on_a_flipped_sensor()
     free = quick_fit(problem, problem.theta0.copy(), 30.0, 1.0)
     assert free.converged and not free.abandoned and free.ceiling == free.log_evidence
     stopped = quick_fit(problem, problem.theta0.copy(), 30.0, 1.0, floor=free.log_evidence + 1e6)
@@ -164,17 +170,9 @@ def test_a_fit_gives_up_below_its_floor_and_converges_without_one():
 def test_a_fit_that_must_converge_within_its_budget_gives_up_at_the_pace_of_its_last_steps():
     # a swap test counts only if it converges within its steps: once twice its recent gains in every step left
     # cannot reach the floor it gives up; reference: the same fit without the budget rule (quick_fit itself)
-    from sensorplan.diagnosis.effects import make_effect
-    from sensorplan.diagnosis.joint import JointProblem
     from sensorplan.diagnosis.refit import quick_fit
-    from sensorplan.model.prior import GMRFPrior
 
-    case = example_case("openlab-like")
-    case = replace(case.with_mesh(sp.Mesh.uniform(case.bridge, 8)), sweep=sp.LoadSweep.from_range(0.0, 32.0, 1.0))
-    data = simulate_crossings(case, 3, noise=True, rng=5)
-    flipped = sp.Crossings(data.sensor_names, tuple(replace(c, values=c.values * np.array([[1.0], [-1.0]]))
-                                                    for c in data.crossings))
-    problem = JointProblem(case, flipped, [make_effect("thermal_drift")], GMRFPrior())  # misses the flip: crawls
+    problem = _drift_on_a_flipped_sensor()  # crawls at a noise scale of 3
     free = quick_fit(problem, problem.theta0.copy(), 3.0, 1.0, max_iter=15)
     assert not free.converged and free.n_iter == 15
     out_of_reach = free.log_evidence + 1.0  # above what the fit reaches in its 15 steps
@@ -300,6 +298,33 @@ def test_a_selection_step_lets_later_candidates_give_up_below_an_eligible_one():
     fit_models(ctx, {n: ([n], None) for n in "ABC"}, 43.0, bf_threshold=3.0, runner=None, say=lambda text: None,
                label="", strict=True)
     assert ctx.floors == {"A": 43.0, "B": 43.0, "C": 43.0}
+
+
+class _Honours(_Slow):
+    """_Slow whose first-pass fits give up (abandoned) when their ceiling is below the floor they are given."""
+
+    def fit(self, names, blocks=None, *, initial=True, max_iter=40, floor=None, budget=False):
+        fit, held = super().fit(names, blocks)
+        if floor is not None and fit.ceiling < floor:
+            return replace(fit, converged=False, abandoned=True), None
+        return fit, held
+
+
+def test_candidates_given_up_below_a_leader_that_fails_the_tests_are_continued():
+    # A leads (100, not converged, then converged) but fails the step's tests; B, given up against A's floor 97,
+    # converges at 50 once continued from the step's level 43; C cannot reach 43 and stays given up
+    ctx = _Honours({"A": (100, False, 101), "B": (50, True, 50), "C": (30, True, 30)}, {"A": 100, "B": 50})
+    out = fit_models(ctx, {n: ([n], None) for n in "ABC"}, 43.0, bf_threshold=3.0, runner=None,
+                     say=lambda text: None, label="", strict=True,
+                     eligible=lambda name, fit, held: name != "A" and fit.converged)
+    assert ("B", 43.0) in ctx.resumed and all(r[0] != "C" for r in ctx.resumed)
+    assert out["B"][0].converged and out["B"][0].log_evidence == 50
+    assert out["C"][0].abandoned and not out["C"][0].converged
+    # with A passing the tests B is not continued: it could be neither the pick nor its alternative
+    ctx = _Honours({"A": (100, True, 100), "B": (50, True, 50), "C": (30, True, 30)}, {})
+    out = fit_models(ctx, {n: ([n], None) for n in "ABC"}, 43.0, bf_threshold=3.0, runner=None,
+                     say=lambda text: None, label="", strict=True, eligible=lambda name, fit, held: fit.converged)
+    assert ctx.resumed == [] and out["B"][0].abandoned
 
 
 class _Crawl(_Slow):

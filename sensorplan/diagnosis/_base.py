@@ -32,6 +32,8 @@ class Effect:
     additive = False  # an output term added to the reading (applied after the multiplicative outputs)
     moves_loads = False  # moves the load positions (the lines then need a continuous entry onto the bridge)
     needs_axle_lines = False  # the Jacobian needs each axle's response alone (JointProblem.axle_lines)
+    # library effects this one holds as a special case: once it is in the model the data cannot tell them apart
+    contains: tuple = ()
 
     def applicable(self, crossings):
         """Reason the effect cannot act on these data (None: it can)."""

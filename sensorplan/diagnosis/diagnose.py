@@ -285,6 +285,9 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
                              base.theta, alpha, tau, estimate_springs)
     unexplained = bool(gap_after.significant)
     verdict = _verdict(selected, unexplained, gap.significant, confounded)
+    # a candidate a cause holds as a special case is not a second finding: the data cannot tell them apart
+    includes = {s: held for s in selected
+                if (held := tuple(n for n in make_effect(s).contains if n in names and n not in selected))}
     differs = [f["where"] for f in springs if f.get("differs")]
     if differs:
         verdict += "; the case's elastic springs differ from the configured values: " + ", ".join(differs)
@@ -305,7 +308,7 @@ def diagnose(case: "Case", crossings: Crossings, *, effects: "Sequence[str] | No
         noise_scale=float(final.noise_scale), converged=bool(base_full.converged and final_ok),
         heldout_ratio_after=None if current_held is None else current_held.ratio,
         heldout_ratio_before=None if base_held is None else base_held.ratio, corrected_model=corrected,
-        binning=binning)
+        binning=binning, includes=includes)
 
 
 def _on_rows(problem, case, crossings, selected, prior, estimate_springs):

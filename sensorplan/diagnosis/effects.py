@@ -149,6 +149,7 @@ class ThermalDrift(Effect):
 
     name = "thermal_drift"
     additive = True
+    contains = ("sensor_offset",)  # its offset per sensor and crossing is the sensor offset
 
     def applicable(self, crossings):
         if all(c.n_loads < 3 for c in crossings):

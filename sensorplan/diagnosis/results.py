@@ -144,6 +144,7 @@ class GapDiagnosis:
     heldout_ratio_after: float | None = None
     corrected_model: dict = field(default_factory=dict)  # final MAP state (SI), for a corrected case
     binning: dict = field(default_factory=dict)  # dense records: size, width_m, rows, bins of the fitted bin means
+    includes: dict = field(default_factory=dict)  # cause -> candidate effects it holds as a special case
 
     def summary(self):
         from .summary import summary_lines
@@ -176,6 +177,7 @@ class GapDiagnosis:
             "heldout_ratio_after": self.heldout_ratio_after,
             "corrected_model": dict(self.corrected_model),
             "binning": dict(self.binning),
+            "includes": {k: list(v) for k, v in self.includes.items()},
         }
 
 

@@ -106,29 +106,59 @@ def fit_models(ctx, models, level, *, bf_threshold, runner, say, label, strict=F
     runs its full budget.  ``eligible(name, fit, held)``: whether a fitted
     candidate passes the step's tests; in this process (no ``runner``) the
     candidates are then fitted in the order given and each later one gives
-    up as soon as it cannot come within ``bf_threshold`` of an eligible one
-    (it could be neither the pick nor its alternative): on a flipped sensor
-    the pick's fit reaches 2800 log units above the others, which crawled
-    through their whole first pass (2.5 of 16 s).
+    up as soon as it cannot come within ``bf_threshold`` of the evidence an
+    earlier one has reached (it could be neither the pick nor its
+    alternative): on a flipped sensor the pick's fit reaches 2800 log units
+    above the others, which crawled through their whole first pass (2.5 of
+    16 s).  Should the leaders then fail the step's tests, the candidates
+    given up below them are continued (:func:`_revive`).
     """
     names = list(models)
     prefix = f"{label}: " if label else ""
     early = level if strict else None
+    floors = {}
     if strict and runner is None and eligible is not None:
         first, best = [], -math.inf
         for k, n in enumerate(names):
-            floor = max(early, best - bf_threshold)
-            first.append(_first_pass((ctx, *models[n], floor)))
+            floors[n] = max(early, best - bf_threshold)
+            first.append(_first_pass((ctx, *models[n], floors[n])))
             say(f"{prefix}effect {k + 1} of {len(names)}: {n}")
-            if eligible(n, *first[-1]):
-                best = max(best, first[-1][0].log_evidence)
+            fit = first[-1][0]
+            if fit is not None and math.isfinite(fit.log_evidence):
+                best = max(best, fit.log_evidence)
     else:
         first = map_ordered(runner, _first_pass, [(ctx, *models[n], early) for n in names], chunksize=1,
                             progress=lambda k, n: say(f"{prefix}effect {k} of {n}: {names[k - 1]}"))
     out = dict(zip(names, first))
-    reached = [f.log_evidence for f, _ in first if f is not None and math.isfinite(f.log_evidence)]
+    _continue_slow(ctx, out, level, bf_threshold=bf_threshold, runner=runner, say=say, prefix=prefix)
+    if floors:
+        _revive(ctx, out, floors, early, eligible, bf_threshold=bf_threshold, say=say, prefix=prefix)
+    return out
+
+
+def _revive(ctx, out, floors, level, eligible, *, bf_threshold, say, prefix):
+    """Continue the candidates given up below a leader that then failed the step's tests (updates ``out``).
+
+    A candidate needs only come within ``bf_threshold`` of the best
+    candidate that passes the tests (and reach ``level``); one given up
+    against a higher floor that could still reach this one gets a first
+    pass's budget from where it stopped.
+    """
+    best = max((f.log_evidence for n, (f, h) in out.items() if eligible(n, f, h)), default=-math.inf)
+    need = max(level, best - bf_threshold)
+    back = [n for n, (f, _) in out.items()
+            if f is not None and f.abandoned and floors[n] > need and f.ceiling >= need]
+    for k, n in enumerate(back):
+        say(f"{prefix}continued below a failed leader {k + 1} of {len(back)}: {n}")
+        out[n] = _continued((ctx, out[n][0], need, FIRST_PASS))
+
+
+def _continue_slow(ctx, out, level, *, bf_threshold, runner, say, prefix):
+    """Second (and third) passes of the candidates not converged that may still matter (updates ``out``)."""
+    names = list(out)
+    reached = [f.log_evidence for f, _ in out.values() if f is not None and math.isfinite(f.log_evidence)]
     if not reached:
-        return out
+        return
     floor = max(max(reached) - bf_threshold, level)
     slow = [n for n in names if out[n][0] is not None and not out[n][0].converged]
     todo = [n for n in slow if out[n][0].ceiling >= floor]
@@ -149,7 +179,6 @@ def fit_models(ctx, models, level, *, bf_threshold, runner, say, label, strict=F
                 and fit.log_evidence >= max(done, default=-math.inf) + bf_threshold):
             say(f"{prefix}continued further: {best}")
             out[best] = _continued((ctx, fit, floor, THIRD_PASS))
-    return out
 
 
 def _reached(fit):

@@ -43,6 +43,9 @@ def summary_lines(d):
         lines += [f"    {f['text']}" for f in d.findings.get(name, ())] or ["    (no single parameter stands out)"]
         if d.alternatives.get(name):
             lines.append("    explains the gap about as well: " + ", ".join(d.alternatives[name]))
+        if d.includes.get(name):
+            lines.append(f"    includes {', '.join(d.includes[name])} as a special case (the data cannot tell them "
+                         f"apart once {name} is in)")
     if d.causes:
         lines.append("  residual rms per sensor, before -> after the selected effects (held out in brackets):")
         for name, s in d.shrinkage.items():

@@ -48,7 +48,17 @@ four held-out folds and in every selection round.
 
 Run: python studies/benchmarks/bench_diagnose.py [--quick]
 
-Last run (2026-11-26, sixth session, after: the force method split where EI enters, the line
+Last run (2026-11-26, seventh session, after: a selection step's later candidates give up below
+the evidence an earlier one reached (continued if that leader then fails the tests), swap tests
+give up at the pace of their last steps, the look-ahead also past a weaker passing candidate, the
+effect columns mapped onto the bins in one product per bin map; the test suite beside it): the
+same 52 verdicts as a run of the code before (itself beside the CI); small median 0.98 s, max
+  2.36 s, ratio max 9.5x; three median 1.51 s, max 3.44 s, ratio max 4.3x; pairs median 1.74 s,
+  max 5.21 s, ratio max 15.3x (a settled bearing + load-position offsets, 5.0 s against an
+  invert of 0.33 s); pairs6 median 3.13 s, max 5.96 s, ratio max 5.2x; dense6 median 4.34 s, max
+  9.79 s, ratio max 5.6x; random median 4.59 s, max 7.01 s, ratio median 4.3x, max 9.2x.  Every
+  dataset < 15 s: met (max 9.79 s); ratio <= 20x: met (median 3.9x, max 15.3x).
+Run before (2026-11-26, sixth session, after: the force method split where EI enters, the line
 interpolant's EI-independent element products kept, a crossing's own EI factor without elastic
 springs applied without a solve, the interpolation maps kept across evaluations, the element
 kernel formed only for Jacobians and on the bins directly, and the second (nominal) start of a

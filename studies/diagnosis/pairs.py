@@ -22,7 +22,12 @@ gap.
 
 Run: python studies/diagnosis/pairs.py [--seeds N] [--first ...] [--bridges ...] [--six]
 
-Last run (2026-11-26, sixth session: the speed changes of the force method, the line interpolant and
+Last run (2026-11-26, seventh session: the selection's later candidates give up below an earlier
+one's evidence, swap tests at the pace of their last steps, the wider look-ahead, one mapping
+product per bin map; beside another study): the same 180 verdicts and Bayes factors as the run
+below; case layouts 51/90 = 57 %, lenient 79/90, CPU median 2.2 s, max 5.7 s; --six 73/90 = 81 %,
+lenient 88/90, CPU median 3.4 s, max 7.4 s.
+Run before (2026-11-26, sixth session: the speed changes of the force method, the line interpolant and
 the diagnosis's lines, and the nominal start of a spring fit only while its starting model is
 distorted; each beside another study): the same 180 verdicts and Bayes factors as the run below;
 case layouts 51/90 = 57 %, lenient 79/90, CPU median 2.2 s, max 6.6 s; --six 73/90 = 81 %, lenient 88/90,

@@ -16,7 +16,8 @@ effect applied directly, never through the effect library):
 Scored as in validation.py (top cause right, or the true effect reported as
 confounded with EI, or the case's elastic springs estimated as in invert)
 and pairs.py (both named and nothing else; leniently, the causes named are
-true and a missing one is reported as confounded with EI).
+true and a missing one is reported as confounded with EI, or as held by a
+named cause as a special case: sensor offsets inside thermal drift).
 
 Run: python studies/diagnosis/unseen.py [--cases N] [--pairs N] [--workers 2] [--seed S]
 
@@ -66,6 +67,24 @@ one 24.6 m span with 4 tiltmeters, 9-13 s against an invert of 0.3 s; position o
 first and dropped two steps later, about 50 refits); the next largest ratios 15.7x, 15.4x.
 --cases 4 --pairs 0 --workers 1: the same 52/52; CPU median 1.8 s, max 8.0 s; ratio median
 4.2x, max 11.0x.
+Seventh session (same day; a selection step's later candidates give up below the evidence an
+earlier one reached and are continued if that leader then fails the tests, swap tests give up at
+the pace of their last steps, the look-ahead also past a weaker passing candidate, the effect
+columns mapped onto the bins in one product; one worker, another study beside it; verdicts
+compared dataset by dataset with runs of the code before):
+  --cases 0 --pairs 90: the same 90 verdicts (78/90, lenient 90/90); CPU median 4.1 s, max 10.9 s;
+  ratio median 4.8x, max 18.0x (index 17, which was 44.9x: 3.9 s now, thermal drift and the
+  bearing picked together by the look-ahead instead of going through load-position offsets).
+  --cases 4 --pairs 90: the same 142 verdicts; singles 52/52; pairs 69/90 = 77 %, lenient 88/90;
+  CPU median 3.6 s, max 15.4 s, one above 15 s (index 107: three spans, six tiltmeters, 0.1 m
+  steps, 12 crossings, load-position offsets + a changed restraint: 21.5-23.7 s before this
+  session's changes; invert of the same data takes 22 s itself); ratio median 4.6x, max 22.8x
+  (index 108, 5.4 s against an invert of 0.24 s; 15.4x in the run before).
+  --seed 11 --cases 2 --pairs 60 (a fresh sample, run before and after the changes): the same 86
+  verdicts; singles 26/26; pairs 53/60 = 88 %, lenient 59/60 -> 60/60 once a true effect held by a
+  named cause counts (sensor offsets + thermal drift: drift named, offsets reported under
+  `includes`); CPU max 16.9 s -> 13.1-13.9 s (sensor offsets + a flipped sensor on three spans),
+  none above 15 s; ratio median 4.4-4.7x, max 15.9-19.8x.
 """
 
 import os
@@ -190,8 +209,11 @@ def run_one(job):
         right = not causes if effects[0] in ("none", "local_damage") else (d.unexplained or partly)
     else:
         right = set(causes) == set(lib)
+    # leniently also a true effect that a named cause holds as a special case (sensor offsets inside thermal drift)
+    included = {n for held in d.includes.values() for n in held}
     lenient = right or (kind == "pairs" and set(causes) <= set(lib) and not d.unexplained
-                        and set(lib) - set(causes) <= conf | ({e for e in SPRINGS} if springs_differ else set()))
+                        and set(lib) - set(causes) <= conf | included
+                        | ({e for e in SPRINGS} if springs_differ else set()))
     return {"kind": kind, "index": index, "effects": effects, "case": describe_case(case), "crossings": n_cr,
             "causes": causes, "confounded": sorted(conf), "unexplained": bool(d.unexplained),
             "springs_differ": springs_differ, "right": bool(right), "lenient": bool(lenient), "cpu": cpu,
