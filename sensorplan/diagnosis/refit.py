@@ -93,11 +93,12 @@ def quick_fit(problem, start, alpha, tau, *, max_iter=40, floor=None, budget=Fal
     """
     q = tau * problem.rough + problem.fixed
     stop = None
-    slow = [False]  # given up at the pace of its last steps (budget)
+    too_slow = False  # given up at the pace of its last steps (budget)
     if floor is not None:
         reached = []
 
         def stop(theta, lin):
+            nonlocal too_slow
             ev, _, ceiling = _evidence(problem, lin, theta, alpha, q)
             reached.append(ev)
             if ceiling < floor:
@@ -105,8 +106,8 @@ def quick_fit(problem, start, alpha, tau, *, max_iter=40, floor=None, budget=Fal
             if not budget or len(reached) < 3:
                 return False
             pace = max(reached[-1] - reached[-2], reached[-2] - reached[-3])
-            slow.append(ev < floor and 2.0 * pace * (max_iter - len(reached)) < floor - ev)
-            return slow[-1]
+            too_slow = ev < floor and 2.0 * pace * (max_iter - len(reached)) < floor - ev
+            return too_slow
     try:
         # stop when the Newton decrement is ~0.01 (log-density units): enough for Bayes factors and scores.
         # Relative to the objective (~ n_data / 2 at the base fit's noise scale) and at least 0.01 absolute:
@@ -125,7 +126,7 @@ def quick_fit(problem, start, alpha, tau, *, max_iter=40, floor=None, budget=Fal
     converged = bool(ok and finite)
     return QuickFit(problem, theta, hess, float(ev), converged, it, alpha, tau,
                     ceiling=float(ev) if converged else float(ceiling),
-                    abandoned=bool(not converged and floor is not None and (ceiling < floor or slow[-1])))
+                    abandoned=bool(not converged and floor is not None and (ceiling < floor or too_slow)))
 
 
 @dataclass(frozen=True, eq=False)

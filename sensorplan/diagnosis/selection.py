@@ -20,8 +20,10 @@ gain over the folds (:func:`.refit.gain_is_significant`).
   against a noise inflated by what the first already explains (and a small
   second effect would be missed).
 * In this process the candidates of a step are fitted in the order of
-  what they explained alone, and once one passes both tests the later
-  ones give up as soon as they cannot come within ``bf_threshold`` of it.
+  what they explained alone, and the later ones give up as soon as they
+  cannot come within ``bf_threshold`` of the evidence an earlier one
+  reached; should those leaders fail the tests, the ones given up below
+  them are continued.
 * Backward: after a forward step every earlier pick is tested against the
   model without it; a pick whose Bayes factor given the others is below
   ``bf_threshold``, or whose held-out gain given them is not significant,
@@ -186,6 +188,14 @@ def _reached(fit):
     return -math.inf if fit is None or not math.isfinite(fit.log_evidence) else fit.log_evidence
 
 
+def _passes(fit, held, current, current_held, level, gain_threshold, folds):
+    """Whether the converged ``fit`` beats ``current`` by ``level`` in evidence with a significant held-out gain."""
+    if fit is None or not fit.converged:
+        return False
+    bf, significant = _better(fit, held, current, current_held, gain_threshold, folds)
+    return bf >= level and significant
+
+
 def _better(fit, held, current, current_held, threshold, folds):
     """(Bayes factor, significant held-out gain) of ``fit`` over ``current``."""
     bf = fit.log_evidence - current.log_evidence
@@ -248,10 +258,8 @@ def select(ctx, names, screened, base, base_held, *, bf_threshold, gain_threshol
         remaining = [n for n in names if n not in selected]
 
         def passes(name, fit, held):
-            if fit is None or not fit.converged or frozenset(selected + [name]) in visited:
-                return False
-            bf, significant = _better(fit, held, current, current_held, gain_threshold, folds)
-            return bf >= bf_threshold and significant
+            return (frozenset(selected + [name]) not in visited
+                    and _passes(fit, held, current, current_held, bf_threshold, gain_threshold, folds))
 
         if step > 0:
             blocks = blocks_of(current.problem, current.theta)
@@ -352,10 +360,7 @@ def _look_ahead(ctx, remaining, selected, candidates, current, current_held, vis
     rest = sorted((n for n in remaining if n != first), key=lambda n: -_reached(candidates[n][0]))
 
     def passes(name, pair, held):
-        if pair is None or not pair.converged:
-            return False
-        bf, significant = _better(pair, held, current, current_held, gain_threshold, True)
-        return bf >= level and significant
+        return _passes(pair, held, current, current_held, level, gain_threshold, True)
 
     pairs = fit_models(ctx, {n: (selected + [first, n], blocks) for n in rest}, current.log_evidence + level,
                        bf_threshold=bf_threshold, runner=runner, say=say,
