@@ -54,6 +54,7 @@ def test_bins_are_independent_unit_normals_under_the_dense_covariance(correlatio
 @pytest.mark.parametrize("names", [
     ("thermal_drift", "position_offset", "sensor_gain", "vertical_support_spring"),
     ("sensor_gain", "vertical_support_spring", "sensor_position", "axle_loads"),  # no shifts: shared lines
+    ("load_dependent_stiffness", "position_offset"),  # a crossing's own EI factor: lines of two interpolants
 ])
 def test_binned_problem_is_the_unbinned_model_mapped_onto_the_bins(names):
     # reference: the unbinned problem's predictions and Jacobian at the readings (every effect that reads the

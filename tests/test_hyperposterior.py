@@ -281,7 +281,7 @@ def test_gauss_newton_failure_sends_the_other_nodes_straight_to_the_fallback(mon
 
     def failing(ctx, x, lin, log_tau, v, max_iter):
         calls.append(log_tau)
-        return None, 1
+        return None, 1, x
 
     monkeypatch.setattr(hp, "_gauss_newton", failing)
     fallback = invert(case, data, detect=False)

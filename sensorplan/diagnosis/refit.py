@@ -158,7 +158,8 @@ def integrated_fit(problem, prior, *, start=None, noise_scale=1.0, tau=None):
     # equal to 0.01).
     fit = integrate_problem(problem, problem.rough, problem.fixed, problem.theta0, hyperprior,
                             noise_scale=noise_scale, tau=prior.tau if tau is None else tau, start=start,
-                            max_iter=40, tol=0.02 / max(problem.n_data, 1), gauss_newton_max_iter=10, atol=0.01)
+                            max_iter=40, tol=0.02 / max(problem.n_data, 1), gauss_newton_max_iter=10, atol=0.01,
+                            secant=True)
     mix = fit.mixture
     top = int(np.argmax(mix.weights))
     return IntegratedModel(problem, mix, float(fit.noise_scale_mode), float(math.exp(fit.log_tau_mode)),

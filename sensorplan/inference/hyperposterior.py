@@ -42,7 +42,7 @@ import scipy.linalg
 import scipy.optimize
 
 from .._errors import DataError
-from .laplace import LOG_NOISE_FLOOR, solve_map
+from .laplace import LOG_NOISE_FLOOR, SecantCurvature, solve_map
 from .mixture import GaussianMixture
 
 __all__ = ["IntegratedFit", "integrate_problem", "LOG_TAU_BOUNDS", "BOUND_MASS"]
@@ -73,6 +73,7 @@ class _Context:
     # steps), the others go straight to the fallback instead of spending the budget again.
     gauss_newton_failed: list = field(default_factory=list)
     atol: float = 0.0  # the fallback's absolute Newton-decrement tolerance (solve_map's atol)
+    curvature: object = None  # the fallback's SecantCurvature, carried from node to node (or None)
 
 
 class _Surrogate:
@@ -175,7 +176,8 @@ def _gauss_newton(ctx, x, lin, log_tau, v, max_iter):
 
     Returns the node once the next step's decrement is below NODE_TOL (its
     MAP is that next step), or None when no step decreases the objective or
-    ``max_iter`` evaluations are spent; also the number of evaluations.
+    ``max_iter`` evaluations are spent; also the number of evaluations and
+    the last point accepted (where a fallback starts).
     """
     n_iter = 0
     while lin is not None and n_iter < max_iter:
@@ -185,7 +187,7 @@ def _gauss_newton(ctx, x, lin, log_tau, v, max_iter):
         step = sl.map_point(v) - x
         decrement = sl.decrement(step, v)
         if decrement < NODE_TOL:
-            return _Node(log_tau, v, x + step, sl.covariance(v), sl.log_weight(v), here, n_iter, True), n_iter
+            return _Node(log_tau, v, x + step, sl.covariance(v), sl.log_weight(v), here, n_iter, True), n_iter, x
         current = _objective(lin, x, sl, v, ctx.theta0)
         t, accepted = 1.0, None
         for _ in range(8):
@@ -200,14 +202,14 @@ def _gauss_newton(ctx, x, lin, log_tau, v, max_iter):
         if accepted is None:
             break
         x, lin = accepted
-    return None, n_iter
+    return None, n_iter, x
 
 
 def _levenberg_marquardt(ctx, theta, log_tau, v, *, max_iter, tol, n_iter):
     """The node by the safeguarded MAP of :func:`solve_map` from ``theta``, then one surrogate step for alpha."""
     q = math.exp(log_tau) * ctx.rough + ctx.fixed
     theta, lin, it, ok = solve_map(ctx.problem, theta, math.exp(v), q, ctx.theta0, max_iter=max_iter, tol=tol,
-                                   atol=ctx.atol)
+                                   atol=ctx.atol, curvature=ctx.curvature)
     here = _Surrogate(lin, theta, ctx)
     sl = here.at(log_tau)
     v = sl.best_v(v)
@@ -222,14 +224,18 @@ def _solve_node(ctx, surrogate, log_tau, v, *, max_iter, tol):
     sl = surrogate.at(log_tau)
     v = sl.best_v(v)
     n_iter = 0
+    x = sl.map_point(v)
     if not ctx.gauss_newton_failed:
-        x = sl.map_point(v)
-        node, n_iter = _gauss_newton(ctx, x, ctx.problem.evaluate(x), log_tau, v, _gn_budget(ctx, max_iter))
+        lin = ctx.problem.evaluate(x)
+        node, n_iter, last = _gauss_newton(ctx, x, lin, log_tau, v, _gn_budget(ctx, max_iter))
         n_iter += 1
         if node is not None:
             return dataclasses.replace(node, n_iter=n_iter)
         ctx.gauss_newton_failed.append(log_tau)
-    return _levenberg_marquardt(ctx, surrogate.theta, log_tau, v, max_iter=max_iter, tol=tol, n_iter=n_iter)
+        x = last  # where Gauss-Newton got to (its steps only lowered the objective)
+    if ctx.problem.evaluate(x) is None:  # the neighbour's prediction out of the model's domain
+        x = surrogate.theta
+    return _levenberg_marquardt(ctx, x, log_tau, v, max_iter=max_iter, tol=tol, n_iter=n_iter)
 
 
 def _start_node(ctx, theta, log_tau, v, *, max_iter, tol):
@@ -237,12 +243,12 @@ def _start_node(ctx, theta, log_tau, v, *, max_iter, tol):
     lin = ctx.problem.evaluate(theta)
     if lin is None:
         raise DataError("The start point gives an invalid model (non-positive EI).")
-    node, n_iter = _gauss_newton(ctx, theta, lin, log_tau, v, _gn_budget(ctx, max_iter))
+    node, n_iter, last = _gauss_newton(ctx, theta, lin, log_tau, v, _gn_budget(ctx, max_iter))
     n_iter += 1
     if node is not None:
         return dataclasses.replace(node, n_iter=n_iter)
     ctx.gauss_newton_failed.append(log_tau)
-    return _levenberg_marquardt(ctx, theta, log_tau, v, max_iter=max_iter, tol=tol, n_iter=n_iter)
+    return _levenberg_marquardt(ctx, last, log_tau, v, max_iter=max_iter, tol=tol, n_iter=n_iter)
 
 
 def _gn_budget(ctx, max_iter):
@@ -338,18 +344,21 @@ def _march(ctx, centre, step, *, max_iter, tol):
 
 
 def integrate_problem(problem, rough, fixed, theta0, hyperprior, *, noise_scale=1.0, tau=1.0, start=None,
-                      max_iter=100, tol=1e-10, gauss_newton_max_iter=None, atol=0.0):
+                      max_iter=100, tol=1e-10, gauss_newton_max_iter=None, atol=0.0, secant=False):
     """Posterior mixture over log tau (alpha integrated by Laplace) of any problem with ``evaluate``.
 
     ``hyperprior`` provides ``log_density_log_tau``, ``log_density_log_noise``
     and ``noise_log_std``; ``noise_scale`` and ``tau`` are start values.
     ``gauss_newton_max_iter`` caps the Gauss-Newton evaluations of a node
     before the Levenberg-Marquardt fallback (default ``max_iter``); ``tol``
-    and ``atol`` are the fallback's tolerances (:func:`solve_map`).
+    and ``atol`` are the fallback's tolerances (:func:`solve_map`).  With
+    ``secant`` the fallback also learns the curvature Gauss-Newton leaves
+    out, node after node (:class:`~.laplace.SecantCurvature`).
     """
     ctx = _Context(problem, rough, fixed, theta0, hyperprior, problem.n_data,
                    -0.5 * problem.log_det_noise - 0.5 * problem.n_data * math.log(2.0 * math.pi),
-                   gauss_newton_max_iter, atol=atol)
+                   gauss_newton_max_iter, atol=atol,
+                   curvature=SecantCurvature(theta0.size) if secant else None)
     theta = theta0.copy() if start is None else np.asarray(start, dtype=float).copy()
     log_tau = min(max(math.log(tau), LOG_TAU_BOUNDS[0]), LOG_TAU_BOUNDS[1])
     v = math.log(noise_scale)
