@@ -21,7 +21,7 @@ from .._errors import ConfigError
 from ..inference.laplace import Linearisation, WhitenedData
 from .binning import model_rows
 from .effects import CaseSprings, State
-from .lines import LineSource
+from .lines import LineSource, log_ei_blocks
 
 __all__ = []
 
@@ -51,6 +51,7 @@ class JointProblem(WhitenedData, LineSource):
         # the readings' noise std in the sensors' units (held-out rms are reported in them)
         binned = next((c for c in self._binned if c is not None), None)
         self.sensor_std = self.noise.std if binned is None else binned.noise.std
+        self._unit_noise = bool(self.noise.correlation_length < 1e-12 and np.all(self.noise.std == 1.0))
         self.bin_size = 1 if binned is None else binned.size  # readings per fitted row
         values = [getattr(c, "raw_values", c.values) for c in crossings]
         peak = np.array([max(float(np.max(np.abs(v[i]))) for v in values) for i in range(self.n_sensors)])
@@ -104,6 +105,7 @@ class JointProblem(WhitenedData, LineSource):
         self._cache = {}
         self._cache_ei = None
         self._weight_maps = OrderedDict()  # interpolation maps of the load positions (independent of EI)
+        self._bin_layouts = {}  # the bin maps of the crossings side by side, per layout of their rows (lines.py)
         self._last = None
         self.n_evaluations = 0
 
@@ -153,23 +155,20 @@ class JointProblem(WhitenedData, LineSource):
             if e.structural:
                 e.apply(state, theta[sl])
         self.prefetch(state, jacobian)
-        # the log-EI block, per set of lines and load factors: crossings at the same positions share it (mapped
-        # onto the bins once, binning.py; gains, amplifications and the map act on it linearly, in any order)
-        log_ei_jacobians = {}
+        every = [self.lines(state, c) for c in range(self.n_crossings)]
+        # the log-EI block of every crossing, mapped onto the bins together (crossings at the same positions
+        # share it; binning.py; gains, amplifications and the map act on it linearly, in any order)
+        log_ei = log_ei_blocks([(lines, self.load_factor(c), self._binned[c]) for c, lines in enumerate(every)],
+                               self._bin_layouts) if jacobian else None
         raw, scaled_blocks = [], []
         n_el = self.n_elements
-        for c in range(self.n_crossings):
-            lines = self.lines(state, c)
+        for c, lines in enumerate(every):
             lf = self.load_factor(c)
-            binned = self._binned[c]
             y = lines.predictions * lf[None, :]
             extra = block = None  # the effects' columns at the readings; the mapped log-EI block and its factor
             places = self._places[c]
             if jacobian:
-                key = (id(lines), lf.tobytes(), None if binned is None else binned.map_key)
-                if key not in log_ei_jacobians:
-                    log_ei_jacobians[key] = lines.log_ei_rows(lf, binned)
-                block, scale = log_ei_jacobians[key], 1.0
+                block, scale = log_ei[c], 1.0
                 extra = np.zeros(y.shape + (self.columns[c].size - n_el,))
                 for e, sl in zip(self.effects, self.slices):
                     if e.structural:
@@ -268,7 +267,9 @@ class JointProblem(WhitenedData, LineSource):
                 if hit is not None and np.array_equal(hit[0], cols) and np.array_equal(hit[1], jac):
                     wj, block = hit[2], hit[3]
                 else:
-                    wj = self.noise.whiten(jac[:, m], x).reshape(-1, cols.size)
+                    # whitened bins (binning.py) are their own whitened rows: no copy of the Jacobian
+                    wj = ((jac if m.all() else jac[:, m]) if self._unit_noise
+                          else self.noise.whiten(jac[:, m], x)).reshape(-1, cols.size)
                     block = wj.T @ wj
                     shared[key] = (cols, jac, wj, block)
                 jtj[np.ix_(cols, cols)] += block

@@ -17,6 +17,7 @@ Owns: the lines of the diagnosis model.  May import: the model layer.
 from functools import cached_property
 
 import numpy as np
+import scipy.sparse
 
 from ..model.interpolant import LineInterpolant
 from ..model.loads import Vehicle
@@ -91,6 +92,52 @@ class CrossingLines:
             mapped = self._maps[key] = binned.map_with(load_factor) @ self.weights
         kernel = self.interpolant.kernel(mapped) * (-1.0 / self.ei)
         return kernel / binned.noise.std[:, None, None]
+
+
+def log_ei_blocks(items, kept):
+    """:meth:`CrossingLines.log_ei_rows` of every (lines, load factor, binned) in ``items``, batched.
+
+    The binned crossings whose lines come from one interpolant and one set
+    of interpolation maps are mapped onto their bins in one sparse product
+    (their bin maps side by side, kept in ``kept`` across evaluations: they
+    depend on the bins and the rows' layout only) and their kernels formed
+    in one product (the mapped weights kept with the maps, as long as the
+    loads stay where they are).  With loads moved by an effect they are new at every
+    evaluation, and per crossing the sparse product cost ~0.7 ms of overhead
+    for ~15k operations (three spans, twelve crossings: 17 of 54 ms per
+    evaluation under the profiler).  Repeated items are formed once.
+    """
+    out, groups, first = [None] * len(items), {}, {}
+    for k, (lines, lf, binned) in enumerate(items):
+        key = (id(lines), lf.tobytes(), None if binned is None else binned.map_key)
+        if key in first:
+            out[k] = first[key]
+            continue
+        first[key] = k
+        if binned is None:
+            out[k] = lines.log_ei_rows(lf, None)
+        else:
+            groups.setdefault((id(lines.interpolant), id(lines._maps)), []).append(k)
+    for members in groups.values():
+        lines = items[members[0]][0]
+        weights = lines._maps["lines"]
+        layout = (weights.shape[0],) + tuple((items[k][0]._rows.start, items[k][1].tobytes(), items[k][2].map_key)
+                                             for k in members)
+        if layout not in kept:
+            parts = [items[k][2].map_with(items[k][1]).tocoo() for k in members]
+            offsets = np.cumsum([0] + [p.shape[0] for p in parts])
+            rows = np.concatenate([p.row + o for p, o in zip(parts, offsets)])
+            cols = np.concatenate([p.col + items[k][0]._rows.start for p, k in zip(parts, members)])
+            kept[layout] = (scipy.sparse.csr_matrix((np.concatenate([p.data for p in parts]), (rows, cols)),
+                                                    shape=(offsets[-1], weights.shape[0])), offsets)
+        side_by_side, offsets = kept[layout]
+        mapped = lines._maps.get(("mapped", layout))  # kept while the loads stay where they are
+        if mapped is None:
+            mapped = lines._maps[("mapped", layout)] = side_by_side @ weights
+        kernel = lines.interpolant.kernel(mapped)
+        for j, k in enumerate(members):
+            out[k] = kernel[:, offsets[j]:offsets[j + 1]] * (-1.0 / lines.ei / items[k][2].noise.std[:, None, None])
+    return [out[b] if isinstance(b, int) else b for b in out]  # repeated items: their first
 
 
 class LineSource:
