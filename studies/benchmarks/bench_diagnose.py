@@ -48,7 +48,25 @@ four held-out folds and in every selection round.
 
 Run: python studies/benchmarks/bench_diagnose.py [--quick]
 
-Last run (2026-11-26, seventh session, after: a selection step's later candidates give up below
+Last run (2026-11-27, eighth session, after: the final refit's Levenberg-Marquardt fallback
+learns the residuals' own curvature (NL2SOL secant update, carried from tau node to node) and
+starts where Gauss-Newton got to; the log-EI blocks of every binned crossing mapped onto the bins
+in one product; studies/diagnosis/pairs.py beside it): the same 52 verdicts as the run below;
+  small median 1.42 s, max 2.35 s, ratio max 9.0x; three median 1.55 s, max 3.34 s, ratio max
+  5.4x; pairs median 2.41 s, max 4.17 s, ratio max 9.2x; pairs6 median 2.83 s, max 6.29 s, ratio
+  max 5.0x; dense6 median 4.82 s, max 8.99 s, ratio max 4.4x; random median 4.13 s, max 6.78 s,
+  ratio median 3.4x, max 10.5x.  Every dataset < 15 s: met (max 8.99 s); ratio <= 20x: met
+  (median 3.7x, max 10.5x).  The medians of the small group moved up with what ran beside it
+  (0.98 s -> 1.42 s; the same code alone: its evaluations are unchanged there).
+Where the time went on the slowest dataset measured (studies/diagnosis/unseen.py --cases 4
+--pairs 90, index 107: three spans, six tiltmeters, 0.1 m steps, 12 crossings, load-position
+offsets + a changed restraint): the final refit with hyperparameters walked 10 tau nodes from
+1 to 2.3e4 with Levenberg-Marquardt after Gauss-Newton failed on the first, 20 evaluations a
+node (209 in all, 5.9 s): along one spring's log stiffness the true curvature was 2.6 times
+J^T J + Q, so every full step overshot.  With the secant curvature 74 evaluations (2.2 s).
+Every evaluation of a model with moved loads formed and mapped the log-EI block of each crossing
+separately (17 of 54 ms under the profiler); batched, ~21 instead of ~33 ms.
+Run before (2026-11-26, seventh session, after: a selection step's later candidates give up below
 the evidence an earlier one reached (continued if that leader then fails the tests), swap tests
 give up at the pace of their last steps, the look-ahead also past a weaker passing candidate, the
 effect columns mapped onto the bins in one product per bin map; the test suite beside it): the

@@ -85,6 +85,14 @@ compared dataset by dataset with runs of the code before):
   named cause counts (sensor offsets + thermal drift: drift named, offsets reported under
   `includes`); CPU max 16.9 s -> 13.1-13.9 s (sensor offsets + a flipped sensor on three spans),
   none above 15 s; ratio median 4.4-4.7x, max 15.9-19.8x.
+Eighth session (2026-11-27; the final refit's Levenberg-Marquardt fallback learns the residuals'
+own curvature, NL2SOL, and starts where Gauss-Newton got to; the log-EI blocks of every binned
+crossing mapped onto the bins in one product; two workers on the two cores):
+  --cases 4 --pairs 90: the same 142 verdicts; singles 52/52 (CPU median 2.4 s, max 6.4 s, ratio
+  median 4.7x, max 9.2x); pairs 69/90 = 77 %, lenient 88/90, held-out within 20 % 69/69 (max
+  1.08); CPU median 3.7 s, max 15.1 s, one above 15 s (index 107 again: its final refit 5.9 ->
+  2.2 s; alone on the machine 12-16 s, the machine's speed drifting); ratio median 4.6x, max
+  16.5x, none above 20x (index 108, 22.8x in the run before: 13.4x, 4.1 s).
 """
 
 import os
