@@ -76,28 +76,14 @@ class CrossingLines:
         beam = self.predictions - self.spring_kernel @ (1.0 / self.spring_stiffness)
         return -beam
 
-    def log_ei_rows(self, load_factor, binned):
-        """dy/dlog EI times the load factor, on the fitted rows (S, rows, E): the readings, or ``binned``'s bins.
-
-        For a binned crossing the weights are mapped onto the bins first
-        (bins x breakpoints), so the kernel is formed on the bins only; the
-        map and the load factor act linearly, so this equals binning the
-        kernel at the readings.
-        """
-        if binned is None:
-            return self.jacobian() * load_factor[None, :, None]
-        key = ("mapped", self._rows.start, load_factor.tobytes(), binned.map_key)
-        mapped = self._maps.get(key)
-        if mapped is None:
-            mapped = self._maps[key] = binned.map_with(load_factor) @ self.weights
-        kernel = self.interpolant.kernel(mapped) * (-1.0 / self.ei)
-        return kernel / binned.noise.std[:, None, None]
-
 
 def log_ei_blocks(items, kept):
-    """:meth:`CrossingLines.log_ei_rows` of every (lines, load factor, binned) in ``items``, batched.
+    """dy/dlog EI times the load factor on the fitted rows (S, rows, E) of every (lines, load factor, binned).
 
-    The binned crossings whose lines come from one interpolant and one set
+    Rows: the readings, or ``binned``'s bins.  A binned crossing's weights
+    are mapped onto its bins first (bins x breakpoints), so the kernel is
+    formed on the bins only; the map and the load factor act linearly, so
+    this equals binning the kernel at the readings.  The binned crossings whose lines come from one interpolant and one set
     of interpolation maps are mapped onto their bins in one sparse product
     (their bin maps side by side, kept in ``kept`` across evaluations: they
     depend on the bins and the rows' layout only) and their kernels formed
@@ -115,7 +101,7 @@ def log_ei_blocks(items, kept):
             continue
         first[key] = k
         if binned is None:
-            out[k] = lines.log_ei_rows(lf, None)
+            out[k] = lines.jacobian() * lf[None, :, None]
         else:
             groups.setdefault((id(lines.interpolant), id(lines._maps)), []).append(k)
     for members in groups.values():
