@@ -108,6 +108,38 @@ def test_binned_normal_equations_equal_finite_differences_of_the_misfit():
         assert lin.jtr[k] == pytest.approx(fd, rel=1e-4, abs=1e-6 * np.abs(lin.jtr).max())
 
 
+@pytest.mark.parametrize("names, odd_noise", [
+    (("position_offset", "sensor_gain"), False),  # moved loads, a factor per sensor
+    (("dynamic_amplification", "thermal_drift"), False),  # a factor per crossing, columns of one crossing
+    (("load_dependent_stiffness",), False),  # a crossing's own EI factor: two interpolants, two tables
+    (("support_rotational_spring", "sensor_gain"), True),  # one crossing's noise unlike the others': no
+])  # common factor of the crossings' scales, so J^T J is summed crossing by crossing
+def test_factored_normal_equations_equal_the_formed_jacobian(names, odd_noise):
+    # reference: J^T J, J^T r and r^T r of the Jacobian formed explicitly, row by row (JointProblem.rows, whose
+    # blocks are checked against the unbinned model above); evaluate never forms the log-EI block of binned
+    # crossings (LogEIFactor) -- on training masks that drop bins and a whole crossing
+    case = dense_case(0.25, correlation=0.6)
+    data = simulate_crossings(case, 4, noise=True, rng=8)
+    data = sp.Crossings(data.sensor_names, tuple(replace(c, load_factor=c.load_factor * f)
+                                                 for c, f in zip(data.crossings, (1.0, 1.3, 1.0, 0.8))))
+    b_case, b_data = bin_crossings(case, data, 3)
+    if odd_noise:
+        odd = replace(b_data[1], noise=sp.NoiseModel(b_data[1].noise.std * np.array([1.0, 3.0]), 0.6))
+        b_data = sp.Crossings(b_data.sensor_names, (b_data[0], odd) + tuple(b_data.crossings[2:]))
+    rng = np.random.default_rng(9)
+    masks = [rng.random(c.n_loads) < 0.7 for c in b_data]
+    masks[2][:] = False
+    problem = JointProblem(b_case, b_data, [make_effect(n) for n in names], GMRFPrior(), masks=masks)
+    theta = problem.theta0 + 0.1 * rng.standard_normal(problem.n_params) * np.sqrt(1.0 / np.diag(problem.fixed))
+    lin = problem.evaluate(theta)
+    r, jac, cross, load, _ = problem.rows(theta)
+    keep = np.array([masks[c][k] for c, k in zip(cross, load)])
+    r, jac = r[keep], jac[keep]
+    assert lin.rr == pytest.approx(r @ r, rel=1e-12)
+    np.testing.assert_allclose(lin.jtj, jac.T @ jac, rtol=1e-9, atol=1e-12 * np.abs(jac.T @ jac).max())
+    np.testing.assert_allclose(lin.jtr, jac.T @ r, rtol=1e-9, atol=1e-12 * np.abs(jac.T @ r).max())
+
+
 def _information(case, data, size, prior):
     # reference: Fisher information of log EI with the dense inverse covariance (rows) or the bins' dense map
     lines = influence_lines(case.bridge, case.mesh, case.ei, case.sensors, case.vehicle, data[0].positions)

@@ -69,12 +69,14 @@ class BinnedCrossing(Crossing):
 
     def to_bins(self, values):
         """Whitened bin sums / sqrt(size) of model ``values`` at the readings (sensors first, rows next)."""
-        values = np.asarray(values, dtype=float)
-        s, k = values.shape[:2]
-        rest = values.shape[2:]
-        flat = values.swapaxes(0, 1).reshape(k, -1)  # one sparse product for every sensor and column
-        out = (self.bin_map @ flat).reshape((-1, s) + rest).swapaxes(0, 1)
-        return out / self.noise.std.reshape((-1,) + (1,) * (values.ndim - 1))
+        return self.to_bins_first(np.asarray(values, dtype=float).swapaxes(0, 1)).swapaxes(0, 1)
+
+    def to_bins_first(self, values):
+        """As :meth:`to_bins` with the readings first and the sensors next, (readings, S, ...) -> (bins, S, ...)."""
+        k, s = values.shape[:2]
+        out = (self.bin_map @ values.reshape(k, -1)).reshape((-1,) + values.shape[1:])  # every sensor and column
+        out /= self.noise.std.reshape((s,) + (1,) * (values.ndim - 2))
+        return out
 
 
 def _bin_map(noise, positions, size):

@@ -21,6 +21,7 @@ from .._errors import ConfigError
 from ..inference.laplace import Linearisation, WhitenedData
 from .binning import model_rows
 from .effects import CaseSprings, State
+from .factored import add_factored_terms, log_ei_factors
 from .lines import LineSource, log_ei_blocks
 
 __all__ = []
@@ -45,6 +46,11 @@ class JointProblem(WhitenedData, LineSource):
         self.labels = crossings.labels
         # binned crossings (binning.py): the model is evaluated at the readings and mapped onto the whitened bins
         self._binned = [c if hasattr(c, "to_bins") else None for c in crossings]
+        groups = {}  # the binned crossings with one bin map (their model is mapped in one product)
+        for c, binned in enumerate(self._binned):
+            if binned is not None:
+                groups.setdefault(binned.map_key, []).append(c)
+        self._map_groups = list(groups.values())
         rows = [model_rows(c) for c in crossings]
         self.model_positions = [x for x, _ in rows]
         self._load_factors = [lf for _, lf in rows]
@@ -106,6 +112,7 @@ class JointProblem(WhitenedData, LineSource):
         self._cache_ei = None
         self._weight_maps = OrderedDict()  # interpolation maps of the load positions (independent of EI)
         self._bin_layouts = {}  # the bin maps of the crossings side by side, per layout of their rows (lines.py)
+        self._grams = OrderedDict()  # R^T diag(w) R of the mapped weights (factored.py)
         self._last = None
         self.n_evaluations = 0
 
@@ -143,6 +150,15 @@ class JointProblem(WhitenedData, LineSource):
 
     def predict_columns(self, theta, *, jacobian=True):
         """As :meth:`predict`, each crossing's Jacobian on its own columns only (``self.columns[c]``)."""
+        return [(y, jac) for y, jac, _ in self._assemble(theta, jacobian, factored=False)]
+
+    def _assemble(self, theta, jacobian, factored):
+        """Per crossing (y, Jacobian on its columns, None), or with ``factored`` (y, effects' columns, log-EI factor).
+
+        ``factored`` (every crossing binned): the log-EI block stays a
+        :class:`~.factored.LogEIFactor` and the Jacobian holds the effects'
+        columns only (``self.columns[c][n_elements:]``).
+        """
         # the lines depend on EI and on the state (positions, springs, loads: in the cache keys); kept while EI
         # is unchanged, so that the Jacobian at an accepted trial point reuses the trial's forward solve
         ei_key = theta[:self.n_elements].tobytes()
@@ -158,10 +174,15 @@ class JointProblem(WhitenedData, LineSource):
         every = [self.lines(state, c) for c in range(self.n_crossings)]
         # the log-EI block of every crossing, mapped onto the bins together (crossings at the same positions
         # share it; binning.py; gains, amplifications and the map act on it linearly, in any order)
-        log_ei = log_ei_blocks([(lines, self.load_factor(c), self._binned[c]) for c, lines in enumerate(every)],
-                               self._bin_layouts) if jacobian else None
-        raw, scaled_blocks = [], []
+        log_ei = None
+        if jacobian:
+            items = [(lines, self.load_factor(c), self._binned[c]) for c, lines in enumerate(every)]
+            log_ei = (log_ei_factors if factored else log_ei_blocks)(items, self._bin_layouts)
         n_el = self.n_elements
+        # every crossing's predictions and effects' columns at the readings, written straight into the array
+        # that its bin map acts on (readings first: one sparse product per map, without copies)
+        buffers, views = self._buffers(jacobian)
+        scaled_blocks = []
         for c, lines in enumerate(every):
             lf = self.load_factor(c)
             y = lines.predictions * lf[None, :]
@@ -169,7 +190,7 @@ class JointProblem(WhitenedData, LineSource):
             places = self._places[c]
             if jacobian:
                 block, scale = log_ei[c], 1.0
-                extra = np.zeros(y.shape + (self.columns[c].size - n_el,))
+                extra = views[c][:, :, 1:]  # zeros
                 for e, sl in zip(self.effects, self.slices):
                     if e.structural:
                         extra[:, :, _shifted(places[e.name], n_el)] = e.structural_jacobian(
@@ -181,43 +202,64 @@ class JointProblem(WhitenedData, LineSource):
                     extra *= mult
                     scale = scale * mult
                     extra[:, :, _shifted(places[e.name], n_el)] += out_block
-            raw.append(y[:, :, None] if extra is None else np.concatenate([y[:, :, None], extra], axis=2))
+            views[c][:, :, 0] = y
             scaled_blocks.append(None if block is None else (block, scale))
-        # onto the fitted rows: every crossing with the same bin map in one sparse product (predictions and the
-        # effects' columns together; the map acts along the readings, gains and amplifications along sensors)
-        mapped = self._map_rows(raw)
+        mapped = self._map_rows(buffers, views)
         out = []
         for c, (rows, scaled) in enumerate(zip(mapped, scaled_blocks)):
             y = rows[:, :, 0]
-            jac = None
+            jac = factor = None
             if scaled is not None:
                 block, scale = scaled
-                jac = np.empty(block.shape[:2] + (self.columns[c].size,))
-                np.multiply(block, scale, out=jac[:, :, :n_el])
-                jac[:, :, n_el:] = rows[:, :, 1:]
-            out.append((y, jac))
+                if factored:
+                    jac, factor = rows[:, :, 1:], block
+                    factor.scale = factor.scale * np.ravel(scale)
+                else:
+                    jac = np.empty(block.shape[:2] + (self.columns[c].size,))
+                    np.multiply(block, scale, out=jac[:, :, :n_el])
+                    jac[:, :, n_el:] = rows[:, :, 1:]
+            out.append((y, jac, factor))
         return out
 
-    def _map_rows(self, raw):
-        """``raw`` (per crossing, (S, K, m) at the readings) on the fitted rows: one product per bin map."""
-        out = list(raw)
-        groups = {}
-        for c, binned in enumerate(self._binned):
-            if binned is not None:
-                groups.setdefault(binned.map_key, []).append(c)
-        for members in groups.values():
-            widths = np.cumsum([raw[c].shape[2] for c in members])[:-1]
-            parts = np.split(self._binned[members[0]].to_bins(np.concatenate([raw[c] for c in members], axis=2)),
-                             widths, axis=2)
-            for c, part in zip(members, parts):
-                out[c] = part
+    def _buffers(self, jacobian):
+        """Arrays (readings, S, columns) of each bin map's crossings side by side, and each crossing's view.
+
+        A crossing's view is (S, readings, 1 + its effects' columns with
+        ``jacobian``): predictions first; all zeros.  Crossings fitted row by row get an
+        array of their own.
+        """
+        widths = [1 + (self.columns[c].size - self.n_elements if jacobian else 0) for c in range(self.n_crossings)]
+        buffers, views = [], [None] * self.n_crossings
+        for members in self._map_groups:
+            n_readings = self.model_positions[members[0]].size
+            buffer = np.zeros((n_readings, self.n_sensors, sum(widths[c] for c in members)))
+            start = 0
+            for c in members:
+                views[c] = buffer[:, :, start:start + widths[c]].transpose(1, 0, 2)
+                start += widths[c]
+            buffers.append(buffer)
+        for c in range(self.n_crossings):
+            if views[c] is None:
+                views[c] = np.zeros((self.n_sensors, self.model_positions[c].size, widths[c]))
+        return buffers, views
+
+    def _map_rows(self, buffers, views):
+        """The crossings' ``views`` on the fitted rows: the bins of each buffer in one product (``_buffers``)."""
+        out = list(views)
+        for members, buffer in zip(self._map_groups, buffers):
+            rows = self._binned[members[0]].to_bins_first(buffer)  # (bins, S, columns)
+            start = 0
+            for c in members:
+                width = views[c].shape[2]
+                out[c] = rows[:, :, start:start + width].transpose(1, 0, 2)
+                start += width
         return out
 
-    def _safe_predict(self, theta, jacobian):
+    def _safe_predict(self, theta, jacobian, factored=False):
         if not np.all(np.isfinite(theta)) or np.any(np.abs(theta[:self.n_elements]) > 60):
             return None
         try:
-            return self.predict_columns(theta, jacobian=jacobian)
+            return self._assemble(theta, jacobian, factored)
         except ConfigError:  # an effect drove the model out of its domain (e.g. unstable springs)
             return None
 
@@ -228,13 +270,16 @@ class JointProblem(WhitenedData, LineSource):
         own parameters (offsets, drift, shifts, amplification): it is formed,
         whitened and multiplied on its own columns only (``self.columns``; with
         per-crossing drift on six sensors and ten crossings a tenth of the
-        drift columns).
+        drift columns).  When every crossing is binned the log-EI blocks are
+        never formed: their share of J^T J and J^T r comes from the factors
+        (:mod:`.factored`).
         """
         theta_key = theta.tobytes()
         if (self._last is not None and self._last[0] == theta_key
                 and (self._last[1].jtj is not None or not jacobian)):
             return self._last[1]
-        preds = self._safe_predict(theta, jacobian)
+        factored = jacobian and all(b is not None for b in self._binned)
+        preds = self._safe_predict(theta, jacobian, factored)
         if preds is None:
             return None
         rr = 0.0
@@ -253,27 +298,35 @@ class JointProblem(WhitenedData, LineSource):
                                         self.crossings[members[0]].positions[m], sensor_axis=1)
             white.update(zip(members, stacked))
         shared = {}  # crossings with the same rows and Jacobian share J^T J (the base model, output-free effects)
-        for c, (y, jac) in enumerate(preds):
+        terms = []  # the factored crossings' (factor, mask, residuals, effects' columns, their columns)
+        for c, (y, jac, factor) in enumerate(preds):
             m = self.masks[c]
             if not m.any():
                 continue
             x = self.crossings[c].positions[m]
             r = (self.white_data[c] - white[c]).ravel()
             rr += float(r @ r)
-            if jacobian:
-                key = x.tobytes() + m.tobytes()
-                cols = self.columns[c]
-                hit = shared.get(key)
-                if hit is not None and np.array_equal(hit[0], cols) and np.array_equal(hit[1], jac):
-                    wj, block = hit[2], hit[3]
-                else:
-                    # whitened bins (binning.py) are their own whitened rows: no copy of the Jacobian
-                    wj = ((jac if m.all() else jac[:, m]) if self._unit_noise
-                          else self.noise.whiten(jac[:, m], x)).reshape(-1, cols.size)
-                    block = wj.T @ wj
-                    shared[key] = (cols, jac, wj, block)
-                jtj[np.ix_(cols, cols)] += block
-                jtr[cols] += wj.T @ r
+            if not jacobian:
+                continue
+            cols = self.columns[c]
+            if factor is not None:
+                cols = cols[self.n_elements:]
+            key = x.tobytes() + m.tobytes()
+            hit = shared.get(key)
+            if hit is not None and np.array_equal(hit[0], cols) and np.array_equal(hit[1], jac):
+                wj, block = hit[2], hit[3]
+            else:
+                # whitened bins (binning.py) are their own whitened rows: no copy of the Jacobian
+                wj = ((jac if m.all() else jac[:, m]) if self._unit_noise
+                      else self.noise.whiten(jac[:, m], x)).reshape(r.size, cols.size)
+                block = wj.T @ wj
+                shared[key] = (cols, jac, wj, block)
+            jtj[np.ix_(cols, cols)] += block
+            jtr[cols] += wj.T @ r
+            if factor is not None:
+                terms.append((factor, m, r, jac, cols))
+        if terms:
+            add_factored_terms(terms, jtj, jtr, self._grams)
         out = Linearisation(rr, jtj, jtr)
         self._last = (theta_key, out)
         return out

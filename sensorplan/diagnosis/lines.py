@@ -77,33 +77,15 @@ class CrossingLines:
         return -beam
 
 
-def log_ei_blocks(items, kept):
-    """dy/dlog EI times the load factor on the fitted rows (S, rows, E) of every (lines, load factor, binned).
+def mapped_groups(items, kept):
+    """The binned items mapped onto their bins, per interpolant and set of maps (see :func:`log_ei_blocks`).
 
-    Rows: the readings, or ``binned``'s bins.  A binned crossing's weights
-    are mapped onto its bins first (bins x breakpoints), so the kernel is
-    formed on the bins only; the map and the load factor act linearly, so
-    this equals binning the kernel at the readings.  The binned crossings whose lines come from one interpolant and one set
-    of interpolation maps are mapped onto their bins in one sparse product
-    (their bin maps side by side, kept in ``kept`` across evaluations: they
-    depend on the bins and the rows' layout only) and their kernels formed
-    in one product (the mapped weights kept with the maps, as long as the
-    loads stay where they are).  With loads moved by an effect they are new at every
-    evaluation, and per crossing the sparse product cost ~0.7 ms of overhead
-    for ~15k operations (three spans, twelve crossings: 17 of 54 ms per
-    evaluation under the profiler).  Repeated items are formed once.
+    Yields (members, lines, mapped, offsets): ``mapped`` (bins of every
+    member x table rows), member ``j``'s bins in ``offsets[j]:offsets[j+1]``.
     """
-    out, groups, first = [None] * len(items), {}, {}
+    groups = {}
     for k, (lines, lf, binned) in enumerate(items):
-        key = (id(lines), lf.tobytes(), None if binned is None else binned.map_key)
-        if key in first:
-            out[k] = first[key]
-            continue
-        first[key] = k
-        if binned is None:
-            out[k] = lines.jacobian() * lf[None, :, None]
-        else:
-            groups.setdefault((id(lines.interpolant), id(lines._maps)), []).append(k)
+        groups.setdefault((id(lines.interpolant), id(lines._maps)), []).append(k)
     for members in groups.values():
         lines = items[members[0]][0]
         weights = lines._maps["lines"]
@@ -120,9 +102,41 @@ def log_ei_blocks(items, kept):
         mapped = lines._maps.get(("mapped", layout))  # kept while the loads stay where they are
         if mapped is None:
             mapped = lines._maps[("mapped", layout)] = side_by_side @ weights
+        yield members, lines, mapped, offsets
+
+
+def log_ei_blocks(items, kept):
+    """dy/dlog EI times the load factor on the fitted rows (S, rows, E) of every (lines, load factor, binned).
+
+    Rows: the readings, or ``binned``'s bins.  A binned crossing's weights
+    are mapped onto its bins first (bins x breakpoints), so the kernel is
+    formed on the bins only; the map and the load factor act linearly, so
+    this equals binning the kernel at the readings.  The binned crossings whose lines come from one interpolant and one set
+    of interpolation maps are mapped onto their bins in one sparse product
+    (their bin maps side by side, kept in ``kept`` across evaluations: they
+    depend on the bins and the rows' layout only) and their kernels formed
+    in one product (the mapped weights kept with the maps, as long as the
+    loads stay where they are).  With loads moved by an effect they are new at every
+    evaluation, and per crossing the sparse product cost ~0.7 ms of overhead
+    for ~15k operations (three spans, twelve crossings: 17 of 54 ms per
+    evaluation under the profiler).  Repeated items are formed once.
+    """
+    out, binned_items, first = [None] * len(items), [], {}
+    for k, (lines, lf, binned) in enumerate(items):
+        key = (id(lines), lf.tobytes(), None if binned is None else binned.map_key)
+        if key in first:
+            out[k] = first[key]
+            continue
+        first[key] = k
+        if binned is None:
+            out[k] = lines.jacobian() * lf[None, :, None]
+        else:
+            binned_items.append(k)
+    for members, lines, mapped, offsets in mapped_groups([items[k] for k in binned_items], kept):
         kernel = lines.interpolant.kernel(mapped)
         for j, k in enumerate(members):
-            out[k] = kernel[:, offsets[j]:offsets[j + 1]] * (-1.0 / lines.ei / items[k][2].noise.std[:, None, None])
+            out[binned_items[k]] = (kernel[:, offsets[j]:offsets[j + 1]]
+                                    * (-1.0 / lines.ei / items[binned_items[k]][2].noise.std[:, None, None]))
     return [out[b] if isinstance(b, int) else b for b in out]  # repeated items: their first
 
 
