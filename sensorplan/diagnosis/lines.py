@@ -34,17 +34,22 @@ def _axle_key(state, x, axle, r, scale):
 
 
 class CrossingLines:
-    """One crossing's vehicle lines: readings (S, N) and spring terms now, the element kernel on demand.
+    """One crossing's vehicle lines: readings (S, N) now, the spring terms and element kernel on demand.
 
     ``rows``: the crossing's rows (a slice) of the sparse interpolation map
     ``maps["lines"]``; ``maps`` also keeps them, and them mapped onto bins,
     across evaluations.
     """
 
-    def __init__(self, interpolant, maps, rows, ei, stiffness, predictions, spring_kernel):
+    def __init__(self, interpolant, maps, rows, ei, stiffness, predictions, reactions):
         self.interpolant, self._maps, self._rows = interpolant, maps, rows
         self.ei, self.spring_stiffness = ei, stiffness
-        self.predictions, self.spring_kernel = predictions, spring_kernel
+        self.predictions, self._reactions = predictions, reactions
+
+    @cached_property
+    def spring_kernel(self):
+        """dy/dc (S, N, n_springs) of the elastic springs' compliances c = 1/k (formed when first asked for)."""
+        return self.interpolant.sensor_reactions[:, None, :] * self._reactions[None, :, :]
 
     @property
     def weights(self):
@@ -215,7 +220,7 @@ class LineSource:
         interpolant = self.interpolant(state, scale, r)
         every = np.concatenate(list(items.values()))
         maps = self._maps(interpolant, state, every, jacobian)
-        predictions, spring_kernel = interpolant.readings(maps["lines"]), interpolant.spring_terms(maps["lines"])
+        predictions, reactions = interpolant.readings(maps["lines"]), interpolant.spring_reactions(maps["lines"])
         slopes = interpolant.readings(maps["slopes"]) if jacobian and "slopes" in maps else None
         axles = [interpolant.readings(w) for w in maps.get("axles", ())] if jacobian else []
         ei, stiffness = self._ei * np.exp(scale), state.bridge.spring_stiffness()
@@ -224,7 +229,7 @@ class LineSource:
             sl = slice(start, start + x.size)
             start += x.size
             self._cache[key] = CrossingLines(interpolant, maps, sl, ei, stiffness, predictions[:, sl],
-                                             spring_kernel[:, sl])
+                                             reactions[sl])
             if slopes is not None:
                 self._cache[("slope",) + key] = slopes[:, sl]
             for a, unit in enumerate(axles):
@@ -245,8 +250,8 @@ class LineSource:
         if maps is None:
             i, value, slope = interpolant.basis(every[None, :] - offsets[:, None])  # every axle at once
             bases = [(i[a], value[:, a], slope[:, a]) for a in range(offsets.size)]
-            maps = kept[key] = {"rows_held": every.size,
-                                "bases": bases, "lines": self._weights(interpolant, state, every, bases, offsets, loads)}
+            maps = kept[key] = {"rows_held": every.size, "bases": bases, "structure": interpolant.structure(bases)}
+            maps["lines"] = self._weights(interpolant, state, every, maps, offsets, loads)
             # least recently used first out, beyond three times every crossing's rows: loads moved by an effect
             # make new maps at every evaluation (megabytes each on dense records), a crossing's own EI factor
             # one per crossing
@@ -255,27 +260,30 @@ class LineSource:
                 kept.pop(next(iter(kept)))
         else:
             kept.move_to_end(key)
-        bases = maps["bases"]
         if jacobian and self.entry_moves and "slopes" not in maps:
-            maps["slopes"] = self._weights(interpolant, state, every, bases, offsets, loads, derivative=True)
+            maps["slopes"] = self._weights(interpolant, state, every, maps, offsets, loads, derivative=True)
         if jacobian and self.axle_responses and "axles" not in maps:
-            maps["axles"] = [self._weights(interpolant, state, every, bases[a:a + 1], offsets[a:a + 1], np.ones(1))
-                             for a in range(offsets.size)]
+            bases = maps["bases"]
+            maps["axles"] = [self._weights(interpolant, state, every, {"bases": bases[a:a + 1]}, offsets[a:a + 1],
+                                           np.ones(1)) for a in range(offsets.size)]
         return maps
 
-    def _weights(self, interpolant, state, x, bases, offsets, loads, derivative=False):
-        """Interpolation weights of the axles (``bases`` at ``x`` - offsets), with the entry ramps."""
+    def _weights(self, interpolant, state, x, maps, offsets, loads, derivative=False):
+        """Interpolation weights of the axles (``maps["bases"]`` at ``x`` - offsets), with the entry ramps."""
+        bases, structure = maps["bases"], maps.get("structure")
         u = x[None, :] - offsets[:, None]
         ramp = self._ramp(state, u)
         if ramp is None:
-            return interpolant.combine(bases, loads, derivative=derivative)
+            return interpolant.combine(bases, loads, derivative=derivative, structure=structure)
         g, dg = ramp
         length = state.bridge.length
         # on the bridge: the response at u scaled by g(u); outside: the response at the end scaled by g(u)
-        weights = interpolant.combine(bases, [load * g[a] for a, load in enumerate(loads)], derivative=derivative)
+        weights = interpolant.combine(bases, [load * g[a] for a, load in enumerate(loads)], derivative=derivative,
+                                      structure=structure)
         factor = dg if derivative else g
         if derivative:  # d/dx (g R) = g R' + g' R
-            weights = weights + interpolant.combine(bases, [load * dg[a] for a, load in enumerate(loads)])
+            weights = weights + interpolant.combine(bases, [load * dg[a] for a, load in enumerate(loads)],
+                                                    structure=structure)
         before = loads @ np.where(u < 0.0, factor, 0.0)
         after = loads @ np.where(u > length, factor, 0.0)
         if before.any() or after.any():

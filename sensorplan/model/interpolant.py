@@ -147,21 +147,27 @@ class LineInterpolant:
         x = np.asarray(x, dtype=float)
         return self.combine([self.basis(x - offset) for offset in offsets], loads, derivative=derivative)
 
-    def combine(self, bases, loads, *, derivative=False):
+    def combine(self, bases, loads, *, derivative=False, structure=None):
         """:meth:`weights` from the :meth:`basis` of each axle's positions (shared by several combinations).
 
         Each load is a number or one value per position (a load that varies
-        along the sweep).
+        along the sweep).  ``structure``: :meth:`structure` of ``bases``, when
+        several combinations of them are formed.
         """
+        # a shared structure is copied: scipy may sort a matrix's indices in place
+        cols, indptr = self.structure(bases) if structure is None else (structure[0].copy(), structure[1].copy())
+        # built as CSR directly, row by row: the four Hermite weights of each axle (duplicates add up)
+        vals = np.concatenate([((slope if derivative else value) * load).T
+                               for (_, value, slope), load in zip(bases, loads)], axis=1)
+        return scipy.sparse.csr_matrix((vals.ravel(), cols, indptr), shape=(indptr.size - 1, 2 * self.points.size))
+
+    def structure(self, bases):
+        """The column indices and row pointers of :meth:`combine`'s sparse weights of ``bases``."""
         n = self.points.size
         count = bases[0][0].size
         per_row = 4 * len(bases)
-        # built as CSR directly, row by row: the four Hermite weights of each axle (duplicates add up)
         cols = np.concatenate([np.stack([i, n + i, i + 1, n + i + 1], axis=1) for i, _, _ in bases], axis=1)
-        vals = np.concatenate([((slope if derivative else value) * load).T
-                               for (_, value, slope), load in zip(bases, loads)], axis=1)
-        return scipy.sparse.csr_matrix((vals.ravel(), cols.ravel(), np.arange(0, per_row * count + 1, per_row)),
-                                       shape=(count, 2 * n))
+        return cols.ravel(), np.arange(0, per_row * count + 1, per_row)
 
     def end_weights(self, before, after):
         """Sparse (N, 2n) weights of the responses to a unit load at x = 0 and x = L."""
@@ -181,8 +187,14 @@ class LineInterpolant:
 
     def spring_terms(self, weights):
         """dy/dc (S, N, n_springs) of the elastic springs' compliances c = 1/k."""
-        reactions = np.asarray(weights @ self._reactions)  # (N, n_springs)
-        return self.sensor_reactions[:, None, :] * reactions[None, :, :]
+        return self.sensor_reactions[:, None, :] * self.spring_reactions(weights)[None, :, :]
+
+    def spring_reactions(self, weights):
+        """The elastic springs' reactions (N, n_springs) to the loads of ``weights``, in the units of the table.
+
+        ``spring_terms`` is ``sensor_reactions[:, None, :] * spring_reactions(w)[None]``.
+        """
+        return np.asarray(weights @ self._reactions)
 
     def lines(self, weights):
         """(predictions (S, N), kernel (S, N, E), spring kernel (S, N, n_springs)) of ``weights``."""
