@@ -98,15 +98,19 @@ class VerticalSupportSpring(Effect):
 
 
 def _spring_columns(ctx, state, c, kind):
+    """dy/dlog k of the ``kind`` springs at every support (S, N, supports); zero where a support is rigid."""
     lines = ctx.lines(state, c)
-    names = state.bridge.spring_names
     n = state.bridge.support_positions.size
+    pairs = [(col, int(name.split("_")[1])) for col, name in enumerate(state.bridge.spring_names)
+             if name.split("_")[0] == kind]
+    if not pairs:
+        return np.zeros(y_shape(lines) + (n,))
+    cols, supports = zip(*pairs)
+    jac = lines.spring_log_columns(ctx.load_factor(c), cols)
+    if list(supports) == list(range(n)):
+        return jac
     out = np.zeros(y_shape(lines) + (n,))
-    jac = lines.spring_log_jacobian * ctx.load_factor(c)[None, :, None]
-    for col, name in enumerate(names):
-        k, i = name.split("_")
-        if k == kind:
-            out[:, :, int(i)] = jac[:, :, col]
+    out[:, :, list(supports)] = jac
     return out
 
 

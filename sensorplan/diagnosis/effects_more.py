@@ -49,9 +49,7 @@ class CaseSprings(Effect):
     def structural_jacobian(self, ctx, state, phi, c, y):
         lines = ctx.lines(state, c)
         names = list(state.bridge.spring_names)
-        jac = lines.spring_log_jacobian * ctx.load_factor(c)[None, :, None]
-        cols = [names.index(f"{kind}_{i}") for i, kind in self.springs]
-        return jac[:, :, cols]
+        return lines.spring_log_columns(ctx.load_factor(c), [names.index(f"{kind}_{i}") for i, kind in self.springs])
 
 
 class SensorGain(Effect):

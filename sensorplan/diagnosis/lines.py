@@ -70,10 +70,15 @@ class CrossingLines:
             raise ValueError(f"CrossingLines.jacobian supports 'log_ei' only. Got {parameterisation!r} instead.")
         return self.kernel * (-1.0 / self.ei)
 
-    @cached_property
-    def spring_log_jacobian(self):
-        """dy/dlog k for the elastic springs, shape (S, N, n_springs)."""
-        return -self.spring_kernel / self.spring_stiffness
+    def spring_log_columns(self, factor, springs):
+        """dy/dlog k of the elastic springs ``springs`` (their indices) times ``factor`` (N,): (S, N, len(springs)).
+
+        dy/dlog k = k dy/dk = -(dy/dc) / k with c = 1/k: the sensors' unit
+        reactions times the loads' reactions, formed in one pass.
+        """
+        springs = np.asarray(springs, dtype=int)
+        loads = self._reactions[:, springs] * (factor[:, None] * (-1.0 / self.spring_stiffness[springs]))
+        return self.interpolant.sensor_reactions[:, None, springs] * loads[None, :, :]
 
     @cached_property
     def log_ei_total(self):

@@ -48,7 +48,19 @@ four held-out folds and in every selection round.
 
 Run: python studies/benchmarks/bench_diagnose.py [--quick]
 
-Last run (2026-11-27, eighth session, after: the final refit's Levenberg-Marquardt fallback
+Last run (2026-11-27, ninth session, after: the log-EI block of binned crossings never formed,
+its share of the normal equations taken from its two factors (sensorplan/diagnosis/factored.py),
+each bin map's crossings written into one array; studies/diagnosis/pairs.py before it on the same
+machine): the same 52 verdicts as the run below; small median 1.45 s, max 2.68 s, ratio max
+9.9x; three median 2.13 s, max 4.49 s, ratio max 5.4x; pairs median 2.63 s, max 5.58 s, ratio
+max 7.3x; pairs6 median 3.14 s, max 5.21 s, ratio max 5.8x; dense6 median 5.58 s, max 9.41 s,
+ratio median 2.7x, max 3.7x; random median 4.78 s, max 7.20 s, ratio median 3.5x, max 10.5x.
+Every dataset < 15 s: met (max 9.41 s); ratio <= 20x: met (median 3.8x, max 10.5x).  The CPU
+times are up on the run below and the ratios down (dense6 median 4.4x -> 2.7x): the machine ran
+slower this session (invert of the same data slower too), the diagnosis itself ~11 % faster on
+the slowest random dataset in A/B runs (index 107 below: 15.7-16.0 s -> 14.0-14.5 s, the same
+818 evaluations).
+Run before (2026-11-27, eighth session, after: the final refit's Levenberg-Marquardt fallback
 learns the residuals' own curvature (NL2SOL secant update, carried from tau node to node) and
 starts where Gauss-Newton got to; the log-EI blocks of every binned crossing mapped onto the bins
 in one product; studies/diagnosis/pairs.py beside it): the same 52 verdicts as the run below;
