@@ -93,6 +93,19 @@ crossing mapped onto the bins in one product; two workers on the two cores):
   1.08); CPU median 3.7 s, max 15.1 s, one above 15 s (index 107 again: its final refit 5.9 ->
   2.2 s; alone on the machine 12-16 s, the machine's speed drifting); ratio median 4.6x, max
   16.5x, none above 20x (index 108, 22.8x in the run before: 13.4x, 4.1 s).
+Ninth session (2026-11-27; the log-EI block of binned crossings never formed, its share of the
+normal equations taken from its factors, sensorplan/diagnosis/factored.py; a spring's columns in
+one pass):
+  --seed 31 --cases 4 --pairs 60 (a fresh sample; one worker; run on the code before the session
+  and again after, with other jobs beside it): the same 112 verdicts; singles 52/52 (library
+  40/40, controls, local damage and vibration 4/4 each), held-out within 20 % 38/38 (max 1.09),
+  CPU median 1.8-2.0 s, max 9.2 s, ratio max 9.5-10.1x; pairs 43/60 = 72 % both named and nothing
+  else, lenient 59/60, held-out within 20 % 43/43 (max 1.05), CPU median 3.9-4.6 s, max
+  10.7-11.4 s, none above 15 s; ratio median 4.1-4.3x, max 11.3-15.1x.
+  --cases 4 --pairs 90 (two workers): the same 142 verdicts; pairs CPU median 4.3 s, max 14.6 s,
+  none above 15 s (index 107: 15.1 s in the run before; 12.6 s alone); ratio median 4.3x, max
+  15.7x.  Index 107 recorded every 0.05 m instead (same bridge and effects): 17-20 s, invert of
+  the same data 62 s -- what is done per reading doubles; the 15 s target is not met there.
 """
 
 import os
