@@ -253,9 +253,8 @@ class LineSource:
         kept = self._weight_maps
         maps = kept.get(key)
         if maps is None:
-            i, value, slope = interpolant.basis(every[None, :] - offsets[:, None])  # every axle at once
-            bases = [(i[a], value[:, a], slope[:, a]) for a in range(offsets.size)]
-            maps = kept[key] = {"rows_held": every.size, "bases": bases, "structure": interpolant.structure(bases)}
+            basis = interpolant.basis(every[:, None] - offsets[None, :])  # every axle at once
+            maps = kept[key] = {"rows_held": every.size, "basis": basis, "structure": interpolant.structure(basis)}
             maps["lines"] = self._weights(interpolant, state, every, maps, offsets, loads)
             # least recently used first out, beyond three times every crossing's rows: loads moved by an effect
             # make new maps at every evaluation (megabytes each on dense records), a crossing's own EI factor
@@ -268,27 +267,26 @@ class LineSource:
         if jacobian and self.entry_moves and "slopes" not in maps:
             maps["slopes"] = self._weights(interpolant, state, every, maps, offsets, loads, derivative=True)
         if jacobian and self.axle_responses and "axles" not in maps:
-            bases = maps["bases"]
-            maps["axles"] = [self._weights(interpolant, state, every, {"bases": bases[a:a + 1]}, offsets[a:a + 1],
-                                           np.ones(1)) for a in range(offsets.size)]
+            i, value, slope = maps["basis"]
+            maps["axles"] = [self._weights(interpolant, state, every,
+                                           {"basis": (i[:, a:a + 1], value[:, a:a + 1], slope[:, a:a + 1])},
+                                           offsets[a:a + 1], np.ones(1)) for a in range(offsets.size)]
         return maps
 
     def _weights(self, interpolant, state, x, maps, offsets, loads, derivative=False):
-        """Interpolation weights of the axles (``maps["bases"]`` at ``x`` - offsets), with the entry ramps."""
-        bases, structure = maps["bases"], maps.get("structure")
+        """Interpolation weights of the axles (``maps["basis"]`` at ``x`` - offsets), with the entry ramps."""
+        basis, structure = maps["basis"], maps.get("structure")
         u = x[None, :] - offsets[:, None]
         ramp = self._ramp(state, u)
         if ramp is None:
-            return interpolant.combine(bases, loads, derivative=derivative, structure=structure)
+            return interpolant.combine(basis, loads, derivative=derivative, structure=structure)
         g, dg = ramp
         length = state.bridge.length
         # on the bridge: the response at u scaled by g(u); outside: the response at the end scaled by g(u)
-        weights = interpolant.combine(bases, [load * g[a] for a, load in enumerate(loads)], derivative=derivative,
-                                      structure=structure)
+        weights = interpolant.combine(basis, (loads[:, None] * g).T, derivative=derivative, structure=structure)
         factor = dg if derivative else g
         if derivative:  # d/dx (g R) = g R' + g' R
-            weights = weights + interpolant.combine(bases, [load * dg[a] for a, load in enumerate(loads)],
-                                                    structure=structure)
+            weights = weights + interpolant.combine(basis, (loads[:, None] * dg).T, structure=structure)
         before = loads @ np.where(u < 0.0, factor, 0.0)
         after = loads @ np.where(u > length, factor, 0.0)
         if before.any() or after.any():

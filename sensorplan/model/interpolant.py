@@ -39,10 +39,10 @@ _MERGE = 1e-9  # m: a sensor this close to a mesh edge shares its breakpoint
 
 
 def _hermite(t, h):
-    """Hermite basis (values) and its x-derivative at fractions ``t`` of intervals of length ``h``."""
+    """Hermite basis (values) and its x-derivative at fractions ``t`` of intervals of length ``h`` (last axis: 4)."""
     t2, t3 = t * t, t * t * t
-    value = np.stack([2 * t3 - 3 * t2 + 1, (t3 - 2 * t2 + t) * h, -2 * t3 + 3 * t2, (t3 - t2) * h])
-    slope = np.stack([(6 * t2 - 6 * t) / h, 3 * t2 - 4 * t + 1, (-6 * t2 + 6 * t) / h, 3 * t2 - 2 * t])
+    value = np.stack([2 * t3 - 3 * t2 + 1, (t3 - 2 * t2 + t) * h, -2 * t3 + 3 * t2, (t3 - t2) * h], axis=-1)
+    slope = np.stack([(6 * t2 - 6 * t) / h, 3 * t2 - 4 * t + 1, (-6 * t2 + 6 * t) / h, 3 * t2 - 2 * t], axis=-1)
     return value, slope
 
 
@@ -145,29 +145,30 @@ class LineInterpolant:
         loads); an axle off the bridge contributes nothing.
         """
         x = np.asarray(x, dtype=float)
-        return self.combine([self.basis(x - offset) for offset in offsets], loads, derivative=derivative)
+        offsets = np.asarray(offsets, dtype=float)
+        basis = self.basis(x[:, None] - offsets[None, :])
+        return self.combine(basis, np.asarray(loads, dtype=float), derivative=derivative)
 
-    def combine(self, bases, loads, *, derivative=False, structure=None):
-        """:meth:`weights` from the :meth:`basis` of each axle's positions (shared by several combinations).
+    def combine(self, basis, loads, *, derivative=False, structure=None):
+        """:meth:`weights` from the :meth:`basis` of every position and axle (shared by several combinations).
 
-        Each load is a number or one value per position (a load that varies
-        along the sweep).  ``structure``: :meth:`structure` of ``bases``, when
-        several combinations of them are formed.
+        ``loads``: one per axle (A,), or one per position and axle (N, A) (a
+        load that varies along the sweep).  ``structure``: :meth:`structure`
+        of ``basis``, when several combinations of it are formed.
         """
+        i, value, slope = basis
         # a shared structure is copied: scipy may sort a matrix's indices in place
-        cols, indptr = self.structure(bases) if structure is None else (structure[0].copy(), structure[1].copy())
+        cols, indptr = self.structure(basis) if structure is None else (structure[0].copy(), structure[1].copy())
         # built as CSR directly, row by row: the four Hermite weights of each axle (duplicates add up)
-        vals = np.concatenate([((slope if derivative else value) * load).T
-                               for (_, value, slope), load in zip(bases, loads)], axis=1)
-        return scipy.sparse.csr_matrix((vals.ravel(), cols, indptr), shape=(indptr.size - 1, 2 * self.points.size))
+        vals = (slope if derivative else value) * loads[..., None]
+        return scipy.sparse.csr_matrix((vals.ravel(), cols, indptr), shape=(i.shape[0], 2 * self.points.size))
 
-    def structure(self, bases):
-        """The column indices and row pointers of :meth:`combine`'s sparse weights of ``bases``."""
+    def structure(self, basis):
+        """The column indices and row pointers of :meth:`combine`'s sparse weights of ``basis``."""
+        i = basis[0]
         n = self.points.size
-        count = bases[0][0].size
-        per_row = 4 * len(bases)
-        cols = np.concatenate([np.stack([i, n + i, i + 1, n + i + 1], axis=1) for i, _, _ in bases], axis=1)
-        return cols.ravel(), np.arange(0, per_row * count + 1, per_row)
+        cols = np.stack([i, n + i, i + 1, n + i + 1], axis=-1)  # (N, A, 4): a row's entries, axle by axle
+        return cols.ravel(), np.arange(0, cols.size + 1, 4 * i.shape[1])
 
     def end_weights(self, before, after):
         """Sparse (N, 2n) weights of the responses to a unit load at x = 0 and x = L."""
@@ -201,13 +202,16 @@ class LineInterpolant:
         return self.readings(weights), self.kernel(weights), self.spring_terms(weights)
 
     def basis(self, x):
-        """Interval index, Hermite weights (4, *x.shape) and their x-derivatives at ``x`` (0 off the bridge)."""
+        """Interval index (N, A), Hermite weights and x-derivatives (N, A, 4) at ``x`` (N, A) (0 off the bridge).
+
+        ``x``: every position (rows) of every axle (columns).
+        """
         on = (x >= 0.0) & (x <= self.length)
         i = np.clip(np.searchsorted(self.points, x, side="right") - 1, 0, self.points.size - 2)
         h = self.points[i + 1] - self.points[i]
         t = np.clip((x - self.points[i]) / h, 0.0, 1.0)
         value, slope = _hermite(t, h)
-        return i, value * on, slope * on
+        return i, value * on[..., None], slope * on[..., None]
 
     def unit(self, x):
         """(predictions, kernel, spring kernel) of a unit point load at each of ``x``."""
