@@ -225,7 +225,10 @@ class LineSource:
         interpolant = self.interpolant(state, scale, r)
         every = np.concatenate(list(items.values()))
         maps = self._maps(interpolant, state, every, jacobian)
-        predictions, reactions = interpolant.readings(maps["lines"]), interpolant.spring_reactions(maps["lines"])
+        # lines already read at these positions (the trial point a Jacobian is now asked at) are kept
+        new = any(key not in self._cache for key in items)
+        if new:
+            predictions, reactions = interpolant.readings_and_reactions(maps["lines"])
         slopes = interpolant.readings(maps["slopes"]) if jacobian and "slopes" in maps else None
         axles = [interpolant.readings(w) for w in maps.get("axles", ())] if jacobian else []
         ei, stiffness = self._ei * np.exp(scale), state.bridge.spring_stiffness()
@@ -233,8 +236,9 @@ class LineSource:
         for key, x in items.items():
             sl = slice(start, start + x.size)
             start += x.size
-            self._cache[key] = CrossingLines(interpolant, maps, sl, ei, stiffness, predictions[:, sl],
-                                             reactions[sl])
+            if new:
+                self._cache[key] = CrossingLines(interpolant, maps, sl, ei, stiffness, predictions[:, sl],
+                                                 reactions[sl])
             if slopes is not None:
                 self._cache[("slope",) + key] = slopes[:, sl]
             for a, unit in enumerate(axles):

@@ -124,6 +124,7 @@ class LineInterpolant:
                                                    load_reactions)  # (2n, S)
         self._kernel = kernel.reshape(n_rows, -1)  # (2n, S E)
         self._reactions = np.ascontiguousarray(load_reactions[springs].T)  # (2n, n_springs)
+        self._both = np.concatenate([self._predictions, self._reactions], axis=1)  # (2n, S + n_springs)
 
     def scaled(self, factor):
         """The interpolant at EI x ``factor``, without a solve, on a bridge without elastic springs (else None).
@@ -136,6 +137,7 @@ class LineInterpolant:
             return None
         out = copy.copy(self)
         out._predictions = self._predictions / factor
+        out._both = out._predictions  # no springs: no reactions beside the readings
         return out
 
     def weights(self, x, offsets=(0.0,), loads=(1.0,), *, derivative=False):
@@ -189,6 +191,11 @@ class LineInterpolant:
     def spring_terms(self, weights):
         """dy/dc (S, N, n_springs) of the elastic springs' compliances c = 1/k."""
         return self.sensor_reactions[:, None, :] * self.spring_reactions(weights)[None, :, :]
+
+    def readings_and_reactions(self, weights):
+        """:meth:`readings` and :meth:`spring_reactions` of ``weights`` in one sparse product."""
+        both = np.asarray(weights @ self._both)
+        return both[:, :self.n_sensors].T, both[:, self.n_sensors:]
 
     def spring_reactions(self, weights):
         """The elastic springs' reactions (N, n_springs) to the loads of ``weights``, in the units of the table.
