@@ -102,10 +102,11 @@ one pass):
   CPU median 1.8-2.0 s, max 9.2 s, ratio max 9.5-10.1x; pairs 43/60 = 72 % both named and nothing
   else, lenient 59/60, held-out within 20 % 43/43 (max 1.05), CPU median 3.9-4.6 s, max
   10.7-11.4 s, none above 15 s; ratio median 4.1-4.3x, max 11.3-15.1x.
-  --cases 4 --pairs 90 (two workers): the same 142 verdicts; pairs CPU median 4.3 s, max 14.6 s,
-  none above 15 s (index 107: 15.1 s in the run before; 12.6 s alone); ratio median 4.3x, max
-  15.7x.  Index 107 recorded every 0.05 m instead (same bridge and effects): 17-20 s, invert of
-  the same data 62 s -- what is done per reading doubles; the 15 s target is not met there.
+  --cases 4 --pairs 90 (two workers): the same 142 verdicts; singles CPU median 2.5 s, max 6.8 s;
+  pairs CPU median 3.9 s, max 12.3 s, none above 15 s (index 107: 15.1 s in the run before;
+  8.5-12.6 s alone as the machine's speed drifted); ratio median 4.1x, max 14.0x.  Index 107
+  recorded every 0.05 m instead (same bridge and effects): 14-20 s, invert of the same data
+  28-62 s -- what is done per reading doubles; the 15 s target is not met there.
 """
 
 import os
