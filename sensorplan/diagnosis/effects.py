@@ -101,8 +101,8 @@ def _spring_columns(ctx, state, c, kind):
     """dy/dlog k of the ``kind`` springs at every support (S, N, supports); zero where a support is rigid."""
     lines = ctx.lines(state, c)
     n = state.bridge.support_positions.size
-    pairs = [(col, int(name.split("_")[1])) for col, name in enumerate(state.bridge.spring_names)
-             if name.split("_")[0] == kind]
+    pairs = [(col, int(name.partition("_")[2])) for col, name in enumerate(state.bridge.spring_names)
+             if name.partition("_")[0] == kind]
     if not pairs:
         return np.zeros(y_shape(lines) + (n,))
     cols, supports = zip(*pairs)

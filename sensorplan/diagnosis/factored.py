@@ -103,13 +103,13 @@ def add_factored_terms(terms, jtj, jtr, kept):
             product = _weighted_gram(mapped, weights, kept) @ flat
             weighted = (table * (sensor**2)[None, :, None]).reshape(-1, n_el)
             jtj[:n_el, :n_el] += weighted.T @ product.reshape(-1, n_el)
-        else:  # scales that do not factor: per sensor, every crossing's own weight
+        else:  # scales that do not factor: per sensor, every crossing's R^T R with its own weight
+            grams = np.zeros((n_sensors, n_rows, n_rows))
+            for (factor, m, *_), scale in zip(members, scales):
+                rows = dense[factor.rows][m]
+                grams += scale[:, None, None] ** 2 * (rows.T @ rows)[None]
             for s in range(n_sensors):
-                gram = np.zeros((n_rows, n_rows))
-                for (factor, m, *_), scale in zip(members, scales):
-                    rows = dense[factor.rows][m]
-                    gram += scale[s] ** 2 * (rows.T @ rows)
-                jtj[:n_el, :n_el] += table[:, s, :].T @ (gram @ table[:, s, :])
+                jtj[:n_el, :n_el] += table[:, s, :].T @ (grams[s] @ table[:, s, :])
 
 
 def _weighted_gram(mapped, weights, kept):

@@ -225,8 +225,8 @@ class JointProblem(WhitenedData, LineSource):
         """Arrays (readings, S, columns) of each bin map's crossings side by side, and each crossing's view.
 
         A crossing's view is (S, readings, 1 + its effects' columns with
-        ``jacobian``): predictions first; all zeros.  Crossings fitted row by row get an
-        array of their own.
+        ``jacobian``): predictions first; all zeros.  Crossings fitted row by
+        row get an array of their own.
         """
         widths = [1 + (self.columns[c].size - self.n_elements if jacobian else 0) for c in range(self.n_crossings)]
         buffers, views = [], [None] * self.n_crossings

@@ -121,7 +121,8 @@ def log_ei_blocks(items, kept):
     Rows: the readings, or ``binned``'s bins.  A binned crossing's weights
     are mapped onto its bins first (bins x breakpoints), so the kernel is
     formed on the bins only; the map and the load factor act linearly, so
-    this equals binning the kernel at the readings.  The binned crossings whose lines come from one interpolant and one set
+    this equals binning the kernel at the readings.  The binned crossings
+    whose lines come from one interpolant and one set
     of interpolation maps are mapped onto their bins in one sparse product
     (their bin maps side by side, kept in ``kept`` across evaluations: they
     depend on the bins and the rows' layout only) and their kernels formed
@@ -144,9 +145,9 @@ def log_ei_blocks(items, kept):
             binned_items.append(k)
     for members, lines, mapped, offsets in mapped_groups([items[k] for k in binned_items], kept):
         kernel = lines.interpolant.kernel(mapped)
-        for j, k in enumerate(members):
-            out[binned_items[k]] = (kernel[:, offsets[j]:offsets[j + 1]]
-                                    * (-1.0 / lines.ei / items[binned_items[k]][2].noise.std[:, None, None]))
+        for j, member in enumerate(members):
+            k = binned_items[member]
+            out[k] = kernel[:, offsets[j]:offsets[j + 1]] * (-1.0 / lines.ei / items[k][2].noise.std[:, None, None])
     return [out[b] if isinstance(b, int) else b for b in out]  # repeated items: their first
 
 
@@ -259,7 +260,7 @@ class LineSource:
         if maps is None:
             basis = interpolant.basis(every[:, None] - offsets[None, :])  # every axle at once
             maps = kept[key] = {"rows_held": every.size, "basis": basis, "structure": interpolant.structure(basis)}
-            maps["lines"] = self._weights(interpolant, state, every, maps, offsets, loads)
+            maps["lines"] = self._weights(interpolant, state, every, basis, offsets, loads, structure=maps["structure"])
             # least recently used first out, beyond three times every crossing's rows: loads moved by an effect
             # make new maps at every evaluation (megabytes each on dense records), a crossing's own EI factor
             # one per crossing
@@ -269,17 +270,17 @@ class LineSource:
         else:
             kept.move_to_end(key)
         if jacobian and self.entry_moves and "slopes" not in maps:
-            maps["slopes"] = self._weights(interpolant, state, every, maps, offsets, loads, derivative=True)
+            maps["slopes"] = self._weights(interpolant, state, every, maps["basis"], offsets, loads,
+                                           structure=maps["structure"], derivative=True)
         if jacobian and self.axle_responses and "axles" not in maps:
             i, value, slope = maps["basis"]
-            maps["axles"] = [self._weights(interpolant, state, every,
-                                           {"basis": (i[:, a:a + 1], value[:, a:a + 1], slope[:, a:a + 1])},
-                                           offsets[a:a + 1], np.ones(1)) for a in range(offsets.size)]
+            maps["axles"] = [self._weights(interpolant, state, every, (i[:, a:a + 1], value[:, a:a + 1],
+                                                                       slope[:, a:a + 1]), offsets[a:a + 1], np.ones(1))
+                             for a in range(offsets.size)]
         return maps
 
-    def _weights(self, interpolant, state, x, maps, offsets, loads, derivative=False):
-        """Interpolation weights of the axles (``maps["basis"]`` at ``x`` - offsets), with the entry ramps."""
-        basis, structure = maps["basis"], maps.get("structure")
+    def _weights(self, interpolant, state, x, basis, offsets, loads, *, structure=None, derivative=False):
+        """Interpolation weights of the axles (``basis`` at ``x`` - offsets), with the entry ramps."""
         u = x[None, :] - offsets[:, None]
         ramp = self._ramp(state, u)
         if ramp is None:
