@@ -12,6 +12,38 @@ __all__ = []
 _H = 1e-4  # position step of the central differences [m]
 
 
+class PerSensor:
+    """Columns dy/dphi of which each acts on one sensor's readings only: ``values`` (S, K or 1, k).
+
+    Sensor ``i``'s readings depend on its own ``k`` columns ``i k .. i k + k
+    - 1`` of the block (over ``columns(ctx, c)``) and on no others: an effect
+    returns this instead of the block (S, K, S k) that is zero off those
+    columns (offsets, drift, gains, sensor positions), and only the ``k``
+    columns of each sensor are written (six sensors and 1739 readings per
+    crossing: a sixth of the writes).
+    """
+
+    def __init__(self, values):
+        self.values = values
+
+
+class Outer:
+    """Columns dy/dphi that are a product of a sensor factor and a reading factor: ``sensors[:, None, :] *
+    loads[None, :, :]`` with ``sensors`` (S, n) and ``loads`` (K, n) (a spring's sensor and load reactions).
+
+    Written as that product straight into the Jacobian's columns (no
+    temporary block and no copy of it).
+    """
+
+    def __init__(self, sensors, loads):
+        self.sensors, self.loads = sensors, loads
+
+    @property
+    def values(self):
+        """The block (S, K, n), formed."""
+        return self.sensors[:, None, :] * self.loads[None, :, :]
+
+
 @dataclass
 class State:
     bridge: object
@@ -63,12 +95,13 @@ class Effect:
         return
 
     def structural_jacobian(self, ctx, state, phi, c, y):
-        """dy/dphi for crossing ``c`` (S, K, n) of a structural effect, n over ``columns(ctx, c)``."""
+        """dy/dphi for crossing ``c`` (S, K, n) of a structural effect, n over ``columns(ctx, c)`` (or a :class:`PerSensor`,
+        :class:`Outer`)."""
         raise NotImplementedError
 
     def output(self, ctx, state, phi, c, y):
-        """Return (y', dy'/dphi (S, K, n) over ``columns(ctx, c)``, multiplier (scalar, applied to earlier
-        Jacobians))."""
+        """Return (y', dy'/dphi (S, K, n) over ``columns(ctx, c)`` or a :class:`PerSensor`, multiplier (scalar or
+        per sensor, applied to earlier Jacobians))."""
         return y, None, 1.0
 
 

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from ._base import _H, Effect, State
+from ._base import _H, Effect, Outer, PerSensor, State
 from .effects_more import CaseSprings, LoadDependentStiffness, SensorGain
 
 __all__ = ["EFFECTS", "CaseSprings", "State", "make_effect"]
@@ -109,9 +109,9 @@ def _spring_columns(ctx, state, c, kind):
     jac = lines.spring_log_columns(ctx.load_factor(c), cols)
     if list(supports) == list(range(n)):
         return jac
-    out = np.zeros(y_shape(lines) + (n,))
-    out[:, :, list(supports)] = jac
-    return out
+    sensors, loads = (np.zeros((len(part), n)) for part in (jac.sensors, jac.loads))
+    sensors[:, list(supports)], loads[:, list(supports)] = jac.sensors, jac.loads
+    return Outer(sensors, loads)
 
 
 def y_shape(lines):
@@ -142,10 +142,7 @@ class SensorOffset(Effect):
     def output(self, ctx, state, phi, c, y):
         s = ctx.n_sensors
         b = phi[c * s:(c + 1) * s]
-        jac = np.zeros(y.shape + (s,))
-        for i in range(s):
-            jac[i, :, i] = 1.0
-        return y + b[:, None], jac, 1.0
+        return y + b[:, None], PerSensor(np.ones((s, 1, 1))), 1.0
 
 
 class ThermalDrift(Effect):
@@ -175,14 +172,12 @@ class ThermalDrift(Effect):
         s = ctx.n_sensors
         x = ctx.model_positions[c]
         t = (x - 0.5 * (x[0] + x[-1])) / max(x[-1] - x[0], 1e-9)
-        jac = np.zeros(y.shape + (2 * s,))
         out = y.copy()
         for i in range(s):
             k0 = 2 * (c * s + i)
             out[i] += phi[k0] + phi[k0 + 1] * t
-            jac[i, :, 2 * i] = 1.0
-            jac[i, :, 2 * i + 1] = t
-        return out, jac, 1.0
+        per_sensor = np.broadcast_to(np.stack([np.ones_like(t), t], axis=-1), (s,) + t.shape + (2,))
+        return out, PerSensor(per_sensor), 1.0
 
 
 class PositionOffset(Effect):
@@ -258,10 +253,7 @@ class SensorPosition(Effect):
         down = ctx.lines(state, c, sensor_positions=np.clip(r - _H, 0, state.bridge.length)).predictions
         step = np.clip(r + _H, 0, state.bridge.length) - np.clip(r - _H, 0, state.bridge.length)
         dydr = (up - down) / step[:, None] * ctx.load_factor(c)[None, :]
-        jac = np.zeros(y.shape + (self.n_params,))
-        for i in range(self.n_params):
-            jac[i, :, i] = dydr[i]
-        return jac
+        return PerSensor(dydr[:, :, None])
 
 
 class DynamicAmplification(Effect):

@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from ..model.forward import influence_lines
-from ._base import Effect
+from ._base import Effect, PerSensor
 
 __all__ = []
 
@@ -85,10 +85,7 @@ class SensorGain(Effect):
     def output(self, ctx, state, phi, c, y):
         gain = self.sign * np.exp(phi)
         out = y * gain[:, None]
-        jac = np.zeros(y.shape + (self.n_params,))
-        for i in range(ctx.n_sensors):
-            jac[i, :, i] = out[i]
-        return out, jac, gain
+        return out, PerSensor(out[:, :, None]), gain
 
 
 def _data_gains(ctx):

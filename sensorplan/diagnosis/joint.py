@@ -19,6 +19,7 @@ import numpy as np
 
 from .._errors import ConfigError
 from ..inference.laplace import Linearisation, WhitenedData
+from ._base import Outer, PerSensor
 from .binning import model_rows
 from .effects import CaseSprings, State
 from .factored import add_factored_terms, log_ei_factors
@@ -32,6 +33,34 @@ ENTRY = 0.1  # m over which an axle moved by an effect rolls onto the bridge (ha
 def _shifted(place, start):
     """The slice ``place`` moved ``start`` columns to the left."""
     return slice(place.start - start, place.stop - start)
+
+
+def _put(extra, place, block, add=False):
+    """Write (or with ``add`` add) an effect's ``block`` into the columns ``place`` (a slice) of ``extra`` (S, K, m).
+
+    A :class:`~._base.PerSensor` block is written sensor by sensor into that
+    sensor's own columns only (the others stay as they are: zero), an
+    :class:`~._base.Outer` block as its product into the columns.
+    """
+    if isinstance(block, Outer) and not add:
+        np.multiply(block.sensors[:, None, :], block.loads[None, :, :], out=extra[:, :, place])
+        return
+    if isinstance(block, Outer):
+        block = block.values
+    if not isinstance(block, PerSensor):
+        if add:
+            extra[:, :, place] += block
+        else:
+            extra[:, :, place] = block
+        return
+    values = block.values
+    k = values.shape[2]
+    for i in range(values.shape[0]):
+        own = extra[i, :, place.start + i * k:place.start + (i + 1) * k]
+        if add:
+            own += values[i]
+        else:
+            own[...] = values[i]
 
 
 class JointProblem(WhitenedData, LineSource):
@@ -193,15 +222,15 @@ class JointProblem(WhitenedData, LineSource):
                 extra = views[c][:, :, 1:]  # zeros
                 for e, sl in zip(self.effects, self.slices):
                     if e.structural:
-                        extra[:, :, _shifted(places[e.name], n_el)] = e.structural_jacobian(
-                            self, state, theta[sl], c, y)
+                        _put(extra, _shifted(places[e.name], n_el), e.structural_jacobian(self, state, theta[sl], c, y))
             for e, sl in self._outputs:
                 y, out_block, mult = e.output(self, state, theta[sl], c, y)
                 if extra is not None:
-                    mult = np.reshape(mult, (-1, 1, 1)) if np.ndim(mult) else mult
-                    extra *= mult
-                    scale = scale * mult
-                    extra[:, :, _shifted(places[e.name], n_el)] += out_block
+                    if np.ndim(mult) or mult != 1.0:  # offsets and drift multiply nothing
+                        mult = np.reshape(mult, (-1, 1, 1)) if np.ndim(mult) else mult
+                        extra *= mult
+                        scale = scale * mult
+                    _put(extra, _shifted(places[e.name], n_el), out_block, add=True)
             views[c][:, :, 0] = y
             scaled_blocks.append(None if block is None else (block, scale))
         mapped = self._map_rows(buffers, views)

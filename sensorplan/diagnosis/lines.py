@@ -22,6 +22,7 @@ import scipy.sparse
 from ..model.interpolant import LineInterpolant
 from ..model.loads import Vehicle
 from ..model.sensors import SensorLayout
+from ._base import Outer
 from ._entry import entry_ramp
 
 __all__ = []
@@ -71,14 +72,15 @@ class CrossingLines:
         return self.kernel * (-1.0 / self.ei)
 
     def spring_log_columns(self, factor, springs):
-        """dy/dlog k of the elastic springs ``springs`` (their indices) times ``factor`` (N,): (S, N, len(springs)).
+        """dy/dlog k of the elastic springs ``springs`` (their indices) times ``factor`` (N,), (S, N, len(springs)),
+        as an :class:`~._base.Outer` block.
 
         dy/dlog k = k dy/dk = -(dy/dc) / k with c = 1/k: the sensors' unit
-        reactions times the loads' reactions, formed in one pass.
+        reactions times the loads' reactions, formed where it is written.
         """
         springs = np.asarray(springs, dtype=int)
         loads = self._reactions[:, springs] * (factor[:, None] * (-1.0 / self.spring_stiffness[springs]))
-        return self.interpolant.sensor_reactions[:, None, springs] * loads[None, :, :]
+        return Outer(self.interpolant.sensor_reactions[:, springs], loads)
 
     @cached_property
     def log_ei_total(self):
