@@ -23,6 +23,9 @@ class _Problem:
     def evaluate(self, theta, jacobian=True):
         return None  # no noise rescale in these tables
 
+    def drop_caches(self):
+        pass
+
 
 class _Fit:
     def __init__(self, evidence):

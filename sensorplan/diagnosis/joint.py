@@ -166,6 +166,10 @@ class JointProblem(WhitenedData, LineSource):
         return State(self.case.bridge, self.sensors.positions.copy(), [x.copy() for x in self.model_positions],
                      np.ones(self.case.vehicle.n_axles), np.zeros(self.n_crossings))
 
+    def drop_caches(self):
+        """Forget the kept lines, interpolation maps, grams and last evaluation (they are rebuilt on demand)."""
+        self._cache, self._weight_maps, self._grams, self._last = {}, OrderedDict(), OrderedDict(), None
+
     def predict(self, theta, *, jacobian=True):
         """Unwhitened predictions and Jacobians per crossing: list of (y (S,K), J (S,K,P) or None)."""
         out = []

@@ -62,7 +62,6 @@ Owns: the selection.  May import: the diagnosis's refits and the foundations.
 """
 
 import math
-from collections import OrderedDict
 from dataclasses import replace
 
 import numpy as np
@@ -83,7 +82,7 @@ LOOK_AHEAD_RATIO = 0.8  # a pick that cuts the held-out rms this much may pay of
 def _light(out):
     fit = out[0]
     if fit is not None:  # the influence-line cache is not needed any more (and not worth sending back)
-        fit.problem._cache, fit.problem._weight_maps, fit.problem._last = {}, OrderedDict(), None
+        fit.problem.drop_caches()
     return out
 
 
