@@ -44,6 +44,18 @@ class Outer:
         return self.sensors[:, None, :] * self.loads[None, :, :]
 
 
+class Columns:
+    """Columns dy/dphi given one by one: ``parts``, each (S, K), written into consecutive columns (no block formed)."""
+
+    def __init__(self, parts):
+        self.parts = parts
+
+    @property
+    def values(self):
+        """The block (S, K, n), formed."""
+        return np.stack(self.parts, axis=-1)
+
+
 @dataclass
 class State:
     bridge: object
@@ -96,7 +108,7 @@ class Effect:
 
     def structural_jacobian(self, ctx, state, phi, c, y):
         """dy/dphi for crossing ``c`` (S, K, n) of a structural effect, n over ``columns(ctx, c)`` (or a :class:`PerSensor`,
-        :class:`Outer`)."""
+        :class:`Outer`, :class:`Columns`)."""
         raise NotImplementedError
 
     def output(self, ctx, state, phi, c, y):

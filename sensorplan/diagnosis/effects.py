@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from ._base import _H, Effect, Outer, PerSensor, State
+from ._base import _H, Columns, Effect, Outer, PerSensor, State
 from .effects_more import CaseSprings, LoadDependentStiffness, SensorGain
 
 __all__ = ["EFFECTS", "CaseSprings", "State", "make_effect"]
@@ -203,7 +203,7 @@ class PositionOffset(Effect):
         # exact: the slope of the piecewise-cubic lines in the load position (JointProblem.line_slopes)
         dydx = ctx.line_slopes(state, c) * ctx.load_factor(c)[None, :]
         recorded = ctx.model_positions[c]
-        return np.stack([dydx, dydx * recorded[None, :]], axis=-1)
+        return Columns([dydx, dydx * recorded[None, :]])
 
 
 class AxleLoads(Effect):
@@ -225,10 +225,7 @@ class AxleLoads(Effect):
         state.axle_factors = state.axle_factors * np.exp(phi)
 
     def structural_jacobian(self, ctx, state, phi, c, y):
-        jac = np.zeros(y.shape + (self.n_params,))
-        for a in range(self.n_params):
-            jac[:, :, a] = ctx.axle_lines(state, c, a) * ctx.load_factor(c)[None, :]
-        return jac
+        return Columns([ctx.axle_lines(state, c, a) * ctx.load_factor(c)[None, :] for a in range(self.n_params)])
 
 
 class SensorPosition(Effect):

@@ -19,7 +19,7 @@ import numpy as np
 
 from .._errors import ConfigError
 from ..inference.laplace import Linearisation, WhitenedData
-from ._base import Outer, PerSensor
+from ._base import Columns, Outer, PerSensor
 from .binning import model_rows
 from .effects import CaseSprings, State
 from .factored import add_factored_terms, log_ei_factors
@@ -40,12 +40,17 @@ def _put(extra, place, block, add=False):
 
     A :class:`~._base.PerSensor` block is written sensor by sensor into that
     sensor's own columns only (the others stay as they are: zero), an
-    :class:`~._base.Outer` block as its product into the columns.
+    :class:`~._base.Outer` block as its product into the columns, a
+    :class:`~._base.Columns` block column by column.
     """
     if isinstance(block, Outer) and not add:
         np.multiply(block.sensors[:, None, :], block.loads[None, :, :], out=extra[:, :, place])
         return
-    if isinstance(block, Outer):
+    if isinstance(block, Columns) and not add:
+        for j, part in enumerate(block.parts):
+            extra[:, :, place.start + j] = part
+        return
+    if isinstance(block, (Outer, Columns)):
         block = block.values
     if not isinstance(block, PerSensor):
         if add:
