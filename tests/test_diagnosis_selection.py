@@ -175,17 +175,18 @@ def test_a_fit_that_must_converge_within_its_budget_gives_up_at_the_pace_of_its_
     # cannot reach the floor it gives up; reference: the same fit without the budget rule (quick_fit itself)
     from sensorplan.diagnosis.refit import quick_fit
 
-    problem = _drift_on_a_flipped_sensor()  # crawls at a noise scale of 3
-    free = quick_fit(problem, problem.theta0.copy(), 3.0, 1.0, max_iter=15)
-    assert not free.converged and free.n_iter == 15
-    out_of_reach = free.log_evidence + 1.0  # above what the fit reaches in its 15 steps
-    plain = quick_fit(problem, problem.theta0.copy(), 3.0, 1.0, max_iter=15, floor=out_of_reach)
-    paced = quick_fit(problem, problem.theta0.copy(), 3.0, 1.0, max_iter=15, floor=out_of_reach, budget=True)
-    assert plain.n_iter == 15 and not plain.abandoned  # its ceiling stays above the floor
-    assert paced.n_iter < 15 and paced.abandoned and not paced.converged
+    problem = _drift_on_a_flipped_sensor()  # converges slowly at a noise scale of 3 (in 12 steps)
+    steps = 10
+    free = quick_fit(problem, problem.theta0.copy(), 3.0, 1.0, max_iter=steps)
+    assert not free.converged and free.n_iter == steps
+    out_of_reach = free.log_evidence + 1.0  # above what the fit reaches in its steps
+    plain = quick_fit(problem, problem.theta0.copy(), 3.0, 1.0, max_iter=steps, floor=out_of_reach)
+    paced = quick_fit(problem, problem.theta0.copy(), 3.0, 1.0, max_iter=steps, floor=out_of_reach, budget=True)
+    assert plain.n_iter == steps and not plain.abandoned  # its ceiling stays above the floor
+    assert paced.n_iter < steps and paced.abandoned and not paced.converged
     within = free.log_evidence - 20.0  # reached within the budget: the rule does not act
-    paced = quick_fit(problem, problem.theta0.copy(), 3.0, 1.0, max_iter=15, floor=within, budget=True)
-    assert paced.n_iter == 15 and not paced.abandoned
+    paced = quick_fit(problem, problem.theta0.copy(), 3.0, 1.0, max_iter=steps, floor=within, budget=True)
+    assert paced.n_iter == steps and not paced.abandoned
     np.testing.assert_array_equal(paced.theta, free.theta)
 
 

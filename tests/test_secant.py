@@ -46,7 +46,7 @@ def spring_data(seed):
     return math.exp(0.1) * SHAPE + RESTRAINT / (1.0 + math.exp(-3.0)) + 0.01 * rng.standard_normal(T.size)
 
 
-@pytest.mark.parametrize("seed, factor", [(0, 10.0), (1, 1.3), (2, 1.3)])
+@pytest.mark.parametrize("seed, factor", [(0, 1.2), (1, 1.15), (2, 1.2)])
 def test_secant_curvature_reaches_the_same_map_in_fewer_evaluations(seed, factor):
     y = spring_data(seed)
     alpha, q, theta0 = 0.01, np.diag([1e-4, 1.0]), np.array([0.0, 3.0])
@@ -67,8 +67,9 @@ def test_secant_curvature_reaches_the_same_map_in_fewer_evaluations(seed, factor
                                         options={"xatol": 1e-10, "fatol": 1e-13, "maxiter": 20000}).x
     for secant in (False, True):
         np.testing.assert_allclose(runs[secant][0], reference, atol=2e-5)
-    # measured: 546 -> 30 evaluations (seed 0), 40 -> 26 (1), 44 -> 26 (2); Gauss-Newton alone overshoots the
-    # log stiffness at every step
+    # measured: 43 -> 33 evaluations (seed 0), 37 -> 31 (1), 39 -> 31 (2); Gauss-Newton alone overshoots the
+    # log stiffness at every step.  (With the damping before Nielsen's update, mu / 3 after every accepted step:
+    # 546 -> 30, 40 -> 26, 44 -> 26.)
     assert runs[True][1] * factor < runs[False][1]
 
 

@@ -138,6 +138,7 @@ def solve_map(problem, theta, alpha, q, theta0, *, max_iter, tol, stop=None, ato
 
     obj = objective(lin.rr, theta)
     mu = 0.0
+    nu = 2.0  # growth of mu over successive rejections (Nielsen)
     converged = False
     gains = []
     it = 0
@@ -168,7 +169,8 @@ def solve_map(problem, theta, alpha, q, theta0, *, max_iter, tol, stop=None, ato
                 if obj_t <= obj:
                     accepted = True
                     break
-            mu = max(4.0 * mu, 1e-4)
+            mu = max(nu * mu, 1e-4)
+            nu *= 2.0
         if not accepted:
             # No decrease possible along damped steps: at a (numerical) minimum.
             converged = float(np.max(np.abs(grad) / np.sqrt(diag))) < 1e-6
@@ -184,7 +186,15 @@ def solve_map(problem, theta, alpha, q, theta0, *, max_iter, tol, stop=None, ato
         lin = problem.evaluate(theta)
         if curvature is not None and lin is not None and lin.jtj is not None:
             curvature.update(step, previous.jtr - lin.jtr, lin.jtj)
-        mu = mu / 3.0 if mu > 1e-8 else 0.0
+        # Nielsen's update (Madsen, Nielsen & Tingleff 2004, eq. 3.16): mu falls by up to 3 as the gain ratio
+        # rho nears 1 and is kept at rho ~ 0.5.  The earlier mu / 3 after every accepted step followed by x4
+        # after a rejection alternated (a third of all evaluations were rejected trial points on three spans
+        # with moved loads or axle loads; 534 of 1644 -> 273 of 1343 on one dataset)
+        predicted = -float(grad @ step) - 0.5 * float(step @ model @ step)
+        rho = decrease / predicted if predicted > 0 else 1.0
+        mu *= max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)
+        mu = mu if mu > 1e-8 else 0.0
+        nu = 2.0
         newton_decrement = float(-step @ grad)
         gains.append(decrease)
         stalled = (atol > 0 and len(gains) >= STALL_STEPS and sum(gains[-STALL_STEPS:]) < atol
