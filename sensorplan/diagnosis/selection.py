@@ -20,10 +20,11 @@ gain over the folds (:func:`.refit.gain_is_significant`).
   against a noise inflated by what the first already explains (and a small
   second effect would be missed).
 * In this process the candidates of a step are fitted in the order of
-  what they explained alone, and the later ones give up as soon as they
-  cannot come within ``bf_threshold`` of the evidence an earlier one
-  reached; should those leaders fail the tests, the ones given up below
-  them are continued.
+  what they explained alone, and the later ones give up once they cannot
+  come within ``bf_threshold`` of an earlier one's evidence; should those
+  leaders fail the tests, the ones given up below them are continued (in
+  the screening too: a settled bearing given up below a dynamic
+  amplification that failed the held-out test, whose pair was the answer).
 * Backward: after a forward step every earlier pick is tested against the
   model without it; a pick whose Bayes factor given the others is below
   ``bf_threshold``, or whose held-out gain given them is not significant,
@@ -80,9 +81,8 @@ LOOK_AHEAD_RATIO = 0.8  # a pick that cuts the held-out rms this much may pay of
 
 
 def _light(out):
-    fit = out[0]
-    if fit is not None:  # the influence-line cache is not needed any more (and not worth sending back)
-        fit.problem.drop_caches()
+    if out[0] is not None:  # the influence-line cache is not needed any more (and not worth sending back)
+        out[0].problem.drop_caches()
     return out
 
 
@@ -107,12 +107,11 @@ def fit_models(ctx, models, level, *, bf_threshold, runner, say, label, strict=F
     runs its full budget.  ``eligible(name, fit, held)``: whether a fitted
     candidate passes the step's tests; in this process (no ``runner``) the
     candidates are then fitted in the order given and each later one gives
-    up as soon as it cannot come within ``bf_threshold`` of the evidence an
-    earlier one has reached (it could be neither the pick nor its
-    alternative): on a flipped sensor the pick's fit reaches 2800 log units
-    above the others, which crawled through their whole first pass (2.5 of
-    16 s).  Should the leaders then fail the step's tests, the candidates
-    given up below them are continued (:func:`_revive`).
+    up once it cannot come within ``bf_threshold`` of an earlier one's
+    evidence (neither pick nor alternative then): on a flipped sensor the
+    pick reaches 2800 log units above the others, which crawled through
+    their whole first pass (2.5 of 16 s).  Should the leaders fail the
+    step's tests, those given up below them are continued (:func:`_revive`).
     """
     names = list(models)
     prefix = f"{label}: " if label else ""
@@ -140,10 +139,9 @@ def fit_models(ctx, models, level, *, bf_threshold, runner, say, label, strict=F
 def _revive(ctx, out, floors, level, eligible, *, bf_threshold, say, prefix):
     """Continue the candidates given up below a leader that then failed the step's tests (updates ``out``).
 
-    A candidate needs only come within ``bf_threshold`` of the best
-    candidate that passes the tests (and reach ``level``); one given up
-    against a higher floor that could still reach this one gets a first
-    pass's budget from where it stopped.
+    A candidate needs only come within ``bf_threshold`` of the best one that
+    passes the tests (and reach ``level``); one given up against a higher
+    floor that could still reach this gets a first pass's budget more.
     """
     best = max((f.log_evidence for n, (f, h) in out.items() if eligible(n, f, h)), default=-math.inf)
     need = max(level, best - bf_threshold)
@@ -268,6 +266,9 @@ def select(ctx, names, screened, base, base_held, *, bf_threshold, gain_threshol
                                     current.log_evidence + bf_threshold, bf_threshold=bf_threshold, runner=runner,
                                     say=say, label=f"selection step {step + 1} given {', '.join(selected)}",
                                     strict=True, eligible=passes)
+        else:  # the screening gave up below its leader too
+            _revive(ctx, candidates, dict.fromkeys(remaining, math.inf), current.log_evidence + bf_threshold,
+                    passes, bf_threshold=bf_threshold, say=say, prefix="screening: ")
         eligible = [(candidates[n][0].log_evidence - current.log_evidence, n) for n in remaining
                     if passes(n, *candidates[n])]
         first = None

@@ -134,8 +134,11 @@ CONTROLS = ("none", "local_damage", "vibration")
 SPRINGS = ("support_rotational_spring", "vertical_support_spring")
 
 
-def random_case(rng):
-    """A random bridge, vehicle, layout and noise model (the nominal model the diagnosis gets)."""
+def random_case(rng, step=None):
+    """A random bridge, vehicle, layout and noise model (the nominal model the diagnosis gets).
+
+    ``step``: the load step [m] instead of the one drawn (the same draws otherwise).
+    """
     n_spans = int(rng.integers(1, 4))
     main = rng.uniform(12.0, 35.0)
     spans = [main] if n_spans == 1 else [main * rng.uniform(0.6, 1.0) for _ in range(n_spans)]
@@ -164,7 +167,8 @@ def random_case(rng):
         if np.all(np.diff(pos) > 1.0) and np.min(np.abs(pos[:, None] - supports[None, :])) > 0.5:
             break
     names = [f"T{i + 1}" for i in range(n_sensors)]
-    step = float(rng.choice([0.1, 0.2, 0.25]))
+    drawn = float(rng.choice([0.1, 0.2, 0.25]))  # drawn in any case: the draws after it stay the same
+    step = drawn if step is None else float(step)
     sweep = sp.LoadSweep.from_range(0.0, length + vehicle.length, step)
     mesh = sp.Mesh.uniform(bridge, n_elements)
     trial = sp.Case(bridge, mesh, ei, vehicle, sp.SensorLayout(np.round(pos, 2), "rotation", names, [1e-6] * n_sensors),
@@ -185,11 +189,11 @@ def describe_case(case):
             f"rot {sum(0 < r < np.inf for r in b.rotational_springs)} vert {sum(v < np.inf for v in b.vertical_springs)}")
 
 
-def dataset(index, effects, seed):
+def dataset(index, effects, seed, step=None):
     """(case, crossings) of dataset ``index``: a random case and 8-12 crossings with ``effects`` withheld."""
     ss = np.random.SeedSequence((seed, index))
     case_rng, data_rng = (np.random.default_rng(s) for s in ss.spawn(2))
-    case = random_case(case_rng)
+    case = random_case(case_rng, step)
     n_cr = int(case_rng.integers(8, 13))
     ei = None
     true = tuple(e for e in effects if e in EFFECT_NAMES) + (("vibration",) if "vibration" in effects else ())
@@ -201,10 +205,10 @@ def dataset(index, effects, seed):
 
 
 def run_one(job):
-    kind, index, effects, seed = job
+    kind, index, effects, seed, *step = job  # and the load step replacing the drawn one, if any
     t0 = time.process_time()
     try:
-        case, data = dataset(index, effects, seed)
+        case, data = dataset(index, effects, seed, *step)
         n_cr = len(data.crossings)
         t0 = time.process_time()
         with warnings.catch_warnings():
@@ -267,8 +271,12 @@ def main(argv=None):
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--seed", type=int, default=2026)
     ap.add_argument("--kind", choices=("single", "pairs", "both"), default="both")
+    ap.add_argument("--step", type=float, default=None,
+                    help="load step [m] of every dataset instead of the drawn 0.1-0.25 m (a dense record: 0.05)")
     args = ap.parse_args(argv)
     todo = jobs(args.cases, args.pairs, args.seed)
+    if args.step is not None:
+        todo = [job + (args.step,) for job in todo]
     if args.kind != "both":
         todo = [j for j in todo if j[0] == args.kind]
     recs = []
