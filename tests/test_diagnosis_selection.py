@@ -361,3 +361,35 @@ def test_no_third_pass_for_a_crawling_fit_that_does_not_lead():
     out = fit_models(ctx, {n: ([n], None) for n in "AS"}, 3.0, bf_threshold=3.0, runner=None,
                      say=lambda text: None, label="")
     assert [r[0] for r in ctx.resumed] == ["S"] and not out["S"][0].converged
+
+
+class _Revived(_Table):
+    """_Table whose continued fits (``resume``) converge at ``final`` (evidence, held-out total)."""
+
+    def __init__(self, models, final):
+        super().__init__(models)
+        self.final, self.resumed = final, []
+
+    def resume(self, fit, *, max_iter=40, floor=None):
+        self.resumed.append(floor)
+        evidence, total = self.final
+        return QuickFit(_Problem(), np.zeros(1), np.eye(1), float(evidence), True, 15, 1.0, 1.0), _held(total)
+
+
+def test_the_screening_continues_candidates_given_up_below_a_leader_that_fails_the_tests():
+    # A leads the screening at 100 but loses held-out score (-100); B was given up below it (at 50, ceiling 60)
+    # and, continued against the level the first pick needs (base 0 + 3), converges at 55 and passes both
+    # tests: B is the pick (before, the screening never continued it and nothing was selected)
+    models = {frozenset(): (0, 0), frozenset("A"): (100, -100), frozenset("AB"): (101, 81)}
+    ctx = _Revived(models, (55, 80))
+    given_up = QuickFit(_Problem(), np.zeros(1), np.eye(1), 50.0, False, 15, 1.0, 1.0, ceiling=60.0, abandoned=True)
+    screened = {"A": ctx.fit(["A"]), "B": (given_up, None)}
+    selected, _, current, _ = select(ctx, ["A", "B"], screened, _Fit(0), _held(0), bf_threshold=3.0,
+                                     gain_threshold=3.0, max_rounds=3, folds=True, say=lambda text: None)
+    assert ctx.resumed == [3.0] and selected == ["B"] and current.log_evidence == 55
+    # a candidate whose ceiling cannot reach the level is not continued
+    screened = {"A": ctx.fit(["A"]), "B": (replace(given_up, ceiling=2.0), None)}
+    ctx.resumed = []
+    selected, *_ = select(ctx, ["A", "B"], screened, _Fit(0), _held(0), bf_threshold=3.0, gain_threshold=3.0,
+                          max_rounds=3, folds=True, say=lambda text: None)
+    assert ctx.resumed == [] and selected == []
