@@ -26,6 +26,16 @@ class PerSensor:
     def __init__(self, values):
         self.values = values
 
+    def write(self, target, add):
+        """Write (or add) into ``target`` (S, K, S k), sensor by sensor into its own columns (the others stay)."""
+        k = self.values.shape[2]
+        for i, values in enumerate(self.values):
+            own = target[i, :, i * k:(i + 1) * k]
+            if add:
+                own += values
+            else:
+                own[...] = values
+
 
 class Outer:
     """Columns dy/dphi that are a product of a sensor factor and a reading factor: ``sensors[:, None, :] *
@@ -38,10 +48,12 @@ class Outer:
     def __init__(self, sensors, loads):
         self.sensors, self.loads = sensors, loads
 
-    @property
-    def values(self):
-        """The block (S, K, n), formed."""
-        return self.sensors[:, None, :] * self.loads[None, :, :]
+    def write(self, target, add):
+        """Write (or add) the product into ``target`` (S, K, n)."""
+        if add:
+            target += self.sensors[:, None, :] * self.loads[None, :, :]
+        else:
+            np.multiply(self.sensors[:, None, :], self.loads[None, :, :], out=target)
 
 
 class Columns:
@@ -50,10 +62,13 @@ class Columns:
     def __init__(self, parts):
         self.parts = parts
 
-    @property
-    def values(self):
-        """The block (S, K, n), formed."""
-        return np.stack(self.parts, axis=-1)
+    def write(self, target, add):
+        """Write (or add) the parts into ``target`` (S, K, n), column by column."""
+        for j, part in enumerate(self.parts):
+            if add:
+                target[:, :, j] += part
+            else:
+                target[:, :, j] = part
 
 
 @dataclass

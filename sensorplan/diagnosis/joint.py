@@ -19,7 +19,6 @@ import numpy as np
 
 from .._errors import ConfigError
 from ..inference.laplace import Linearisation, WhitenedData
-from ._base import Columns, Outer, PerSensor
 from .binning import model_rows
 from .effects import CaseSprings, State
 from .factored import add_factored_terms, log_ei_factors
@@ -38,34 +37,18 @@ def _shifted(place, start):
 def _put(extra, place, block, add=False):
     """Write (or with ``add`` add) an effect's ``block`` into the columns ``place`` (a slice) of ``extra`` (S, K, m).
 
-    A :class:`~._base.PerSensor` block is written sensor by sensor into that
-    sensor's own columns only (the others stay as they are: zero), an
-    :class:`~._base.Outer` block as its product into the columns, a
-    :class:`~._base.Columns` block column by column.
+    An array is written as it is; a :class:`~._base.PerSensor`,
+    :class:`~._base.Outer` or :class:`~._base.Columns` block writes itself
+    (only the columns it acts on, without forming the block).
     """
-    if isinstance(block, Outer) and not add:
-        np.multiply(block.sensors[:, None, :], block.loads[None, :, :], out=extra[:, :, place])
-        return
-    if isinstance(block, Columns) and not add:
-        for j, part in enumerate(block.parts):
-            extra[:, :, place.start + j] = part
-        return
-    if isinstance(block, (Outer, Columns)):
-        block = block.values
-    if not isinstance(block, PerSensor):
+    target = extra[:, :, place]
+    if isinstance(block, np.ndarray):
         if add:
-            extra[:, :, place] += block
+            target += block
         else:
-            extra[:, :, place] = block
-        return
-    values = block.values
-    k = values.shape[2]
-    for i in range(values.shape[0]):
-        own = extra[i, :, place.start + i * k:place.start + (i + 1) * k]
-        if add:
-            own += values[i]
-        else:
-            own[...] = values[i]
+            target[...] = block
+    else:
+        block.write(target, add)
 
 
 class JointProblem(WhitenedData, LineSource):
