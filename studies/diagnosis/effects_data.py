@@ -23,7 +23,7 @@ def _fine(case):
     return case.with_mesh(truth_mesh(case))
 
 
-def generate(case, effect, rng, n_crossings=6, *, ei=None, return_noise_rms=False):
+def generate(case, effect, rng, n_crossings=6, *, ei=None, return_noise_rms=False, noise_free=False):
     """Crossings of ``case`` with ``effect`` present (None: effect-free; "vibration": out of library).
 
     ``effect`` may also be a tuple of effects, applied together (each as it is
@@ -32,7 +32,8 @@ def generate(case, effect, rng, n_crossings=6, *, ei=None, return_noise_rms=Fals
     With ``return_noise_rms=True`` return ``(crossings, noise_rms)``, where
     ``noise_rms`` is the rms of the noise actually added to the data (all
     crossings, sensors and load positions): the floor a correct model's
-    residuals can reach.
+    residuals can reach.  With ``noise_free=True`` the same draws without the
+    noise (the effects' realisations are drawn before it).
     """
     rng = np.random.default_rng(rng)
     fine = _fine(case)
@@ -93,6 +94,8 @@ def generate(case, effect, rng, n_crossings=6, *, ei=None, return_noise_rms=Fals
             raise ValueError(name)
     truth = replace(fine, bridge=bridge, sensors=sensors, vehicle=vehicle)
     noise = case.noise.sample(pos, rng, n_crossings)
+    if noise_free:
+        noise = np.zeros_like(noise)
     crossings = []
     for c in range(n_crossings):
         clean = truth.influence_lines(ei_fine * ei_factor[c], positions=pos + shifts[c]).predictions

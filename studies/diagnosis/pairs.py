@@ -20,9 +20,19 @@ Scored per dataset: both effects among the causes and no other cause
 not named is reported as confounded with an EI change, with no unexplained
 gap.
 
+The physical limit of this score, dataset by dataset (studies/diagnosis/pairs_limit.py: the
+optimal test of each effect given the other and EI): the oracle names both in 67 % of the case
+layouts' datasets (the issue's 2 of 3 is its ceiling here) and 89 % with six tiltmeters; the
+diagnosis reaches 0.84 and 0.91 of that, and names both in 120 of the 122 datasets where the
+oracle's power is >= 0.9.
+
 Run: python studies/diagnosis/pairs.py [--seeds N] [--first ...] [--bridges ...] [--six]
 
-Last run (2026-11-26, seventh session: the selection's later candidates give up below an earlier
+Last run (2026-11-27, eleventh session, --six only; the code of the tenth session): the same 90
+verdicts as the seventh session's --six run below (73/90 = 81 %, lenient 88/90); CPU median 2.4 s,
+max 4.9 s.  The case layouts' last run: 51/90 (tenth session, docs/limitations.md).
+
+Run before (2026-11-26, seventh session: the selection's later candidates give up below an earlier
 one's evidence, swap tests at the pace of their last steps, the wider look-ahead, one mapping
 product per bin map; beside another study): the same 180 verdicts and Bayes factors as the run
 below; case layouts 51/90 = 57 %, lenient 79/90, CPU median 2.2 s, max 5.7 s; --six 73/90 = 81 %,

@@ -204,8 +204,11 @@ def describe_case(case):
             f"rot {sum(0 < r < np.inf for r in b.rotational_springs)} vert {sum(v < np.inf for v in b.vertical_springs)}")
 
 
-def dataset(index, effects, seed, step=None):
-    """(case, crossings) of dataset ``index``: a random case and 8-12 crossings with ``effects`` withheld."""
+def dataset(index, effects, seed, step=None, *, noise_free=False):
+    """(case, crossings) of dataset ``index``: a random case and 8-12 crossings with ``effects`` withheld.
+
+    ``noise_free``: the same draws without the noise (pairs_limit.py's oracle).
+    """
     ss = np.random.SeedSequence((seed, index))
     case_rng, data_rng = (np.random.default_rng(s) for s in ss.spawn(2))
     case = random_case(case_rng, step)
@@ -216,7 +219,7 @@ def dataset(index, effects, seed, step=None):
         span = case.bridge.spans[0]
         ei_case = case.ei_at
         ei = lambda x: np.where((x > 0.3 * span) & (x < 0.5 * span), 0.7, 1.0) * ei_case(x)  # noqa: E731
-    return case, generate(case, true or None, data_rng, n_cr, ei=ei)
+    return case, generate(case, true or None, data_rng, n_cr, ei=ei, noise_free=noise_free)
 
 
 def run_one(job):
