@@ -49,11 +49,18 @@ class Outer:
         self.sensors, self.loads = sensors, loads
 
     def write(self, target, add):
-        """Write (or add) the product into ``target`` (S, K, n)."""
-        if add:
-            target += self.sensors[:, None, :] * self.loads[None, :, :]
-        else:
-            np.multiply(self.sensors[:, None, :], self.loads[None, :, :], out=target)
+        """Write (or add) the product into ``target`` (S, K, n), sensor by sensor.
+
+        One (K, n) product per sensor: the Jacobian's buffers hold each
+        reading's sensors and columns together (the bin map's layout), and a
+        single broadcast product into that view ran an inner loop of n
+        columns per reading and sensor (1.8 times slower).
+        """
+        for i, factor in enumerate(self.sensors):
+            if add:
+                target[i] += self.loads * factor
+            else:
+                np.multiply(self.loads, factor, out=target[i])
 
 
 class Columns:

@@ -79,6 +79,16 @@ class BinnedCrossing(Crossing):
         return out
 
 
+    def outer_to_bins(self, sensors, loads):
+        """:meth:`to_bins_first` of the columns ``sensors[:, None, :] * loads[None, :, :]`` as such a product.
+
+        ``sensors`` (S, n), ``loads`` (readings, n): the map acts on the
+        readings, the noise scale on the sensors.  Returns (sensors (S, n),
+        loads (bins, n)).
+        """
+        return sensors / self.noise.std[:, None], np.asarray(self.bin_map @ loads)
+
+
 def _bin_map(noise, positions, size):
     """Sparse (bins x readings): the AR(1) whitening Gamma^{-1/2} followed by bin sums / sqrt(size)."""
     n = positions.size

@@ -20,6 +20,7 @@ import numpy as np
 from .._errors import ConfigError
 from ..inference.laplace import Linearisation, WhitenedData
 from .binning import model_rows
+from ._base import Outer
 from .effects import CaseSprings, State
 from .factored import add_factored_terms, log_ei_factors
 from .lines import LineSource, log_ei_blocks
@@ -204,6 +205,7 @@ class JointProblem(WhitenedData, LineSource):
         # that its bin map acts on (readings first: one sparse product per map, without copies)
         buffers, views = self._buffers(jacobian)
         scaled_blocks = []
+        on_bins = [[] for _ in every]  # per crossing: (place, Outer) written on the bins, after the map
         for c, lines in enumerate(every):
             lf = self.load_factor(c)
             y = lines.predictions * lf[None, :]
@@ -214,7 +216,14 @@ class JointProblem(WhitenedData, LineSource):
                 extra = views[c][:, :, 1:]  # zeros
                 for e, sl in zip(self.effects, self.slices):
                     if e.structural:
-                        _put(extra, _shifted(places[e.name], n_el), e.structural_jacobian(self, state, theta[sl], c, y))
+                        cols = e.structural_jacobian(self, state, theta[sl], c, y)
+                        place = _shifted(places[e.name], n_el)
+                        if isinstance(cols, Outer) and self._binned[c] is not None:
+                            # a sensor factor times a reading factor: the bin map acts on the reading factor
+                            # alone (spring columns: bins x springs instead of readings x sensors x springs)
+                            on_bins[c].append((place, cols))
+                        else:
+                            _put(extra, place, cols)
             for e, sl in self._outputs:
                 y, out_block, mult = e.output(self, state, theta[sl], c, y)
                 if extra is not None:
@@ -232,6 +241,9 @@ class JointProblem(WhitenedData, LineSource):
             jac = factor = None
             if scaled is not None:
                 block, scale = scaled
+                for place, cols in on_bins[c]:  # times the outputs' factors, as the columns at the readings are
+                    sensors, loads = self._binned[c].outer_to_bins(cols.sensors, cols.loads)
+                    Outer(sensors * np.reshape(scale, (-1, 1)), loads).write(rows[:, :, 1:][:, :, place], False)
                 if factored:
                     jac, factor = rows[:, :, 1:], block
                     factor.scale = factor.scale * np.ravel(scale)
