@@ -30,6 +30,7 @@ class _Problem:
 class _Fit:
     def __init__(self, evidence):
         self.log_evidence, self.converged, self.abandoned = float(evidence), True, False
+        self.ceiling = self.log_evidence  # as a converged QuickFit's
         self.problem, self.theta = _Problem(), np.zeros(1)
 
 
@@ -96,6 +97,18 @@ def test_swap_only_tries_effects_that_explain_part_of_the_gap_alone():
     swaps = [c for c in ctx.calls if len(c) == 2 and "G" in c]
     assert ("O", "G") in ctx.calls  # the forward step tried G given O ...
     assert ("S", "G") not in swaps  # ... the swap pass did not try G for O
+
+
+def test_swap_does_not_refit_a_model_the_last_pick_beat_in_its_own_step():
+    # O first; given O, S (1045) beats X (1020): O + X lost in the step that picked S, so "X for S" is not
+    # tried again in the swap pass; "X for O" (S + X, never fitted) still is
+    models = {frozenset(): (0, 0), frozenset("O"): (1000, 2000), frozenset("S"): (100, 150),
+              frozenset("X"): (80, 120), frozenset("OS"): (1045, 2090), frozenset("OX"): (1020, 2040),
+              frozenset("SX"): (150, 200), frozenset("OSX"): (1046, 2091)}
+    selected, _, current, ctx = _run(models, names=("O", "S", "X"))
+    assert selected == ["O", "S"] and current.log_evidence == 1045
+    assert ctx.calls.count(("O", "X")) == 1  # the forward step's fit only (twice before)
+    assert ("S", "X") in ctx.calls
 
 
 def test_summary_without_a_significant_gap_does_not_list_confounded_effects():

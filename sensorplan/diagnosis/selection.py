@@ -44,7 +44,9 @@ gain over the folds (:func:`.refit.gain_is_significant`).
   >= ``bf_threshold``) when that raises the evidence without losing
   held-out score; a swapped model gets ``FIRST_PASS`` steps from the
   current fit to converge, and gives up once the pace of its last steps
-  cannot get it there within them (``quick_fit``'s budget).
+  cannot get it there within them (``quick_fit``'s budget).  A model
+  already fitted in the step that made a pick and unable to reach the
+  pick's evidence there is not tried again (:func:`.revisions.swap`).
 
 Two passes per set of candidate fits (:func:`fit_models`): every candidate
 gets ``FIRST_PASS`` Levenberg-Marquardt iterations; those not converged are
@@ -68,7 +70,8 @@ from dataclasses import replace
 import numpy as np
 
 from .._executors import map_ordered
-from .refit import blocks_of, gain_is_significant, heldout, quick_fit
+from .refit import blocks_of, heldout, quick_fit
+from .revisions import better, prune, swap
 
 __all__ = []
 
@@ -189,15 +192,8 @@ def _passes(fit, held, current, current_held, level, gain_threshold, folds):
     """Whether the converged ``fit`` beats ``current`` by ``level`` in evidence with a significant held-out gain."""
     if fit is None or not fit.converged:
         return False
-    bf, significant = _better(fit, held, current, current_held, gain_threshold, folds)
+    bf, significant = better(fit, held, current, current_held, gain_threshold, folds)
     return bf >= level and significant
-
-
-def _better(fit, held, current, current_held, threshold, folds):
-    """(Bayes factor, significant held-out gain) of ``fit`` over ``current``."""
-    bf = fit.log_evidence - current.log_evidence
-    significant = gain_is_significant(held, current_held, threshold)[0] if folds else True
-    return bf, significant
 
 
 def _rescale(ctx, current, *, max_iter=5, rtol=0.01):
@@ -249,6 +245,7 @@ def select(ctx, names, screened, base, base_held, *, bf_threshold, gain_threshol
     current, current_held = base, base_held
     candidates = screened
     visited = {frozenset()}
+    lost = set()  # models fitted in a step that could not reach its pick's evidence (no swap test for them)
     for step in range(2 * max_rounds):
         if len(selected) >= max_rounds:
             break
@@ -296,14 +293,17 @@ def select(ctx, names, screened, base, base_held, *, bf_threshold, gain_threshol
                 alternatives.pop(first)
             break
         alternatives[best] = close
+        winner = candidates[best][0].log_evidence
+        lost |= {frozenset(selected + [n]) for n, (fit, _) in candidates.items() if n != best and fit is not None
+                 and (fit.converged or fit.abandoned) and fit.ceiling < winner}
         selected.append(best)
         visited.add(frozenset(selected))
         current, current_held = candidates[best]
         rescaled, held = _rescale(ctx, current)
         if held is not None:
             current, current_held = rescaled, held
-        current, current_held = _prune(ctx, selected, alternatives, current, current_held, visited,
-                                       bf_threshold, gain_threshold, folds, say)
+        current, current_held = prune(ctx, selected, alternatives, current, current_held, visited,
+                                      bf_threshold, gain_threshold, folds, say)
     if len(selected) >= 2:
         # swap candidates: effects that alone explain part of the gap (screening log BF >= bf_threshold); one
         # that explains nothing alone cannot replace a pick that does (and the test costs a refit each)
@@ -311,7 +311,8 @@ def select(ctx, names, screened, base, base_held, *, bf_threshold, gain_threshol
         strong = [n for n in names if screened[n][0] is not None
                   and (screened[n][0].converged or screened[n][0].abandoned)
                   and screened[n][0].log_evidence - base.log_evidence >= bf_threshold]
-        current, current_held = _swap(ctx, strong, selected, alternatives, current, current_held, say)
+        current, current_held = swap(ctx, strong, selected, alternatives, current, current_held, say,
+                                     max_iter=FIRST_PASS, lost=lost)
     return selected, alternatives, current, current_held
 
 
@@ -370,51 +371,3 @@ def _look_ahead(ctx, remaining, selected, candidates, current, current_held, vis
         return [], candidates, None
     visited.add(frozenset(selected + [first]))
     return eligible, pairs, first
-
-
-def _prune(ctx, selected, alternatives, current, current_held, visited, bf_threshold, gain_threshold, folds, say):
-    """Drop earlier picks that the latest one makes redundant (weakest first); updates ``selected``."""
-    while len(selected) >= 2:
-        weakest = None
-        for name in selected[:-1]:
-            others = [n for n in selected if n != name]
-            say(f"backward test: {name} given {', '.join(others)}")
-            blocks = blocks_of(current.problem, current.theta)
-            # given up once it cannot come within bf_threshold of the current model (the pick then stays)
-            fit, held = ctx.fit(others, blocks, initial=False, floor=current.log_evidence - bf_threshold)
-            if fit is None or not fit.converged:
-                continue
-            bf, significant = _better(current, current_held, fit, held, gain_threshold, folds)
-            redundant = bf < bf_threshold or not significant
-            if redundant and (weakest is None or bf < weakest[0]):
-                weakest = (bf, name, fit, held)
-        if weakest is None:
-            break
-        _, name, fit, held = weakest
-        selected.remove(name)
-        alternatives.pop(name, None)
-        visited.add(frozenset(selected))
-        current, current_held = fit, held
-    return current, current_held
-
-
-def _swap(ctx, names, selected, alternatives, current, current_held, say):
-    """An early pick that absorbed part of a later one gives way (evidence up, held-out score not down)."""
-    for name in list(selected):
-        others = [n for n in selected if n != name]
-        for other in [n for n in names if n not in selected]:
-            say(f"swap test: {other} for {name}")
-            # given up once it cannot beat the current model, or when it has not converged in FIRST_PASS steps
-            # from the current fit: a swap that removes what the data need (a flipped sensor) crawls with a high
-            # ceiling through every step it gets (four such tests took 19 of 34 s on one dataset)
-            fit, held = ctx.fit(others + [other], blocks_of(current.problem, current.theta),
-                                max_iter=FIRST_PASS, floor=current.log_evidence, budget=True)
-            better = fit is not None and fit.converged and fit.log_evidence > current.log_evidence
-            if better and held is not None and current_held is not None:
-                better = float(np.sum(held.log_density)) >= float(np.sum(current_held.log_density))
-            if better:
-                alternatives[other] = tuple(a for a in alternatives.pop(name, ()) if a != other)
-                selected[selected.index(name)] = other
-                current, current_held = fit, held
-                break
-    return current, current_held
