@@ -48,7 +48,15 @@ four held-out folds and in every selection round.
 
 Run: python studies/benchmarks/bench_diagnose.py [--quick]
 
-Last run (2026-11-27, ninth session, after: the log-EI block of binned crossings never formed,
+Last run (2026-11-27, eleventh session, after: the spring columns formed on the bins as a product,
+the swap pass skipping models the last pick beat in its own step; the validation and unseen
+studies before it): the same 52 verdicts as the tenth session's run; small median 1.28 s, max
+2.12 s, ratio max 10.4x; three median 1.34 s, max 2.47 s, ratio max 4.2x; pairs median 2.50 s,
+max 4.13 s, ratio max 8.0x; pairs6 median 2.16 s, max 3.51 s, ratio max 6.2x; dense6 median
+3.96 s, max 5.03 s, ratio median 2.0x, max 3.7x; random median 2.76 s, max 4.18 s, ratio median
+3.5x, max 10.8x.  Every dataset < 15 s: met (max 5.03 s); ratio <= 20x: met (median 3.6x, max
+10.8x).  (Tenth session, same verdicts: max 8.80 s, ratio median 3.9x, max 12.0x.)
+Run before (2026-11-27, ninth session, after: the log-EI block of binned crossings never formed,
 its share of the normal equations taken from its two factors (sensorplan/diagnosis/factored.py),
 each bin map's crossings written into one array; studies/diagnosis/pairs.py before it on the same
 machine): the same 52 verdicts as the run below; small median 1.45 s, max 2.68 s, ratio max

@@ -122,6 +122,19 @@ screening continues candidates given up below a leader that fails the tests; --s
   On the final code: the same 142 verdicts as on the code before the session (singles 51/52,
   pairs 69/90, held-out within 20 % 69/69); pairs CPU median 4.0 s, max 14.4 s (indices 66, 107
   and 115 at 13.7-14.4 s: no margin), none above 15 s; ratio median 2.7x, max 11.6x.
+Eleventh session (2026-11-27; the spring columns formed on the bins as a product, the swap pass
+not refitting a model the last pick beat in its own step; two workers):
+  --cases 4 --pairs 90: the same 142 verdicts; singles CPU median 2.2 s, max 5.5 s, ratio max
+  11.6x; pairs 69/90, CPU median 3.1 s, max 8.9 s; ratio median 4.2x, max 15.8x.
+  --step 0.05 --kind pairs: the same 90 verdicts (69/90); CPU median 3.6 s, max 11.3 s (indices
+  107, 115, 66: 14.3, 14.4, 13.7 -> 11.3, 10.3, 9.8 s); ratio median 2.3x, max 9.3x.
+  --step 0.05 --cases 0 --pairs 45 --seed 404 (a fresh dense sample): 36/45 both named, lenient
+  42/45, held-out within 20 % 36/36; on the code before the session CPU median 3.6 s, max 17.3 s
+  (index 21: a settled bearing and a changed restraint, three spans, five tiltmeters, 1406
+  readings per crossing; one above 15 s); after, the same verdicts, median 3.8 s, max 13.4 s,
+  none above 15 s; ratio max 7.7x.  Alone, best of three: index 21 11.8 -> 9.4 s, index 27
+  12.7 -> 8.7 s.  The unseen random pairs are also scored against the optimal test's limit in
+  pairs_limit.py (--unseen 90: oracle 83 %, diagnosis 77 %).
 """
 
 import os
