@@ -78,7 +78,6 @@ class BinnedCrossing(Crossing):
         out /= self.noise.std.reshape((s,) + (1,) * (values.ndim - 2))
         return out
 
-
     def outer_to_bins(self, sensors, loads):
         """:meth:`to_bins_first` of the columns ``sensors[:, None, :] * loads[None, :, :]`` as such a product.
 
