@@ -46,7 +46,7 @@ def log_ei_factors(items, kept):
     out = [None] * len(items)
     for members, lines, mapped, offsets in mapped_groups(items, kept):
         interpolant = lines.interpolant
-        table = (interpolant._kernel.reshape(-1, interpolant.n_sensors, interpolant.n_elements)
+        table = (interpolant.kernel_table.reshape(-1, interpolant.n_sensors, interpolant.n_elements)
                  * (-1.0 / lines.ei))
         for j, k in enumerate(members):
             out[k] = LogEIFactor(mapped, slice(offsets[j], offsets[j + 1]), table, 1.0 / items[k][2].noise.std)

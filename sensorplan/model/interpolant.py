@@ -126,6 +126,11 @@ class LineInterpolant:
         self._reactions = np.ascontiguousarray(load_reactions[springs].T)  # (2n, n_springs)
         self._both = np.concatenate([self._predictions, self._reactions], axis=1)  # (2n, S + n_springs)
 
+    @property
+    def kernel_table(self):
+        """The kernel's tables over the breakpoints' values and slopes (2n, S E), as :meth:`kernel` reads them."""
+        return self._kernel
+
     def scaled(self, factor):
         """The interpolant at EI x ``factor``, without a solve, on a bridge without elastic springs (else None).
 
