@@ -8,7 +8,7 @@ what their model depends on (positions, load factors, rows), ONE value-keyed
 :class:`~sensorplan._cache.Cache` and the assembly of the normal equations.
 A subclass gives its parameters and, per group, the whitened predictions and
 Jacobian (:meth:`WhitenedProblem.whitened_model`); or it overrides
-:meth:`WhitenedProblem.evaluate` and accumulates through
+:meth:`WhitenedProblem.linearise` and accumulates through
 :class:`~.normal.NormalEquations` itself.  What a problem must offer to the
 steps (:mod:`.steps`) and to the hyperparameter methods is
 :class:`LinearisedProblem`.
@@ -120,7 +120,7 @@ class WhitenedProblem:
     arrays) and ``cache`` (the problem's one :class:`~sensorplan._cache.Cache`,
     ``cache_size`` entries, emptied by :meth:`clear_cache`).  A subclass sets
     ``n_params`` and implements :meth:`whitened_model`, or overrides
-    :meth:`evaluate`.
+    :meth:`linearise`.
     """
 
     cache_size: int | None = 8
@@ -167,14 +167,24 @@ class WhitenedProblem:
         if not np.all(np.isfinite(theta)):
             return None
         try:
-            model = self.whitened_model(theta, jacobian=jacobian)
+            lin = self.linearise(theta, jacobian=jacobian)
         except ConfigError:  # a trial step made the model invalid (e.g. an unstable bridge): reject it
             return None
-        if model is None:
-            return None
-        lin = self.normal_equations(model, jacobian=jacobian)
-        self.cache.put((), lin, key=key)
+        if lin is not None:
+            self.cache.put((), lin, key=key)
         return lin
+
+    def linearise(self, theta, *, jacobian=True):
+        """The :class:`~.normal.Linearisation` at a finite ``theta``, uncached (None: outside the domain).
+
+        By default :meth:`normal_equations` of :meth:`whitened_model`; a
+        problem whose blocks are not groups of crossings (columns per
+        crossing, factored terms) overrides this and accumulates through
+        :class:`~.normal.NormalEquations` itself, keeping :meth:`evaluate`'s
+        cache and domain checks.
+        """
+        model = self.whitened_model(theta, jacobian=jacobian)
+        return None if model is None else self.normal_equations(model, jacobian=jacobian)
 
     def normal_equations(self, model, *, jacobian=True):
         """r.r, J^T J and J^T r from the groups' whitened predictions and Jacobians (``whitened_model``).
