@@ -33,7 +33,7 @@ _EXPORTS = {
     "Identifiability": "model.fisher", "identifiability": "model.fisher",
     "Informativeness": "model.fisher", "informativeness": "model.fisher",
     "DetectabilityMap": "detection.results", "detectability": "detection.detectability",
-    "DamageDetection": "detection.scan", "detect_damage": "detection.scan",
+    "DamageDetection": "detection.scan", "detect_damage": "inference.detector",
     "PosteriorResult": "inference.posterior", "CrossingFit": "inference.posterior", "invert": "inference.inversion",
     "GaussianMixture": "inference.mixture",
     "DesignResult": "design.results", "Baseline": "design.results", "SolverStats": "design.results",

@@ -3,7 +3,8 @@
 Null hypothesis: the undamaged bridge under the nuisance (by default a
 smooth within-span variation log EI = log EI_nominal + a + b x + c x^2 per
 span, and the log stiffness of every elastic spring), fitted to the data by
-Gauss-Newton.  Alternatives: a loss of relative compliance r > 0 over a zone
+Gauss-Newton (:class:`sensorplan.inference.detector.NullProblem`, which
+passes the fit to :func:`scan_null_fit`).  Alternatives: a loss of relative compliance r > 0 over a zone
 [c - l/2, c + l/2] for centres c and lengths l scanned over the bridge
 (several lengths).  For each zone h the one-sided score
 
@@ -32,7 +33,7 @@ the true one (only about r times the length is well determined), so the
 95 % interval of s is taken from the mixture over all zones and lengths
 (its 2.5 and 97.5 % quantiles), which carries that ambiguity.
 
-Owns: the null fit under the nuisance, the scan, the threshold, the estimates.
+Owns: the scan of a fitted null model, the threshold, the estimates, :class:`DamageDetection`.
 May import: model and the foundations.
 """
 
@@ -42,9 +43,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._errors import ConfigError
-from .nuisance import nuisance_matrix
 
-__all__ = ["DamageDetection", "detect_damage", "scan_lengths"]
+__all__ = ["DamageDetection", "scan_lengths", "zone_lengths", "check_scan_options", "scan_null_fit"]
 
 _MIN_LENGTH = 0.5  # m, shortest zone scanned
 
@@ -156,139 +156,40 @@ def _overlap(mesh, zones):
     return np.clip(hi - lo, 0.0, None) / mesh.lengths[None, :]
 
 
-class _NullModel:
-    """Whitened data and the model under the nuisance: log EI = log EI_0 + P eta, log k = log k_0 + eta_k."""
-
-    def __init__(self, case, crossings, nuisance):
-        self.case = case
-        index = [case.sensors.names.index(n) for n in crossings.sensor_names]
-        self.sensors = case.sensors.subset(index)
-        if case.noise is None:
-            raise ConfigError("Damage detection needs the sensors' noise std (noise_std in [sensors]).")
-        self.noise = case.noise.subset(index)
-        self.crossings = crossings
-        self.p_ei = nuisance_matrix(case.bridge, case.mesh, nuisance)
-        self.n_springs = len(case.bridge.spring_names)
-        self.n_params = self.p_ei.shape[1] + self.n_springs
-        self.white = [self.noise.whiten(c.values, c.positions).ravel() for c in crossings]
-
-    def state(self, eta):
-        n = self.p_ei.shape[1]
-        ei = self.case.ei * np.exp(self.p_ei @ eta[:n])
-        bridge = self.case.bridge
-        if self.n_springs:
-            bridge = bridge.with_spring_stiffness(bridge.spring_stiffness() * np.exp(eta[n:]))
-        return ei, bridge
-
-    def evaluate(self, eta):
-        """Whitened residual, whitened nuisance Jacobian and whitened compliance Jacobian (stacked)."""
-        ei, bridge = self.state(eta)
-        lines = {}
-        res, jac, comp = [], [], []
-        for c, white in zip(self.crossings, self.white):
-            key = c.positions.tobytes()
-            if key not in lines:
-                lines[key] = self.case.influence_lines(ei, sensors=self.sensors, positions=c.positions, bridge=bridge)
-            ln = lines[key]
-            lf = c.load_factor[None, :]
-            pred = self.noise.whiten(ln.predictions * lf, c.positions).ravel()
-            j_log = ln.jacobian("log_ei") * lf[..., None]
-            cols = [j_log @ self.p_ei]
-            if self.n_springs:
-                cols.append(ln.spring_log_jacobian * lf[..., None])
-            j = self.noise.whiten(np.concatenate(cols, axis=2), c.positions)
-            res.append(white - pred)
-            jac.append(j.reshape(-1, self.n_params))
-            # d y / d r_e for a relative compliance increase of element e: v_e * dy/dv_e
-            comp.append(self.noise.whiten(ln.kernel * (lf[..., None] / ei), c.positions).reshape(-1, ei.size))
-        return np.concatenate(res), np.concatenate(jac), np.concatenate(comp)
-
-    def fit(self, max_iter=30, prior_std=(1.0, 3.0)):
-        """Gauss-Newton (with step halving) for the nuisance parameters; returns the final evaluation.
-
-        A weak Gaussian prior (std ``prior_std`` on the log-EI coefficients and
-        on the spring log stiffnesses) keeps directions the data do not see
-        (an unobservable spring, say) finite; the scan projects the nuisance
-        off exactly, so the prior only fixes the point of linearisation.
-        """
-        n_ei = self.p_ei.shape[1]
-        ridge = np.concatenate([np.full(n_ei, 1.0 / prior_std[0]), np.full(self.n_springs, 1.0 / prior_std[1])])
-        eta = np.zeros(self.n_params)
-        res, jac, comp = self.evaluate(eta)
-        cost = float(res @ res)
-        for _ in range(max_iter):
-            step, *_ = np.linalg.lstsq(np.vstack([jac, np.diag(ridge)]), np.concatenate([res, -ridge * eta]),
-                                       rcond=None)
-            improved = False
-            for _ in range(20):
-                trial = eta + step
-                try:
-                    t_res, t_jac, t_comp = self.evaluate(trial)
-                except ConfigError:  # a trial step made a spring unstable
-                    step = 0.5 * step
-                    continue
-                t_cost = float(t_res @ t_res) + float(np.sum((ridge * trial) ** 2))
-                if t_cost <= cost:
-                    improved = True
-                    break
-                step = 0.5 * step
-            if not improved:
-                break
-            decrease = cost - t_cost
-            eta, res, jac, comp, cost = trial, t_res, t_jac, t_comp, t_cost
-            if decrease <= 1e-10 * max(cost, 1e-300):
-                break
-        return eta, res, jac, comp
-
-
-def detect_damage(case, crossings, *, false_alarm=0.05, nuisance="smooth", lengths=None, n_null=20000,
-                  rng=0, max_loss=1.0):
-    """Scan test for a local loss of unknown location and length (see the module docstring).
-
-    Parameters
-    ----------
-    case : Case
-        Nominal model, mesh (the zones' signatures are integrated over its
-        elements), sensors and noise.
-    crossings : Crossings
-    false_alarm : float
-        False-alarm rate of the test on undamaged bridges.
-    nuisance : {"smooth", "levels"}
-        What an undamaged bridge may do: a quadratic log EI per span, or one
-        factor per span (plus the elastic springs either way).
-    lengths : sequence of float, optional
-        Zone lengths [m] (default :func:`scan_lengths`).
-    n_null : int
-        Null draws of the threshold simulation.
-    rng : seed or Generator
-    max_loss : float
-        Upper end of the uniform prior of the lost fraction in the estimates.
-
-    Returns
-    -------
-    DamageDetection
-    """
+def check_scan_options(*, false_alarm, max_loss):
+    """Refuse a false-alarm rate outside (0, 0.5) or a largest loss outside (0, 1]."""
     if not 0.0 < max_loss <= 1.0:
         raise ConfigError(f"The 'max_loss' parameter must be in (0, 1]. Got {max_loss!r} instead.")
     if not 0.0 < false_alarm < 0.5:
         raise ConfigError(f"The 'false_alarm' rate must be in (0, 0.5). Got {false_alarm!r} instead.")
-    rng = np.random.default_rng(rng)
+
+
+def zone_lengths(case, lengths=None):
+    """The zone lengths scanned: ``lengths`` checked to lie inside the bridge, or :func:`scan_lengths`."""
     lengths = scan_lengths(case.bridge, case.mesh) if lengths is None else tuple(float(x) for x in lengths)
     if any(not 0.0 < x < case.bridge.length for x in lengths):
         raise ConfigError(f"Zone lengths must be in (0, {case.bridge.length:g}) m. Got {lengths!r}.")
-    model = _NullModel(case, crossings, nuisance)
-    _, res, jac, comp = model.fit()
-    m = res.size
+    return lengths
+
+
+def scan_null_fit(case, residual, jacobian, compliance, *, false_alarm, nuisance, lengths, n_null, rng, max_loss):
+    """The scan test on a fitted null model (see the module docstring); returns a :class:`DamageDetection`.
+
+    ``residual`` (N,), ``jacobian`` (N, P) and ``compliance`` (N, n_elements):
+    the whitened residual, nuisance columns and compliance columns at the
+    null fit; ``rng`` a Generator.
+    """
+    m = residual.size
     # noise scale of the null fit; floored at half the configured noise so that noise-free
     # (simulated) data give finite scores (a conservative choice: a larger alpha lowers them)
-    alpha = max(math.sqrt(float(res @ res) / max(m - model.n_params, 1)), 0.5)
+    alpha = max(math.sqrt(float(residual @ residual) / max(m - jacobian.shape[1], 1)), 0.5)
     # Everything the scan needs lives in the element space: with K = C^T (I - P) C the projected Gram
     # matrix of the whitened compliance columns C and c = C^T (I - P) e, a zone with element fractions o
     # has ||u||^2 = o^T K o and u^T e = o^T c (P the projector onto the nuisance columns).
-    q, _ = np.linalg.qr(jac)
-    cq = comp.T @ q
-    gram = comp.T @ comp - cq @ cq.T
-    c_res = comp.T @ res - cq @ (q.T @ res)
+    q, _ = np.linalg.qr(jacobian)
+    cq = compliance.T @ q
+    gram = compliance.T @ compliance - cq @ cq.T
+    c_res = compliance.T @ residual - cq @ (q.T @ residual)
     zones, norms, proj = _signatures(case.mesh, _zones(case.bridge, case.mesh, lengths), gram, c_res)
     scores = proj / (alpha * norms)
     statistic = float(scores.max())
@@ -297,18 +198,22 @@ def detect_damage(case, crossings, *, false_alarm=0.05, nuisance="smooth", lengt
     p_value = float((1 + np.sum(null_max >= statistic)) / (1 + null_max.size))
     weights, grid, density = _zone_posteriors(proj, norms, alpha, zones, max_loss)
     detected = statistic > threshold
-    centre = length = centre_ci = loss = loss_ci = None
-    if detected:  # the estimates, on a finer family of zones (zone edges are not snapped to a grid)
-        fine, n_fine, p_fine = _signatures(case.mesh, _estimate_zones(case.bridge, case.mesh, lengths), gram, c_res)
-        log_prior = _log_prior(fine)
-        keep = _plausible(p_fine, n_fine, alpha, log_prior, max_loss)  # the rest carry < e^-40 of the weight
-        centre, length, centre_ci, loss, loss_ci = _estimates(
-            fine[keep], *_zone_posteriors(p_fine[keep], n_fine[keep], alpha, fine[keep], max_loss, log_prior[keep]),
-            half=float(np.min(fine[:, 1] - fine[:, 0])))
+    estimates = (None,) * 5
+    if detected:
+        estimates = _fine_estimates(case, lengths, gram, c_res, alpha, max_loss)
     moments = np.column_stack([density @ grid, np.sqrt(np.clip(density @ grid**2 - (density @ grid) ** 2, 0, None))])
-    return DamageDetection(bool(detected), float(false_alarm), statistic, threshold, p_value, centre, length,
-                           centre_ci, loss, loss_ci, zones, scores, weights, moments,
-                           nuisance, float(alpha))
+    return DamageDetection(bool(detected), float(false_alarm), statistic, threshold, p_value, *estimates,
+                           zones, scores, weights, moments, nuisance, float(alpha))
+
+
+def _fine_estimates(case, lengths, gram, c_res, alpha, max_loss):
+    """Centre, length, centre interval, loss, loss interval on the finer family of zones (edges not snapped to a grid)."""
+    fine, n_fine, p_fine = _signatures(case.mesh, _estimate_zones(case.bridge, case.mesh, lengths), gram, c_res)
+    log_prior = _log_prior(fine)
+    keep = _plausible(p_fine, n_fine, alpha, log_prior, max_loss)  # the rest carry < e^-40 of the weight
+    return _estimates(fine[keep], *_zone_posteriors(p_fine[keep], n_fine[keep], alpha, fine[keep], max_loss,
+                                                     log_prior[keep]),
+                      half=float(np.min(fine[:, 1] - fine[:, 0])))
 
 
 def _signatures(mesh, zones, gram, c_res):

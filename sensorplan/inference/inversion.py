@@ -29,11 +29,11 @@ import numpy as np
 
 from .._errors import ConfigError, DataError, SensorplanWarning
 from .._threads import single_threaded
-from ..detection.scan import detect_damage
 from ..model.crossings import Crossings
 from ..model.prior import GMRFPrior, HyperPrior
 from .checks import fit_warnings
 from .damage import damage_hypotheses
+from .detector import detect_damage
 from .ei_problem import EIProblem, prior_matrices
 from .hyperposterior import BOUND_MASS, LOG_TAU_BOUNDS, integrate_problem
 from .laplace import fit_problem

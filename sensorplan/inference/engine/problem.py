@@ -27,7 +27,7 @@ from ..._errors import ConfigError
 from ...model.noise import NoiseModel
 from .normal import Linearisation, NormalEquations
 
-__all__ = ["LinearisedProblem", "CrossingGroup", "WhitenedProblem", "crossing_groups", "data_sensors",
+__all__ = ["LinearisedProblem", "StackedProblem", "Stacked", "CrossingGroup", "WhitenedProblem", "crossing_groups", "data_sensors",
            "DEFAULT_STD"]
 
 DEFAULT_STD = {"rotation": 1e-6, "deflection": 1e-4}
@@ -47,6 +47,27 @@ class LinearisedProblem(Protocol):
     log_det_noise: float
 
     def evaluate(self, theta: np.ndarray, *, jacobian: bool = True) -> Linearisation | None: ...
+
+
+@dataclass(frozen=True, eq=False)
+class Stacked:
+    """A problem's whitened residual (N,) and Jacobian dF/dtheta (N, P) stacked over its rows.
+
+    ``extra``: further columns a problem returns with them (None if none).
+    """
+
+    residual: np.ndarray
+    jacobian: np.ndarray
+    extra: np.ndarray | None = None
+
+
+class StackedProblem(Protocol):
+    """What :func:`~.steps.ridge_gauss_newton` asks of a problem: its :class:`Stacked` rows at ``theta``.
+
+    ``stacked`` raises ConfigError where the model is undefined.
+    """
+
+    def stacked(self, theta: np.ndarray) -> Stacked: ...
 
 
 def data_sensors(case, names):

@@ -5,6 +5,9 @@ of a parameter vector and its normal-equation terms; the prior is Gaussian,
 precision ``q`` about ``theta0``, and ``alpha`` scales the noise.
 :func:`solve_map` finds the MAP of |r|^2 / (2 alpha^2) + (theta - theta0)^T q
 (theta - theta0) / 2, :func:`log_evidence` is the Laplace evidence there.
+:func:`ridge_gauss_newton` is the plain Gauss-Newton iteration of a problem
+whose stacked residual and Jacobian are wanted as well (the detector's null
+fit, :class:`~.problem.StackedProblem`).
 
 Owns: the MAP iteration, the secant curvature, the Laplace evidence.  May import: errors.
 """
@@ -15,9 +18,9 @@ import warnings
 import numpy as np
 import scipy.linalg
 
-from ..._errors import DataError
+from ..._errors import ConfigError, DataError
 
-__all__ = ["LOG_NOISE_FLOOR", "STALL_STEPS", "SecantCurvature", "solve_map", "log_evidence"]
+__all__ = ["LOG_NOISE_FLOOR", "STALL_STEPS", "SecantCurvature", "solve_map", "log_evidence", "ridge_gauss_newton"]
 
 # Floor of log alpha (estimated / configured noise): noise-free data (as `simulate` without --noise writes them)
 # would drive alpha to 0 and the evidence to a division by zero; the floor keeps the estimate at 1e-3 of the
@@ -180,3 +183,47 @@ def log_evidence(problem, lin, theta, theta0, alpha, q):
     m = problem.n_data
     return float(-0.5 * lin.rr / alpha**2 - 0.5 * d @ q @ d - 0.5 * logdet_h + 0.5 * logdet_q
                  - m * math.log(alpha) - 0.5 * problem.log_det_noise - 0.5 * m * math.log(2 * math.pi))
+
+
+def ridge_gauss_newton(problem, theta, ridge, *, max_iter=30, halvings=20, rtol=1e-10):
+    """Gauss-Newton with step halving on |r(theta)|^2 + |ridge * theta|^2; returns (theta, evaluation).
+
+    ``problem.stacked(theta)`` (:class:`~.problem.StackedProblem`) gives the
+    whitened ``residual`` (N,) and ``jacobian`` (N, P) = dF/dtheta; a
+    ConfigError there marks a point outside the model's domain.  Each step
+    solves the stacked least-squares problem [J; diag(ridge)] s = [r;
+    -ridge theta] (the ridge is a Gaussian prior of std 1 / ridge about
+    theta = 0 that keeps directions the data do not see finite) and is halved
+    (at most ``halvings`` times) until the objective does not rise.  Stops
+    when no halved step is accepted, the objective falls by at most ``rtol``
+    of itself, or after ``max_iter`` steps.  ``evaluation`` is the problem's
+    evaluation at the returned theta.
+    """
+    evaluation = problem.stacked(theta)
+    res = evaluation.residual
+    cost = float(res @ res)
+    for _ in range(max_iter):
+        step, *_ = np.linalg.lstsq(np.vstack([evaluation.jacobian, np.diag(ridge)]),
+                                   np.concatenate([res, -ridge * theta]), rcond=None)
+        accepted = None
+        for _ in range(halvings):
+            trial = theta + step
+            try:
+                trial_evaluation = problem.stacked(trial)
+            except ConfigError:  # a trial step left the model's domain (an unstable spring)
+                step = 0.5 * step
+                continue
+            trial_res = trial_evaluation.residual
+            trial_cost = float(trial_res @ trial_res) + float(np.sum((ridge * trial) ** 2))
+            if trial_cost <= cost:
+                accepted = trial_evaluation
+                break
+            step = 0.5 * step
+        if accepted is None:
+            break
+        decrease = cost - trial_cost
+        theta, evaluation, cost = trial, accepted, trial_cost
+        res = evaluation.residual
+        if decrease <= rtol * max(cost, 1e-300):
+            break
+    return theta, evaluation
