@@ -234,3 +234,28 @@ def test_screening_keeps_ordinary_crossings():
         data = simulate_crossings(case, 10, noise=True, rng=seed)
         kept, excluded, _ = screen_crossings(data)
         assert excluded == () and len(kept) == 10
+
+
+def test_engine_normal_equations_equal_the_stacked_problem():
+    # The engine forms r.r, J^T J and J^T r from groups of crossings (equal positions and load factors share
+    # one whitened Jacobian); reference: the same sums over the stacked rows of every crossing, here the
+    # detector's null model, whose stacked residual and Jacobian are formed crossing by crossing.
+    from sensorplan.inference.detector import NullProblem
+
+    case = example_case("three-span")
+    data = simulate_crossings(case, 3, noise=True, rng=8)
+    c = data.crossings[0]
+    doubled = Crossing("4", c.positions, 2.0 * c.values, np.full(c.n_loads, 2.0))
+    data = Crossings(data.sensor_names, data.crossings + (doubled,))
+    problem = NullProblem(case, data, nuisance="smooth")
+    assert [g.members for g in problem.groups] == [(0, 1, 2), (3,)]
+    eta = np.linspace(-0.05, 0.05, problem.n_params)
+    lin, stacked = problem.evaluate(eta), problem.stacked(eta)
+    np.testing.assert_allclose(lin.rr, stacked.residual @ stacked.residual, rtol=1e-12)
+    np.testing.assert_allclose(lin.jtr, stacked.jacobian.T @ stacked.residual, rtol=1e-10,
+                               atol=1e-12 * np.abs(lin.jtr).max())
+    np.testing.assert_allclose(lin.jtj, stacked.jacobian.T @ stacked.jacobian, rtol=1e-12)
+    # one cache, keyed by the value of theta, emptied by one call
+    assert problem.evaluate(eta.copy()) is lin and problem.evaluate(eta, jacobian=False) is lin
+    problem.clear_cache()
+    assert len(problem.cache) == 0 and problem.evaluate(eta) is not lin

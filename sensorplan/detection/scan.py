@@ -207,7 +207,7 @@ def scan_null_fit(case, residual, jacobian, compliance, *, false_alarm, nuisance
 
 
 def _fine_estimates(case, lengths, gram, c_res, alpha, max_loss):
-    """Centre, length, centre interval, loss, loss interval on the finer family of zones (edges not snapped to a grid)."""
+    """Centre, length, centre interval, loss and loss interval on the finer family of zones (edges off the grid)."""
     fine, n_fine, p_fine = _signatures(case.mesh, _estimate_zones(case.bridge, case.mesh, lengths), gram, c_res)
     log_prior = _log_prior(fine)
     keep = _plausible(p_fine, n_fine, alpha, log_prior, max_loss)  # the rest carry < e^-40 of the weight

@@ -112,9 +112,9 @@ def damage_hypotheses(weights, thetas, covariances, taus, noise_scales, theta0, 
     theta0 : ndarray (P,)
         Prior mean (nominal log EI and log spring stiffnesses).
     information : ndarray (P, P)
-        J^T J of the whitened data at the posterior mean (divided by alpha_k^2
-        per component): the precisions are rebuilt as J^T J / alpha_k^2 + Q
-        rather than inverted from C_k, which loses accuracy when tau is large.
+        J^T J of the whitened data at the posterior mean (divided by alpha_k^2 per component): the
+        precisions are rebuilt as J^T J / alpha_k^2 + Q rather than inverted from C_k, which loses
+        accuracy when tau is large.
     prior : GMRFPrior
     n_elements : int
     edges : ndarray (n_elements + 1,)
@@ -126,23 +126,38 @@ def damage_hypotheses(weights, thetas, covariances, taus, noise_scales, theta0, 
     loss_log_std : float
         Std of the half-normal prior of the loss's step in log EI.
     min_information : float
-        A zone enters when the data make the precision of its step at least
-        this multiple of the prior's.
+        A zone enters when the data make the precision of its step at least this multiple of the prior's.
     keep, max_components :
-        Components are kept, largest weight first, up to this share of the
-        total weight and at most this many.
+        Components are kept, largest weight first, up to this share of the total weight and at most this many.
 
     Returns
     -------
     (weights, thetas, covariances, component_index, zone_index, damage_probability)
-        The extended mixture (component_index: the undamaged component each new
-        component comes from; zone_index: -1 for the undamaged ones) and the
-        posterior probability of a damaged zone.
+        The extended mixture (component_index: the undamaged component each new component comes from;
+        zone_index: -1 for the undamaged ones) and the posterior probability of a damaged zone.
     """
     n_params = thetas.shape[1]
     fractions = np.zeros((len(zones), n_params))
     fractions[:, :n_elements] = zone_fractions(edges, zones)
     fractions = fractions[fractions[:, :n_elements].sum(axis=1) > 0]
+    log_w, comp, zone, steps = _hypotheses(weights, thetas, taus, noise_scales, theta0, information, prior=prior,
+                                           n_elements=n_elements, fractions=fractions, prior_damage=prior_damage,
+                                           loss_log_std=loss_log_std, min_information=min_information)
+    w = np.exp(log_w - log_w.max())
+    w /= w.sum()
+    damage_probability = float(w[zone >= 0].sum())
+    order = np.argsort(-w)
+    n_keep = min(int(np.searchsorted(np.cumsum(w[order]), keep) + 1), max_components)
+    chosen = np.sort(order[:n_keep])
+    new_thetas, new_covs = _moment_matched(chosen, comp, zone, thetas, covariances, steps)
+    w = w[chosen] / w[chosen].sum()
+    return w, new_thetas, new_covs, comp[chosen], zone[chosen], damage_probability
+
+
+def _hypotheses(weights, thetas, taus, noise_scales, theta0, information, *, prior, n_elements, fractions,
+                prior_damage, loss_log_std, min_information):
+    """Log weights, source component and zone (-1: undamaged) of every hypothesis, and each component's steps."""
+    n_params = thetas.shape[1]
     n_zones = max(fractions.shape[0], 1)
     log_w, comp, zone, steps = [], [], [], {}
     roughness = np.zeros((n_params, n_params))
@@ -156,7 +171,7 @@ def damage_hypotheses(weights, thetas, covariances, taus, noise_scales, theta0, 
             continue
         q_k = taus[k] * roughness + fixed  # prior.precision at tau_k
         log_bf, x, e_s, var_s, visible = step_evidence(information / noise_scales[k] ** 2, q_k, thetas[k], theta0,
-                                              fractions, loss_log_std, min_information)
+                                                       fractions, loss_log_std, min_information)
         steps[k] = (x, e_s, var_s)
         seen = np.flatnonzero(visible)
         # zones the data do not see keep their prior mass in the undamaged component (see the docstring)
@@ -165,14 +180,11 @@ def damage_hypotheses(weights, thetas, covariances, taus, noise_scales, theta0, 
         log_w.extend(np.log(weights[k]) + np.log(prior_damage / n_zones) + log_bf[seen])
         comp.extend([k] * seen.size)
         zone.extend(seen)
-    log_w = np.asarray(log_w)
-    w = np.exp(log_w - log_w.max())
-    w /= w.sum()
-    comp, zone = np.asarray(comp), np.asarray(zone)
-    damage_probability = float(w[zone >= 0].sum())
-    order = np.argsort(-w)
-    n_keep = min(int(np.searchsorted(np.cumsum(w[order]), keep) + 1), max_components)
-    chosen = np.sort(order[:n_keep])
+    return np.asarray(log_w), np.asarray(comp), np.asarray(zone), steps
+
+
+def _moment_matched(chosen, comp, zone, thetas, covariances, steps):
+    """Means and covariances of the ``chosen`` hypotheses (a damaged one: moment-matched over its step)."""
     new_thetas, new_covs = [], []
     for i in chosen:
         k, h = comp[i], zone[i]
@@ -183,5 +195,4 @@ def damage_hypotheses(weights, thetas, covariances, taus, noise_scales, theta0, 
         x, e_s, var_s = steps[k]
         new_thetas.append(thetas[k] + e_s[h] * x[:, h])
         new_covs.append(covariances[k] + var_s[h] * np.outer(x[:, h], x[:, h]))
-    w = w[chosen] / w[chosen].sum()
-    return w, np.asarray(new_thetas), np.asarray(new_covs), comp[chosen], zone[chosen], damage_probability
+    return np.asarray(new_thetas), np.asarray(new_covs)

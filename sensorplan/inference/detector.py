@@ -14,7 +14,6 @@ Owns: the null model and :func:`detect_damage`.  May import: model, detection, t
 
 import numpy as np
 
-from .._errors import ConfigError
 from ..detection.nuisance import nuisance_matrix
 from ..detection.scan import check_scan_options, scan_null_fit, zone_lengths
 from .engine import Stacked, WhitenedProblem, ridge_gauss_newton
@@ -27,12 +26,11 @@ class NullProblem(WhitenedProblem):
 
     Parameters: eta, the nuisance coefficients of log EI (the columns of
     :func:`~sensorplan.detection.nuisance.nuisance_matrix`) then the springs'
-    log-stiffness changes, all zero at the nominal model.
+    log-stiffness changes, all zero at the nominal model.  The noise is the
+    engine's (:func:`~.engine.data_sensors`); the scan estimates its scale.
     """
 
     def __init__(self, case, crossings, *, nuisance):
-        if case.noise is None:
-            raise ConfigError("Damage detection needs the sensors' noise std (noise_std in [sensors]).")
         super().__init__(case, crossings)
         self.p_ei = nuisance_matrix(case.bridge, case.mesh, nuisance)
         self.n_springs = len(case.bridge.spring_names)

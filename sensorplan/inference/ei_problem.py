@@ -62,6 +62,11 @@ class EIProblem(WhitenedProblem):
                               f"Got {parameterisation!r} instead.")
         self.n_evaluations = 0
 
+    @property
+    def inversion_case(self):
+        """The case on the inversion mesh (the case itself when the mesh is the case's)."""
+        return self.case if self.mesh is self.case.mesh else self.case.with_mesh(self.mesh)
+
     def split(self, theta):
         """EI per element and the bridge with the springs of ``theta`` ((None, None) for a non-positive compliance)."""
         n = self.n_elements

@@ -6,10 +6,9 @@ the noise scale alpha) and are integrated out instead of being estimated:
 
     p(theta | y) = int p(theta | y, tau) p(log tau | y) d log tau.
 
-* At a fixed tau the noise scale is integrated by Laplace's method in
-  v = log alpha (its posterior is very narrow: the curvature is about 2M
-  for M readings), and p(theta | y, tau) is the Laplace posterior at the
-  MAP with alpha at its conditional mode.
+* At a fixed tau the noise scale is integrated by Laplace's method in v = log alpha (its posterior
+  is very narrow: the curvature is about 2M for M readings), and p(theta | y, tau) is the Laplace
+  posterior at the MAP with alpha at its conditional mode.
 * The hyper-posterior p(log tau | y) is proportional to the Laplace
   evidence times both hyperpriors.  It is integrated by the trapezoidal
   rule on an equispaced grid of log tau (spectrally accurate for a smooth
@@ -69,8 +68,7 @@ class _Context:
     n_data: int
     constant: float  # -log det(Sigma_0) / 2 - M log(2 pi) / 2
     gauss_newton_max_iter: int | None = None  # evaluations before the LM fallback (None: max_iter)
-    # Nodes differ only in tau: once Gauss-Newton has failed on one (a model too nonlinear for its
-    # steps), the others go straight to the fallback instead of spending the budget again.
+    # nodes differ only in tau: once Gauss-Newton failed on one, the others go straight to the fallback
     gauss_newton_failed: list = field(default_factory=list)
     atol: float = 0.0  # the fallback's absolute Newton-decrement tolerance (solve_map's atol)
     curvature: object = None  # the fallback's SecantCurvature, carried from node to node (or None)
@@ -174,10 +172,9 @@ def _objective(lin, theta, sl, v, theta0):
 def _gauss_newton(ctx, x, lin, log_tau, v, max_iter):
     """Gauss-Newton from ``x`` with a backtracking (Armijo) line search on the negative log posterior.
 
-    Returns the node once the next step's decrement is below NODE_TOL (its
-    MAP is that next step), or None when no step decreases the objective or
-    ``max_iter`` evaluations are spent; also the number of evaluations and
-    the last point accepted (where a fallback starts).
+    Returns the node once the next step's decrement is below NODE_TOL (its MAP is that next step), or None
+    when no step decreases the objective or ``max_iter`` evaluations are spent; also the number of
+    evaluations and the last point accepted (where a fallback starts).
     """
     n_iter = 0
     while lin is not None and n_iter < max_iter:
@@ -345,7 +342,7 @@ def _march(ctx, centre, step, *, max_iter, tol):
 
 def integrate_problem(problem, rough, fixed, theta0, hyperprior, *, noise_scale=1.0, tau=1.0, start=None,
                       max_iter=100, tol=1e-10, gauss_newton_max_iter=None, atol=0.0, secant=False):
-    """Posterior mixture over log tau (alpha integrated by Laplace) of any problem with ``evaluate``.
+    """Posterior mixture over log tau (alpha integrated by Laplace) of any :class:`~.engine.LinearisedProblem`.
 
     ``hyperprior`` provides ``log_density_log_tau``, ``log_density_log_noise``
     and ``noise_log_std``; ``noise_scale`` and ``tau`` are start values.
@@ -396,9 +393,8 @@ def integrate_problem(problem, rough, fixed, theta0, hyperprior, *, noise_scale=
         if denom < 0.0:
             log_tau_mode += 0.5 * step * (a - c) / denom
     log_evidence = float(log_w.max() + math.log(np.sum(np.exp(log_w - log_w.max())) * step))
-    # converged: every node of the mixture.  The start node only seeds the search for the mode (it is far
-    # from it when the start tau is: a gapped base fit crawled there at the prior's tau while the mixture sat
-    # three orders lower, and the whole diagnosis was flagged)
+    # converged: every node of the mixture (the start node only seeds the search for the mode, far from it
+    # when the start tau is)
     converged = all(n.converged for n in ordered)
     return IntegratedFit(mixture, log_tau_mode, math.exp(v_mode), log_evidence, mass_at_bound, step,
                          bool(converged), int(n_iter))

@@ -101,42 +101,36 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
     parameterisation : {"log_ei", "compliance"}
         ``compliance`` is the linear-Gaussian case of a determinate bridge.
     hyper : {"integrated", "evidence", "fixed", "quasi-optimality", "gcv"}
-        How the noise scale and tau are treated: integrated out under ``hyperprior`` (the posterior is a
-        Gaussian mixture over log tau), or point estimates (evidence maximisation, fixed values,
-        quasi-optimality or GCV).
+        How the noise scale and tau are treated: integrated out under ``hyperprior`` (the posterior is a Gaussian
+        mixture over log tau), or point estimates (evidence maximisation, fixed values, quasi-optimality or GCV).
     hyperprior : HyperPrior, optional
-        Prior of tau and the noise scale for ``"integrated"`` (default ``HyperPrior()``: log-normal prior
-        with median smoothness_std and log std 0.5, log-normal noise scale).
+        Prior of tau and the noise scale for ``"integrated"`` (default ``HyperPrior()``: log-normal prior with
+        median smoothness_std and log std 0.5, log-normal noise scale).
     noise_scale, tau : float
         Start values (``fixed``: the values used).  ``tau`` defaults to the prior's.
     screen : bool
         Exclude crossings that do not match the others (with a warning).
-    mesh : Mesh, optional
-        Inversion mesh (default: the case's).
-    start : array_like, optional
-        Start parameters (default: the nominal).
+    mesh, start : Mesh, array_like, optional
+        Inversion mesh (default: the case's) and start parameters (default: the nominal).
     check_scale : bool or str
-        Refuse data far larger or smaller than the model predicts (a unit slip); a string names the data
-        source in the message.
+        Refuse data far off the model's scale (a unit slip); a string names the data source in the message.
     detect : bool
         Run the damage detector (:func:`sensorplan.detect_damage`) on the data and let the bands average
         over local-loss hypotheses (:mod:`sensorplan.inference.damage`; log-EI parameterisation).
-    false_alarm, nuisance : the detector's false-alarm rate and nuisance.
+    false_alarm, nuisance, rng : the detector's false-alarm rate, nuisance and seed (or Generator).
     damage_prior : float
         Prior probability of a local loss somewhere, in the band averaging.
     damage_log_std : float
         Std of the half-normal prior of a loss's step in log EI (0.5: a 39 % loss at one std); the proper
         prior makes every loss hypothesis pay its Occam factor.
-    rng : seed or Generator of the detector's threshold simulation.
 
     Returns
     -------
     PosteriorResult
-        With ``warnings`` (also emitted as SensorplanWarning) when the fit is not to be trusted: noise scale
-        outside [0.5, 2], tau at the end of its range, or systematic residuals.
+        With ``warnings`` (also emitted as SensorplanWarning) when the fit is not to be trusted: noise scale outside
+        [0.5, 2], tau at the end of its range, or systematic residuals.
     """
-    crossings, excluded = _checked_data(case, crossings, hyper=hyper, check_scale=check_scale, screen=screen,
-                                        mesh=mesh)
+    crossings, excluded = _checked_data(case, crossings, hyper=hyper, check_scale=check_scale, screen=screen, mesh=mesh)
     prior = GMRFPrior() if prior is None else prior
     problem = EIProblem(case, crossings, estimate_springs=estimate_springs and bool(case.bridge.spring_names),
                         parameterisation=parameterisation, mesh=mesh)
@@ -144,8 +138,7 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
                max_iter=max_iter, max_outer=max_outer, tol=tol)
     mixture, detection, probability = fit.mixture, None, None
     if detect and parameterisation == "log_ei":
-        inv_case = case if mesh is None else case.with_mesh(mesh)
-        detection = detect_damage(inv_case, crossings, false_alarm=false_alarm, nuisance=nuisance, rng=rng)
+        detection = detect_damage(problem.inversion_case, crossings, false_alarm=false_alarm, nuisance=nuisance, rng=rng)
         mixture, probability = _with_damage(mixture, problem, prior, detection, damage_prior, damage_log_std)
     return _posterior(problem, fit, mixture, hyper=hyper, excluded=excluded, detection=detection,
                       probability=probability)

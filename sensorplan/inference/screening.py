@@ -2,6 +2,8 @@
 
 import numpy as np
 
+from .._cache import value_key
+
 __all__ = ["screen_crossings", "check_case_data_scale", "check_not_noise_free"]
 
 
@@ -98,21 +100,21 @@ def check_case_data_scale(case, crossings, *, source="data"):
 
     _check_positions(case, crossings, source)
     sensors = case.sensors.subset([case.sensors.names.index(n) for n in crossings.sensor_names])
-    predicted = {}
+    predicted = {}  # the nominal predictions at each distinct set of positions
     for c in crossings:
-        key = c.positions.tobytes()
+        key = value_key(c.positions)
         if key not in predicted:
             predicted[key] = case.influence_lines(sensors=sensors, positions=c.positions).predictions
     for i, name in enumerate(crossings.sensor_names):
         # A channel is dead when its readings stay constant where the model predicts them to change.
         values = np.concatenate([c.values[i] for c in crossings])
-        model = np.concatenate([predicted[c.positions.tobytes()][i] * c.load_factor for c in crossings])
+        model = np.concatenate([predicted[value_key(c.positions)][i] * c.load_factor for c in crossings])
         if (values.size >= 3 and np.ptp(values) <= 1e-12 * np.max(np.abs(values))
                 and np.ptp(model) > 1e-6 * np.max(np.abs(model))):
             raise DataError(f"{source}: column '{name}' is constant ({values[0]:g} in every row) where the model "
                             "predicts it to change: a dead or disconnected channel carries no information; remove "
                             "the column.")
-    nominal = predicted[crossings.crossings[0].positions.tobytes()]
+    nominal = predicted[value_key(crossings.crossings[0].positions)]
     check_data_scale(crossings, dict(zip(crossings.sensor_names, nominal)), crossings.sensor_names,
                      source=source)
     _check_signs(crossings, predicted, source)
@@ -140,7 +142,7 @@ def _check_signs(crossings, predicted, source):
 
     from .._errors import SensorplanWarning
 
-    models = [np.concatenate([predicted[c.positions.tobytes()][i] for c in crossings])
+    models = [np.concatenate([predicted[value_key(c.positions)][i] for c in crossings])
               for i in range(len(crossings.sensor_names))]
     largest = max(float(np.std(m)) for m in models)
     for i, name in enumerate(crossings.sensor_names):

@@ -94,10 +94,15 @@ class Case:
         return replace(self, mesh=mesh, ei=ei)
 
     def with_sensors(self, sensors, noise=None):
-        """The same case with other sensors (noise std taken from ``sensors`` if not given)."""
+        """The same case with other sensors.
+
+        The noise is ``noise`` if given, else ``sensors.noise_std`` (independent
+        noise), else, when the case has a noise model, each sensor gets
+        :meth:`noise_std_for` its kind (the median of the case's sensors of that
+        kind) with the case's correlation length.
+        """
         if noise is None and sensors.noise_std is None and self.noise is not None:
-            noise = NoiseModel(np.full(sensors.n_sensors, float(np.median(self.noise.std))),
-                               self.noise.correlation_length)
+            noise = NoiseModel([self.noise_std_for(kind) for kind in sensors.kinds], self.noise.correlation_length)
         return replace(self, sensors=sensors, noise=noise)
 
     @property

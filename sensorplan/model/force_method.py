@@ -3,47 +3,55 @@
 It is split where EI enters.  :class:`_Frame` holds what depends on the
 supports and the mesh only -- the unknown reactions, their moment diagrams,
 the equilibrium rows and the element products of those diagrams -- and is
-shared by every EI and spring stiffness.  :class:`_ForceMethod` is the
+shared by every EI and spring stiffness.  :class:`ForceMethod` is the
 factorised optimality system at one EI and set of stiffnesses; a fit, which
 changes EI at every step, forms only that part again.  Both are kept for the
-last few keys (:class:`Kept`), so that the lines at one EI asked for several
-times (the crossings' positions, the ends, each axle) cost one factorisation.
+last few inputs (:class:`SharedCache`), so that the lines at one EI asked for
+several times (the crossings' positions, the ends, each axle) cost one
+factorisation.
 
-Owns: the force method.  May import: the diagrams and the errors.
+Owns: the force method, :class:`SharedCache`.  May import: the diagrams and the foundations.
 """
 
 import threading
-from collections import OrderedDict
 
 import numpy as np
 import scipy.linalg
 
+from .._cache import Cache
 from .._errors import ConfigError
 from .diagrams import RAMP, STEP, element_products, end_value_and_slope, point_actions, weighted_products
 
-__all__ = []
+__all__ = ["ForceMethod", "SharedCache", "shared_force_method"]
 
 
-class Kept:
-    """The last ``size`` objects made by ``make()``, by key (thread-safe; made outside the lock)."""
+class SharedCache:
+    """A :class:`~sensorplan._cache.Cache` of ``maxsize`` entries shared by threads (values made outside the lock).
 
-    def __init__(self, size):
-        self.size = size
-        self._store = OrderedDict()
+    The model's module-level memos (frames, force methods, interpolant
+    tables): threads of an executor may ask for the same inputs at once.
+    """
+
+    def __init__(self, maxsize):
+        self.cache = Cache(maxsize=maxsize)
         self._lock = threading.Lock()
 
-    def get(self, key, make):
+    def get(self, parts, make):
+        """The value kept under the values ``parts`` (a tuple), made by ``make()`` if absent."""
+        key = self.cache.key(parts)
         with self._lock:
-            value = self._store.get(key)
-            if value is not None:
-                self._store.move_to_end(key)
-                return value
+            found, value = self.cache.lookup((), key=key)
+        if found:
+            return value
         value = make()
         with self._lock:
-            self._store[key] = value
-            while len(self._store) > self.size:
-                self._store.popitem(last=False)
+            self.cache.put((), value, key=key)
         return value
+
+    def clear(self):
+        """Forget every kept value."""
+        with self._lock:
+            self.cache.clear()
 
 
 class _Frame:
@@ -74,17 +82,16 @@ class _Frame:
         self.constraints = np.vstack([slope_row, value_row / self.length])
 
 
-_FRAMES = Kept(16)
+_FRAMES = SharedCache(16)
 
 
 def _frame(bridge, edges):
     """:class:`_Frame` of ``bridge``'s supports on the mesh ``edges`` (shared by every EI and stiffness)."""
-    key = (np.asarray(bridge.support_positions, float).tobytes(),
-           (np.asarray(bridge.rotational_springs) > 0.0).tobytes(), edges.tobytes())
+    key = ("frame", np.asarray(bridge.support_positions, float), np.asarray(bridge.rotational_springs) > 0.0, edges)
     return _FRAMES.get(key, lambda: _Frame(key, bridge, edges))
 
 
-class _ForceMethod:
+class ForceMethod:
     """Support reactions by minimum complementary energy, for one bridge and EI."""
 
     def __init__(self, bridge, mesh, ei):
@@ -140,14 +147,13 @@ class _ForceMethod:
         return free.plus_linear(x_scaled.T @ self.basis.left, x_scaled.T @ self.basis.right), reactions
 
 
-_METHODS = Kept(8)  # the last few force methods, by (bridge, mesh, EI)
+_METHODS = SharedCache(8)  # the last few force methods, by (bridge, mesh, EI)
 
 
-def _force_method(bridge, mesh, ei):
-    """:class:`_ForceMethod` of ``bridge`` at ``ei``, shared by calls at the same EI.
+def shared_force_method(bridge, mesh, ei):
+    """:class:`ForceMethod` of ``bridge`` at ``ei``, shared by calls at the same bridge, mesh and EI.
 
     A fit asks for the lines at one EI several times (the crossings' load
     positions, the ends, each axle): the factorisation is done once.
     """
-    key = (bridge, mesh.edges.tobytes(), np.asarray(ei, dtype=float).tobytes())
-    return _METHODS.get(key, lambda: _ForceMethod(bridge, mesh, ei))
+    return _METHODS.get((bridge, mesh.edges, np.asarray(ei, dtype=float)), lambda: ForceMethod(bridge, mesh, ei))

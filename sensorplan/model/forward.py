@@ -43,13 +43,13 @@ from .diagrams import (
     Diagrams,
     element_products,
 )
-from .force_method import _force_method, _ForceMethod
+from .force_method import ForceMethod, shared_force_method
 from .loads import LoadSweep, Vehicle
 from .sensors import SensorLayout
 from .structure import Bridge, Mesh
 
 __all__ = ["InfluenceLines", "influence_lines", "response_change", "bending_moments", "support_reactions",
-           "expand_ei"]
+           "expand_ei", "sensor_actions"]
 
 PARAMETERISATIONS = ("compliance", "ei", "log_ei")
 
@@ -152,7 +152,8 @@ def expand_ei(bridge, mesh, ei):
     return arr
 
 
-def _sensor_actions(sensors):
+def sensor_actions(sensors):
+    """Point actions (positions, weights, kinds), each (S, 1), of the sensors' unit couple or unit downward force."""
     kinds = np.array([STEP if k == "rotation" else RAMP for k in sensors.kinds])
     weights = np.where(kinds == STEP, 1.0, -1.0)  # unit couple / unit downward force
     return sensors.positions[:, None], weights[:, None], kinds[:, None]
@@ -208,9 +209,9 @@ def influence_lines(bridge: Bridge, mesh: Mesh, ei: "ArrayLike", sensors: Sensor
     """
     positions = _check_inputs(bridge, mesh, sensors, positions)
     ei = expand_ei(bridge, mesh, ei)
-    method = _force_method(bridge, mesh, ei)
+    method = shared_force_method(bridge, mesh, ei)
     load_diagrams, load_reactions = method.solve(*_load_actions(bridge, vehicle, positions))
-    sensor_diagrams, sensor_reactions = method.solve(*_sensor_actions(sensors))
+    sensor_diagrams, sensor_reactions = method.solve(*sensor_actions(sensors))
     kernel = element_products(mesh.edges, sensor_diagrams, load_diagrams)
     c = method.compliance
     springs = method.spring_unknown
@@ -245,8 +246,8 @@ def response_change(bridge: Bridge, mesh: Mesh, ei: "ArrayLike", changed_ei: "Ar
     if changed.size == 0:
         return np.zeros((sensors.n_sensors, at.size))
     j0, j1 = int(changed[0]), int(changed[-1]) + 1
-    loads, _ = _ForceMethod(bridge, mesh, 1.0 / (v0 + dv)).solve(*_load_actions(bridge, vehicle, at))
-    units, _ = _ForceMethod(bridge, mesh, 1.0 / v0).solve(*_sensor_actions(sensors))
+    loads, _ = ForceMethod(bridge, mesh, 1.0 / (v0 + dv)).solve(*_load_actions(bridge, vehicle, at))
+    units, _ = ForceMethod(bridge, mesh, 1.0 / v0).solve(*sensor_actions(sensors))
     products = element_products(mesh.edges[j0:j1 + 1], _restrict(units, j0, j1), _restrict(loads, j0, j1))
     return products @ dv[j0:j1]
 
@@ -266,7 +267,7 @@ def bending_moments(bridge, mesh, ei, vehicle, positions, x):
     value right of the support is returned.
     """
     positions = _check_inputs(bridge, mesh, None, positions)
-    method = _force_method(bridge, mesh, expand_ei(bridge, mesh, ei))
+    method = shared_force_method(bridge, mesh, expand_ei(bridge, mesh, ei))
     diagrams, _ = method.solve(*_load_actions(bridge, vehicle, positions))
     return diagrams.evaluate(mesh.edges, x)
 
@@ -280,7 +281,7 @@ def support_reactions(bridge, mesh, ei, vehicle, positions):
     the sagging moment, left to right.
     """
     positions = _check_inputs(bridge, mesh, None, positions)
-    method = _force_method(bridge, mesh, expand_ei(bridge, mesh, ei))
+    method = shared_force_method(bridge, mesh, expand_ei(bridge, mesh, ei))
     _, reactions = method.solve(*_load_actions(bridge, vehicle, positions))
     n_sup = bridge.support_positions.size
     forces = np.zeros((positions.size, n_sup))

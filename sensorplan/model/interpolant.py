@@ -30,8 +30,8 @@ import numpy as np
 import scipy.sparse
 
 from .diagrams import RAMP, STEP, element_products, end_value_and_slope, point_actions
-from .force_method import Kept, _force_method
-from .forward import _sensor_actions, expand_ei
+from .force_method import SharedCache, shared_force_method
+from .forward import expand_ei, sensor_actions
 
 __all__ = []
 
@@ -68,7 +68,7 @@ class _Tables:
         weights = np.concatenate([np.full(n, -1.0), np.full(n, 1.0)])[:, None]
         kinds = np.concatenate([np.full(n, RAMP), np.full(n, STEP)])[:, None]
         loads = point_actions(edges, where, weights, kinds)
-        actions = _sensor_actions(sensors)
+        actions = sensor_actions(sensors)
         units = point_actions(edges, *actions)
         self.load_ends = end_value_and_slope(frame.length, where, weights, kinds)
         self.sensor_ends = end_value_and_slope(frame.length, *actions)
@@ -77,7 +77,7 @@ class _Tables:
         self.basis_sensors = element_products(edges, frame.basis, units)  # (n_u, S, E)
 
 
-_TABLES = Kept(8)  # each (2n, S, E) doubles: a few MB at most for a diagnosis-sized case
+_TABLES = SharedCache(8)  # each (2n, S, E) doubles: a few MB at most for a diagnosis-sized case
 
 
 class LineInterpolant:
@@ -97,10 +97,10 @@ class LineInterpolant:
 
     def __init__(self, bridge, mesh, ei, sensors):
         ei = expand_ei(bridge, mesh, ei)
-        method = _force_method(bridge, mesh, ei)
+        method = shared_force_method(bridge, mesh, ei)
         edges = mesh.edges
-        key = (method.frame.key, sensors.positions.tobytes(), tuple(sensors.kinds))
-        tables = _TABLES.get(key, lambda: _Tables(method.frame, edges, sensors))
+        tables = _TABLES.get((method.frame.key, sensors.positions, tuple(sensors.kinds)),
+                             lambda: _Tables(method.frame, edges, sensors))
         v, n_u = method.v, method.n_u
         n_sensors, n_rows, n_elements = tables.free.shape[1], tables.free.shape[0], edges.size - 1
         # the actual diagrams are the free ones plus the unknowns' diagrams b x: for sensor r and table row l,

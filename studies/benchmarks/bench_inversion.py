@@ -50,7 +50,7 @@ Jacobian on the 60-element inversion mesh,
 inversion is reported as "inversion time / one forward+Jacobian evaluation".
 The script also counts (from the profile) how many forward evaluations one
 inversion performs, and times one residual+Jacobian assembly of all 10
-crossings (``_Problem.evaluate``) to show how much of the cost is the forward
+crossings (``EIProblem.evaluate``) to show how much of the cost is the forward
 model and how much the bookkeeping around it.
 
 Finally one run of case A is profiled with ``cProfile`` (top 12 entries by
@@ -59,30 +59,8 @@ cumulative time; the profiler itself slows the run down).
 The targets are "under 2 s on a 2-core machine" and "integrated at most 3 x
 evidence"; the script says whether they were met here.  Nothing is asserted.
 
-Last run (branch hyper, 2-core machine shared with other jobs, load average 2.9):
-
-    case    best [s]   median    worst     cold  GN iter  converged  fwd+J [ms]  inv / fwd+J
-    A          0.171    0.184    0.225    0.176       15       True        4.47           38
-    B          0.152    0.159    0.180    0.167       16       True        5.14           29
-    A: hyper='evidence' best 0.167 s (median 0.222 s); integrated / evidence (best): 1.02, (median): 0.83
-    B: hyper='evidence' best 0.112 s (median 0.120 s); integrated / evidence (best): 1.35, (median): 1.33
-    A, 1 BLAS thread: integrated best 0.192 s, evidence best 0.210 s, integrated / evidence 0.91
-    forward evaluations per integrated inversion (case A): 17 (evidence maximisation: 25)
-
-Run with the damage detector and the local-loss hypotheses (the default ``invert`` now; branch
-detect14, commit "false-alarm rate re-measured with the new scan", load average 2.7):
-
-    case    best [s]   median    worst     cold  GN iter  converged  fwd+J [ms]  inv / fwd+J
-    A          0.260    0.284    0.318    0.478       15       True        3.24           80
-    B          0.435    0.547    0.758    0.507       16       True        2.63          166
-    A: hyper='evidence' best 0.119 s (median 0.127 s); integrated / evidence (best): 2.19, (median): 2.24
-    B: hyper='evidence' best 0.087 s (median 0.181 s); integrated / evidence (best): 4.98, (median): 3.03
-    A, 1 BLAS thread: integrated best 0.350 s, evidence best 0.134 s, integrated / evidence 2.61
-
-Run with the log-normal hyperprior and the detector's estimates restricted to the zones that can
-carry weight (2026-11-25, commit "Log-normal hyperprior ...", machine loaded by two other jobs:
-load average about 7 on 2 cores, so the absolute times are ~5x the ones above; the ratios are
-measured in the same run):
+Last run (2026-11-25, machine loaded by two other jobs: load average about 7 on 2 cores, so the
+absolute times are inflated; the ratios are measured in the same run):
 
     case    best [s]   median    worst     cold  GN iter  converged  fwd+J [ms]  inv / fwd+J
     A          1.298    1.504    1.586    1.505       11       True       20.78           62
@@ -91,17 +69,13 @@ measured in the same run):
     B: hyper='evidence' best 0.386 s (median 0.474 s); integrated / evidence (best): 2.92, (median): 2.77
     A, 1 BLAS thread: integrated best 1.160 s, evidence best 0.743 s, integrated / evidence 1.56
 
-Both cases are now within the 3x target (case B was 4.98x: the detector's estimates evaluated the
-posterior of the lost fraction on a 2000-point grid for all ~1750 fine zones; zones whose
-likelihood maximum is e^-40 below the best zone's evidence are now skipped, a bound, so the
-estimates are unchanged -- tests/test_detection.py).
-
-Case A, the timed one, is within the 3 x target (2.2 x; the previous detector with doubling scan
-lengths and the released-edge hypotheses measured 2.4 x).  The detector's scan works in the
-element space (the projected Gram matrix of the compliance columns), so its cost no longer grows
-with the number of readings times the number of zones.  Case B is slower relative to its
-reference (its evidence maximisation takes only 0.09 s, and its 0.33 m elements give the scan
-more zones; not profiled further).
+Both cases are within the 3x target.  The default ``invert`` runs the damage detector and the
+local-loss hypotheses; the detector's scan works in the element space (the projected Gram matrix
+of the compliance columns), so its cost does not grow with the number of readings times the
+number of zones, and its estimates skip the zones whose likelihood maximum is e^-40 below the
+best zone's evidence (a bound: the estimates are unchanged).  Case B is slower relative to its
+reference because its evidence maximisation is fast and its 0.33 m elements give the scan more
+zones.
 
 The integrated inversion of case A uses 25 nodes of log tau and costs about
 as much as evidence maximisation: the nodes need one or two forward +
@@ -150,7 +124,8 @@ sys.path.insert(0, str(ROOT))
 import sensorplan as sp  # noqa: E402
 from sensorplan.io.config import example_case  # noqa: E402
 from sensorplan._threads import single_threaded  # noqa: E402
-from sensorplan.inference.inversion import _Problem, invert  # noqa: E402
+from sensorplan.inference.ei_problem import EIProblem  # noqa: E402
+from sensorplan.inference.inversion import invert  # noqa: E402
 from sensorplan.model.simulate import simulate_crossings  # noqa: E402
 
 SEED = 20240612
@@ -254,11 +229,10 @@ def bench_case(label, case, data):
     """Time the inversion and its references for one case; returns a dict of results."""
     t_cold, times, result, messages, times_ev = time_inversion(case, data)
     t_fwd, jac = time_forward(case)
-    problem = _Problem(case, data, estimate_springs=bool(case.bridge.spring_names),
-                       parameterisation="log_ei")
-    # one BLAS thread, as inside invert; the problem's cache of the last point is cleared each time
-    t_eval_all, _ = timed(single_threaded(lambda: (setattr(problem, "_last", None),
-                                                   problem.evaluate(problem.theta0))), 20)
+    problem = EIProblem(case, data, estimate_springs=bool(case.bridge.spring_names),
+                        parameterisation="log_ei")
+    # one BLAS thread, as inside invert; the problem's cache is cleared each time
+    t_eval_all, _ = timed(single_threaded(lambda: (problem.clear_cache(), problem.evaluate(problem.theta0))), 20)
     return {
         "label": label, "case": case, "data": data, "result": result, "messages": messages,
         "t_cold": t_cold, "t_best": float(times.min()), "t_median": float(np.median(times)),
@@ -269,12 +243,12 @@ def bench_case(label, case, data):
 
 
 def profile_counts(stats):
-    """Number of calls of the forward model and of _Problem.evaluate in a profile."""
+    """Number of calls of the forward model and of EIProblem.evaluate in a profile."""
     counts = {"influence_lines": 0, "evaluate": 0}
     for (filename, _, func), (_, ncalls, *_rest) in stats.stats.items():
         if func == "influence_lines" and filename.endswith("forward.py"):
             counts["influence_lines"] += ncalls
-        if func == "evaluate" and filename.endswith("inversion.py"):
+        if func == "evaluate" and filename.endswith("problem.py"):
             counts["evaluate"] += ncalls
     return counts
 
@@ -410,7 +384,7 @@ def main():
     print(f"  forward evaluations per inversion (influence_lines calls): {n_lines}; "
           f"{n_lines} x fwd+J = {n_lines * t_fwd_a:.3f} s = "
           f"{100 * n_lines * t_fwd_a / a['t_best']:.1f} % of the best inversion time")
-    print(f"  one residual + whitened Jacobian of all {N_CROSSINGS} crossings (_Problem.evaluate): "
+    print(f"  one residual + whitened Jacobian of all {N_CROSSINGS} crossings (EIProblem.evaluate): "
           f"{1e3 * a['t_eval']:.2f} ms = {a['t_eval'] / t_fwd_a:.1f} x fwd+J; "
           f"{counts['evaluate']} calls per inversion")
     print(line)

@@ -27,10 +27,10 @@ from ..._errors import ConfigError
 from ...model.noise import NoiseModel
 from .normal import Linearisation, NormalEquations
 
-__all__ = ["LinearisedProblem", "StackedProblem", "Stacked", "CrossingGroup", "WhitenedProblem", "crossing_groups", "data_sensors",
-           "DEFAULT_STD"]
+__all__ = ["LinearisedProblem", "StackedProblem", "Stacked", "CrossingGroup", "WhitenedProblem", "crossing_groups",
+           "data_sensors", "DEFAULT_STD"]
 
-DEFAULT_STD = {"rotation": 1e-6, "deflection": 1e-4}
+DEFAULT_STD = {"rotation": 1e-6, "deflection": 1e-4}  # noise std [rad, m] of data sensors without one
 
 
 class LinearisedProblem(Protocol):
@@ -71,7 +71,15 @@ class StackedProblem(Protocol):
 
 
 def data_sensors(case, names):
-    """The case's sensors ``names`` (in that order) and their noise model (``DEFAULT_STD`` where none is set)."""
+    """The case's sensors ``names`` (in that order) and their noise model: the one rule for a missing noise level.
+
+    The case's noise model of those sensors; a case without one gets
+    ``DEFAULT_STD`` of each sensor's kind with independent noise, and every
+    problem built on the data (the EI inversion, the diagnosis's joint
+    model, the detector's null model) estimates the common noise scale
+    alpha from the data.  (New sensors of a design take the median noise of
+    the case's sensors of their kind instead: :meth:`~sensorplan.model.case.Case.noise_std_for`.)
+    """
     index = [case.sensors.names.index(n) for n in names]
     sensors = case.sensors.subset(index)
     if case.noise is not None:
