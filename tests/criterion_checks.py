@@ -38,7 +38,8 @@ def check_gradient(problem, seed=0):
         up, down = w.copy(), w.copy()
         up[i] += h
         down[i] -= h
-        fd = (problem.criterion.utility(problem.precision(up)) - problem.criterion.utility(problem.precision(down))) / (2 * h)
+        utility = problem.criterion.utility
+        fd = (utility(problem.precision(up)) - utility(problem.precision(down))) / (2 * h)
         assert grad[i] == pytest.approx(fd, rel=1e-5, abs=1e-7 * max(1.0, abs(fd)))
 
 

@@ -110,7 +110,7 @@ def test_greedy_exchange_recommend_against_brute_force(criterion):
 @pytest.mark.parametrize("name", sorted(BASELINES))
 def test_baselines_are_feasible_or_none(name):
     problem = problem_for("D", min_spacing=5.0)
-    ctx = BaselineContext(24.0, (0.0, 12.0, 24.0), 10, 0)
+    ctx = BaselineContext(24.0, (0.0, 12.0, 24.0), n_random=10, rng=0)
     layout = BASELINES[name](problem, ctx)
     assert layout is None or problem.feasible(layout)
     # 3 sensors 13 m apart do not fit on 24 m: build_problem refuses it up front (feasibility.check_feasible),

@@ -5,7 +5,7 @@ May import: nothing of the package.
 """
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 from typing import Protocol
 
 __all__ = ["BaselineRule", "BaselineContext", "BASELINES", "register_baseline", "baselines"]
@@ -17,6 +17,7 @@ class BaselineContext:
 
     length: float
     support_positions: tuple
+    _: KW_ONLY
     n_random: int = 100
     rng: object = 0
 
@@ -47,5 +48,5 @@ def register_baseline(label) -> Callable[[BaselineRule], BaselineRule]:
 
 def baselines(problem, *, length, support_positions, n_random=100, rng=0):
     """Baseline layouts (candidate indices) by name; None where one cannot satisfy the constraints."""
-    context = BaselineContext(float(length), tuple(support_positions), int(n_random), rng)
+    context = BaselineContext(float(length), tuple(support_positions), n_random=int(n_random), rng=rng)
     return {label.format(n_random=n_random): function(problem, context) for label, function in BASELINES.items()}

@@ -30,7 +30,7 @@ def initial_size(n_candidates, count, divisor):
 class WorkingSet:
     """The candidates a restricted problem is solved over, and those that already left it once."""
 
-    def __init__(self, n_candidates, initial, start_layout=None):
+    def __init__(self, n_candidates, initial, *, start_layout=None):
         self.n_candidates = n_candidates
         self.members = set(initial)
         if start_layout is not None:
@@ -71,7 +71,7 @@ class WorkingSet:
         self.members |= set(enter.tolist())
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Round:
     """One restricted solve and its certificate over all candidates.
 

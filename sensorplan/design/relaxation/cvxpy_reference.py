@@ -37,7 +37,7 @@ def solve_relaxation_cvxpy(problem, *, start_layout=None, tol=1e-8, candidates=N
             constraints.append(rows[keep] @ w <= b_ub[keep])
     objective, handle = problem.criterion.cvxpy_objective(cp, q, constraints)
     prob = cp.Problem(objective, constraints)
-    solve_clarabel(cp, prob, w, tol, "relaxation")
+    solve_clarabel(cp, prob, w, tol=tol, what="relaxation")
     status = prob.status
     weights = np.zeros(problem.n_candidates)
     weights[idx] = np.clip(w.value, 0.0, 1.0)
@@ -52,7 +52,7 @@ def solve_relaxation_cvxpy(problem, *, start_layout=None, tol=1e-8, candidates=N
     return Relaxation(weights, utility, max(bound, utility), "cvxpy-clarabel", stats)
 
 
-def solve_clarabel(cp, prob, w, tol, what):
+def solve_clarabel(cp, prob, w, *, tol, what):
     """Solve the cvxpy problem ``prob`` (variable ``w``) with Clarabel at tolerance ``tol``; SolverError
     (naming ``what``) unless it is (inaccurately) optimal.
 

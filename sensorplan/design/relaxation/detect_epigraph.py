@@ -51,7 +51,7 @@ def solve_detect_epigraph(problem, *, tol=1e-7, start_layout=None, max_rounds=50
     score = grad @ (soft / soft.sum())
     first = set(np.argsort(-score, kind="stable")[:initial_size(c, problem.count, 8)].tolist())
     first |= set(np.argmax(grad, axis=0).tolist())  # the best candidate of every centre
-    working = WorkingSet(c, first, start_layout)
+    working = WorkingSet(c, first, start_layout=start_layout)
     scaled = (problem.blocks / scale, problem.q0 / scale, crit.ridge / scale)
     last, rounds, newton = column_generation(problem, working, partial(_solve_round, problem, scaled, scale),
                                              tol=tol, max_rounds=max_rounds)
@@ -74,7 +74,8 @@ def _solve_round(problem, scaled, scale, working, idx, w_prev, inner):
         _, u, _ = smooth_parts(problem.precision(weights), problem.criterion.ridge)
         return centre_gradients(problem.blocks, u) @ mu
 
-    return Round(idx, x, weights, utility, bound, gap, nu * scale, s, it, entry_gradient)
+    return Round(idx=idx, x=x, weights=weights, utility=utility, bound=bound, gap=gap, threshold=nu * scale,
+                 maximiser=s, iterations=it, entry_gradient=entry_gradient)
 
 
 class _Barrier:

@@ -142,7 +142,7 @@ def _small_e_sdp_clarabel(b0, bmat, rows, rhs, count, *, tol):
     if rows.shape[0]:
         constraints.append(rows @ w <= rhs)
     prob = cp.Problem(cp.Maximize(t), constraints)
-    solve_clarabel(cp, prob, w, tol, "E relaxation")
+    solve_clarabel(cp, prob, w, tol=tol, what="E relaxation")
     z = lmi_constraint.dual_value
     nu = abs(float(count_eq.dual_value)) if count_eq.dual_value is not None else 0.0
     return float(prob.value), np.clip(w.value, 0.0, 1.0), 0.5 * (z + z.T), nu

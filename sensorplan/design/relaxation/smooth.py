@@ -40,7 +40,7 @@ def solve_column_generation(problem, *, tol=1e-7, start_layout=None, max_rounds=
     c = problem.n_candidates
     g = problem.gradient(np.full(c, problem.count / c))
     first = np.argsort(-g, kind="stable")[:initial_size(c, problem.count, 8)].tolist()
-    working = WorkingSet(c, first, start_layout)
+    working = WorkingSet(c, first, start_layout=start_layout)
     last, rounds, newton_iters = column_generation(problem, working, partial(_solve_round, problem), tol=tol,
                                                    max_rounds=max_rounds)
     stats = {"solver": "column-generation+interior-point",
@@ -70,7 +70,8 @@ def _solve_round(problem, working, idx, w_prev, inner):
     best, s = problem.linear_max(grad)
     bound = utility + max(0.0, best - float(grad @ weights))
     gap = (bound - utility) / max(1.0, abs(bound))
-    return Round(idx, x, weights, utility, bound, gap, nu, s, it, lambda: grad)
+    return Round(idx=idx, x=x, weights=weights, utility=utility, bound=bound, gap=gap, threshold=nu, maximiser=s,
+                 iterations=it, entry_gradient=lambda: grad)
 
 
 class _Restricted:
