@@ -185,11 +185,11 @@ def test_fast_path_equals_cvxpy_clarabel(criterion, constraints):
 @pytest.mark.parametrize("seed", range(4))
 @pytest.mark.parametrize("side", [False, True])
 def test_small_lmi_interior_point_matches_clarabel(seed, side):
-    # The E subspace SDP solver (_lmi_ipm) against cvxpy + Clarabel on random
+    # The E subspace SDP solver (lmi_interior_point) against cvxpy + Clarabel on random
     # problems: same optimum, a trace-one PSD multiplier, feasible weights.
     import cvxpy as cp
 
-    from sensorplan.design.relax_eigen import _lmi_ipm
+    from sensorplan.design.relaxation.lmi import lmi_interior_point
 
     rng = np.random.default_rng(seed)
     k, m, count = 7, 30, 5
@@ -201,7 +201,7 @@ def test_small_lmi_interior_point_matches_clarabel(seed, side):
     if side:  # a budget, at most 2 of the first 12, at least 1 of the last 6
         rows = np.vstack([rng.uniform(0.5, 2.0, m), (np.arange(m) < 12) * 1.0, -1.0 * (np.arange(m) >= 24)])
         rhs = np.array([1.3 * count, 2.0, -1.0])
-    value, w, x, nu, status, _ = _lmi_ipm(b0, bmat, rows, rhs, count, tol=1e-9)
+    value, w, x, nu, status, _ = lmi_interior_point(b0, bmat, rows, rhs, count, tol=1e-9)
     wv, t = cp.Variable(m), cp.Variable()
     mat = b0 + cp.reshape(bmat.reshape(m, -1).T @ wv, (k, k), order="C")
     cons = [wv >= 0, wv <= 1, cp.sum(wv) == count, 0.5 * (mat + mat.T) - t * np.eye(k) >> 0]
@@ -225,7 +225,7 @@ def test_small_lmi_interior_point_matches_clarabel(seed, side):
 
 
 def test_small_e_sdp_falls_back_to_clarabel(monkeypatch):
-    from sensorplan.design import relax_eigen
+    from sensorplan.design.relaxation import lmi
 
     case = small_case((12.0, 12.0), 10, rot=(2e9, 0.0, 2e9))
     problem = build_problem(case, 3, 'E', grid=CandidateGrid(spacing=1.5))
@@ -235,7 +235,7 @@ def test_small_e_sdp_falls_back_to_clarabel(monkeypatch):
     def failing(*args, **kwargs):
         return 0.0, None, None, 0.0, "numerical problems", 1
 
-    monkeypatch.setattr(relax_eigen, "_lmi_ipm", failing)
+    monkeypatch.setattr(lmi, "lmi_interior_point", failing)
     fallback = solve_relaxation(problem, "fast")
     assert fallback.stats["clarabel_fallbacks"] == fallback.stats["rounds"]
     assert abs(fallback.bound - reference.bound) <= 1e-6 * max(1.0, abs(reference.bound))
@@ -246,9 +246,9 @@ def test_small_e_sdp_falls_back_to_clarabel(monkeypatch):
 def test_coarse_to_fine_recommendation_keeps_its_guarantees(criterion, monkeypatch):
     # Force the large-grid path (coarse exchange per start, best one polished)
     # on a problem small enough to enumerate.
-    from sensorplan.design import selection as _selection
+    from sensorplan.design import selection
 
-    monkeypatch.setattr(_selection, "COARSE_ABOVE", 6)
+    monkeypatch.setattr(selection, "COARSE_ABOVE", 6)
     case = small_case((12.0, 12.0), 8, rot=(2e9, 0.0, 2e9))
     result = recommend(case, 3, criterion, curve_max=0, n_random=20, grid=CandidateGrid(spacing=2.0))
     problem = build_problem(case, 3, criterion, grid=CandidateGrid(spacing=2.0))

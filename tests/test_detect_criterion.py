@@ -29,7 +29,7 @@ from test_detectability import _case, _fe_difference, _FEReference, _whiten
 
 import sensorplan as sp
 from sensorplan.cli import main
-from sensorplan.design.detect_criterion import (
+from sensorplan.design.criteria.detect import (
     RIDGE,
     centre_gradients,
     centre_hessian_roots,

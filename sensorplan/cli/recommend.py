@@ -136,11 +136,13 @@ def _region(args):
 
 
 def _detection_target(args):
-    """The --severity ... options as a DetectionTarget (detect only; None for the other criteria)."""
+    """The --severity ... options as a DetectionTarget (criteria on detection information, e.g. detect;
+    None for the other criteria)."""
+    from ..design.criteria import criterion_class
     from ..design.recommend import DetectionTarget
 
     given = {k: getattr(args, k) for k in DETECT_OPTIONS if getattr(args, k) is not None}
-    if args.criterion != "detect":
+    if criterion_class(args.criterion).information != "detection":
         if given:
             names = ", ".join("--" + k.replace("_", "-") for k in given)
             raise ConfigError(f"{names} apply to --criterion detect only. Got --criterion {args.criterion}.")

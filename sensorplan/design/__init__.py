@@ -1,11 +1,13 @@
 """Optimal sensor placement: criteria, the placement problem, relaxations, integer layouts.
 
-:mod:`.criteria` (one class per criterion behind one protocol, and a
-registry), :mod:`.problem` (candidates, blocks, constraints, the linear
-oracle), :mod:`.relaxation` (result type and solver registry) with one
-module per solver (:mod:`.relax_cvxpy`, :mod:`.relax_ipm`,
-:mod:`.relax_eigen`), :mod:`.selection` (greedy, exchange, rounding),
-:mod:`.baselines` (registry), :mod:`.recommend` and :mod:`.results`.
+:mod:`.criteria` (one class per criterion behind one protocol, a registry
+and one module per criterion family), :mod:`.problem` (candidates, blocks,
+constraints, the linear oracle), :mod:`.candidates` and :mod:`.feasibility`
+(what may be placed where), :mod:`.detect_problem` (the information of the
+detect criterion), :mod:`.relaxation` (result type, solver registry, one
+module per solver), :mod:`.selection` (greedy, exchange, rounding, the best
+of several starts), :mod:`.baselines` (registry and the built-in rules),
+:mod:`.recommend` and :mod:`.results`.
 
 Owns: everything about choosing a layout.
 May import: model, detection and the foundations.

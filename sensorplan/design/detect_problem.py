@@ -17,11 +17,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._errors import ConfigError
-from ..detection.detectability import _check_options
+from ..detection.detectability import check_detection_options
 from ..detection.signatures import SignatureModel, centre_grid, gram_matrices
 from ..model.fisher import fisher_blocks
 from ..model.noise import NoiseModel
-from .detect_criterion import RIDGE, DetectCriterion
+from .criteria.detect import RIDGE, DetectCriterion
 
 __all__ = ["DetectionTarget", "detection_information"]
 
@@ -75,8 +75,9 @@ def detection_information(case, cands, *, n_crossings, region, target, prior, sp
     if springs or functionals is not None:
         raise ConfigError("'springs' and 'functionals' apply to the information criteria, not to detect "
                           "(its nuisance always includes the elastic springs).")
-    severity, length, false_alarm, n_crossings, step = _check_options(
-        case, target.severity, target.length, target.false_alarm, n_crossings, target.nuisance, target.step)
+    severity, length, false_alarm, n_crossings, step = check_detection_options(
+        case, severity=target.severity, length=target.length, false_alarm=target.false_alarm,
+        n_crossings=n_crossings, nuisance=target.nuisance, step=target.step)
     centres, region = _centres(case, target, region)
     sensors = cands.layout()
     correlation = 0.0 if case.noise is None else case.noise.correlation_length

@@ -6,9 +6,11 @@ fixed (existing) sensors.  Linear side constraints: a cost budget, minimum
 and maximum counts per span, and a minimum spacing (for every candidate i,
 the candidates in [x_i, x_i + spacing) carry at most one sensor: the maximal
 cliques of the interval conflict graph, exact for integer layouts).
+
+Owns: DesignProblem.  May import: errors.
 """
 
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 from functools import cached_property
 
 import numpy as np
@@ -21,12 +23,18 @@ __all__ = ["DesignProblem"]
 
 @dataclass(frozen=True, eq=False)
 class DesignProblem:
-    """A placement problem (internal; built by :func:`recommend`)."""
+    """A placement problem (internal; built by :func:`~sensorplan.design.recommend.build_problem`).
+
+    The candidates' positions, spans and information blocks and the prior
+    (plus existing sensors) ``q0`` are positional; everything else is a
+    keyword.
+    """
 
     positions: np.ndarray  # (C,) candidate positions [m]
     spans: np.ndarray  # (C,) span index of each candidate
     blocks: np.ndarray  # (C, P, P) information of one sensor at each candidate
     q0: np.ndarray  # (P, P) prior + fixed sensors
+    _: KW_ONLY
     criterion: object
     count: int
     costs: np.ndarray | None = None

@@ -26,11 +26,11 @@ from .candidates import (
 )
 from .criteria import criterion_class, make_criterion
 from .detect_problem import DetectionTarget, detection_information
-from .feasibility import check_feasible, packing
+from .feasibility import check_feasible
 from .problem import DesignProblem
-from .relaxation import solve_relaxation
+from .relaxation import Relaxation, solve_relaxation
 from .results import Baseline, CurvePoint, DesignResult, SolverStats
-from .selection import exchange, greedy, round_weights, sample_roundings
+from .selection import best_layout, exchange, greedy
 
 if TYPE_CHECKING:
     from ..model.case import Case
@@ -152,22 +152,29 @@ def build_problem(case, count, criterion="D", *, grid=None, constraints=None, ki
     check_feasible(positions, bridge.span_of(positions), int(count), min_spacing=float(constraints.min_spacing),
                    span_min=span_min, span_max=span_max, n_fixed=0 if fixed is None else fixed.n_sensors,
                    costs=c_arr, budget=constraints.budget)
-    posterior_of = None
+    blocks, q0, crit, posterior_of = _information(case, cands, criterion, detection, n_crossings=n_crossings,
+                                                  prior=prior, springs=springs, region=region,
+                                                  functionals=functionals, target=target)
+    return DesignProblem(positions, bridge.span_of(positions), np.ascontiguousarray(blocks[:positions.size]), q0,
+                         criterion=crit, count=int(count), costs=c_arr, budget=constraints.budget,
+                         span_min=span_min, span_max=span_max, min_spacing=float(constraints.min_spacing),
+                         n_spans=bridge.n_spans, posterior_of=posterior_of, kinds=cands.kinds,
+                         noise_std=cands.noise_std, fixed=fixed)
+
+
+def _information(case, cands, criterion, detection, *, n_crossings, prior, springs, region, functionals, target):
+    """(blocks of the candidates then the existing sensors, q0, criterion, posterior_of): detection Gram
+    stacks (:mod:`.detect_problem`) or Fisher blocks in log EI (and spring log-stiffnesses)."""
     if detection:
-        blocks, q0, crit, posterior_of = detection_information(
-            case, cands, n_crossings=n_crossings, region=region, target=target, prior=prior, springs=springs,
-            functionals=functionals)
-    else:
-        blocks = fisher_blocks(case, sensors=cands.layout(), parameterisation="log_ei", springs=springs,
-                               n_crossings=n_crossings).blocks
-        n_springs = len(case.bridge.spring_parameters) if springs else 0
-        q0 = prior.precision(case.n_elements, n_springs) + blocks[positions.size:].sum(axis=0)
-        crit = make_criterion(criterion, q0.shape[0], n_elements=case.n_elements, edges=case.mesh.edges,
-                              region=region, functionals=functionals)
-    return DesignProblem(positions, bridge.span_of(positions), np.ascontiguousarray(blocks[:positions.size]),
-                         q0, crit, int(count), c_arr, constraints.budget, span_min, span_max,
-                         float(constraints.min_spacing), bridge.n_spans, posterior_of, cands.kinds, cands.noise_std,
-                         fixed)
+        return detection_information(case, cands, n_crossings=n_crossings, region=region, target=target,
+                                     prior=prior, springs=springs, functionals=functionals)
+    blocks = fisher_blocks(case, sensors=cands.layout(), parameterisation="log_ei", springs=springs,
+                           n_crossings=n_crossings).blocks
+    n_springs = len(case.bridge.spring_parameters) if springs else 0
+    q0 = prior.precision(case.n_elements, n_springs) + blocks[cands.n_candidates:].sum(axis=0)
+    crit = make_criterion(criterion, q0.shape[0], n_elements=case.n_elements, edges=case.mesh.edges,
+                          region=region, functionals=functionals)
+    return blocks, q0, crit, None
 
 
 def _span_counts(values, name, n_spans, count):
@@ -185,60 +192,6 @@ def _span_counts(values, name, n_spans, count):
         raise ConfigError(f"The 'span_max' counts add up to {int(arr.sum())}, fewer than 'count' {count}; raise "
                           "'span_max' or lower 'count'.")
     return arr.astype(int)
-
-
-def _best_layout(problem, relaxation, starts, greedy_layout=None, rng=None):
-    """Best of exchange from: the rounded relaxation, the greedy layout, the best baseline
-    (and randomised roundings of the relaxation for criteria that ask for them).
-
-    On large candidate grids each start is improved on a coarse grid and only
-    the best result is polished on all candidates.  Exchange never makes a
-    start worse, and a baseline still better than the
-    result is used as a start too, so the result is never worse than any
-    baseline.
-    """
-    tried = []
-    try:
-        tried.append(("relaxation rounding + exchange", round_weights(problem, relaxation.weights)))
-    except SolverError:
-        pass
-    if greedy_layout is None:
-        try:
-            greedy_layout = greedy(problem)[0]
-        except SolverError:
-            greedy_layout = None
-    if greedy_layout is not None:
-        tried.append(("greedy + exchange", greedy_layout))
-    scored = sorted(((problem.utility_of(s), name, s) for name, s in starts.items() if s is not None),
-                    key=lambda t: -t[0])
-    if scored:
-        tried.append((f"exchange from {scored[0][1]}", scored[0][2]))
-    if problem.criterion.random_starts:
-        tried += [("randomised rounding + exchange", s) for s in
-                  sample_roundings(problem, relaxation.weights, problem.criterion.random_starts,
-                                   np.random.default_rng(rng))]
-    if not tried:  # the packing along the bridge (feasibility.packing) when every search failed
-        packed = packing(problem.positions, problem.spans, problem.min_spacing, problem.span_max)[:problem.count]
-        if problem.feasible(packed):
-            tried.append(("packing + exchange", packed))
-    if not tried:
-        raise SolverError("No feasible layout was found; relax 'budget', 'span_min', 'span_max' or 'min_spacing'.")
-    best = None
-
-    def consider(method, start):
-        # on large grids: the coarse-grid local optimum only; the best one is polished below
-        nonlocal best
-        layout, util = exchange(problem, start, polish=False)
-        if best is None or util > best[2] + 1e-12 * max(1.0, abs(util)):
-            best = (method, layout, util)
-
-    for method, start in tried:
-        consider(method, start)
-    for util, name, start in scored[1:]:  # a baseline still better than the result
-        if util > best[2]:
-            consider(f"exchange from {name}", start)
-    layout, util = exchange(problem, best[1])
-    return best[0], layout, util
 
 
 @single_threaded
@@ -259,7 +212,7 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
         Number of new sensors R.
     criterion : str
         A registered criterion: "D", "A", "E", "Ds", "detect" (see :mod:`sensorplan.design.criteria`;
-        detect: the worst case over damage centres of the detectability d^2, :mod:`.detect_criterion`).
+        detect: the worst case over damage centres of the detectability d^2, :mod:`.criteria.detect`).
     grid : CandidateGrid, optional
         Candidate positions (default: every 0.5 m).
     constraints : Constraints, optional
@@ -290,10 +243,27 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
     -------
     DesignResult
     """
-    constraints = Constraints() if constraints is None else constraints
     problem = build_problem(case, count, criterion, grid=grid, constraints=constraints, kind=kind,
                             noise_std=noise_std, n_crossings=n_crossings, prior=prior, springs=springs,
                             region=region, functionals=functionals, target=target)
+    search = _search(problem, case, solver=solver, n_random=n_random, rng=rng)
+    return _design_result(case, problem, search, _curve(problem, count, curve_max, solver), n_crossings=n_crossings)
+
+
+@dataclass(frozen=True, eq=False)
+class _Search:
+    """What the search found: the baselines (candidate indices or None by name), the relaxation, and the
+    best layout with its utility and the start it came from."""
+
+    baselines: dict
+    relaxation: Relaxation
+    method: str
+    layout: list
+    utility: float
+
+
+def _search(problem, case, *, solver, n_random, rng):
+    """Baselines, the greedy start, the relaxation and the best layout from every start."""
     base = make_baselines(problem, length=case.bridge.length,
                           support_positions=case.bridge.support_positions, n_random=n_random, rng=rng)
     try:
@@ -301,56 +271,74 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
     except SolverError:
         g_start = None
     relaxation = solve_relaxation(problem, solver, start_layout=g_start)
-    method, layout, utility = _best_layout(problem, relaxation, base, g_start, rng)
+    method, layout, utility = best_layout(problem, relaxation.weights, base, greedy_layout=g_start, rng=rng)
+    return _Search(base, relaxation, method, layout, utility)
+
+
+def _design_result(case, problem, search, curve, *, n_crossings):
+    """The DesignResult of a search: values and certificate, baselines, curve, posterior std, details."""
     crit = problem.criterion
     sign = 1.0 if crit.maximise else -1.0
-    value = sign * utility
-    bound = sign * relaxation.bound
-    efficiency = crit.efficiency(value, bound)
-    base_out = []
-    for name, idx in base.items():
-        if idx is None:
-            base_out.append(Baseline(name, None, None))
-            continue
-        b_value = float(problem.value_of(idx))
-        b_order = _sorted_index(problem, idx)
-        base_out.append(Baseline(name, tuple(float(problem.positions[i]) for i in b_order), b_value,
-                                 float(crit.relative(b_value, value)), tuple(problem.kinds[i] for i in b_order),
-                                 _cost(problem, b_order)))
+    value, bound = sign * search.utility, sign * search.relaxation.bound
+    count = problem.count
     curve = tuple(replace(c, value=float(value)) if c.count == count and not c.failed and sign * c.value < sign * value
-                  else c for c in _curve(problem, count, curve_max, solver))
-    order = _sorted_index(problem, layout)
-    n_el = case.n_elements
-    post_std = {"recommended": _posterior_std(problem, order, n_el)}
-    for name, idx in base.items():
-        if idx is not None:
-            post_std[name] = _posterior_std(problem, idx, n_el)
+                  else c for c in curve)
+    order = _sorted_index(problem, search.layout)
     details, detail_line = crit.describe(problem.layout_precision(order))
     layout_m = tuple(float(problem.positions[i]) for i in order)
     layout_kind = tuple(problem.kinds[i] for i in order)
-    sensors = sensor_layout(layout_m, layout_kind, problem.noise_std[order])
     kinds = tuple(dict.fromkeys(problem.kinds))
-    stats = dict(relaxation.stats)
     fixed = problem.fixed
     fixed_m, fixed_kind, fixed_std = ((), (), ()) if fixed is None else (
         tuple(float(x) for x in fixed.positions), fixed.kinds, tuple(fixed.noise_std))
+    informativeness = fisher_blocks(case, sensors=sensor_layout(layout_m, layout_kind, problem.noise_std[order]),
+                                    parameterisation="ei", n_crossings=n_crossings)
     return DesignResult(criterion=crit.name, description=crit.description, maximise=crit.maximise,
                         count=int(count), n_params=crit.n_effective, layout_m=layout_m, value=float(value),
-                        bound=float(bound), efficiency=efficiency, method=method, baselines=tuple(base_out),
-                        solver=SolverStats(str(stats.pop("solver", "?")), str(stats.pop("status", "?")),
-                                           float(relaxation.relative_gap), float(stats.pop("time_s", 0.0)),
-                                           relaxation.method, stats),
-                        candidates_m=problem.positions, weights=relaxation.weights,
-                        fixed_m=fixed_m, curve=curve, kind="+".join(kinds),
+                        bound=float(bound), efficiency=crit.efficiency(value, bound), method=search.method,
+                        baselines=_baseline_results(problem, search.baselines, value),
+                        solver=_solver_stats(search.relaxation), candidates_m=problem.positions,
+                        weights=search.relaxation.weights, fixed_m=fixed_m, curve=curve, kind="+".join(kinds),
                         layout_index=tuple(order), edges=case.mesh.edges.copy(),
                         supports_m=tuple(float(x) for x in case.bridge.support_positions),
-                        posterior_std=post_std, details=details, detail_line=detail_line,
-                        params_label=crit.params_label,
-                        informativeness=fisher_blocks(case, sensors=sensors, parameterisation="ei",
-                                                      n_crossings=n_crossings),
-                        layout_kind=layout_kind, fixed_kind=fixed_kind, fixed_noise_std=fixed_std,
+                        posterior_std=_posterior_stds(problem, order, search.baselines, case.n_elements),
+                        details=details, detail_line=detail_line, params_label=crit.params_label,
+                        informativeness=informativeness, layout_kind=layout_kind, fixed_kind=fixed_kind,
+                        fixed_noise_std=fixed_std,
                         noise_std={k: float(problem.noise_std[problem.kinds.index(k)]) for k in kinds},
                         cost=_cost(problem, order), budget=problem.budget)
+
+
+def _baseline_results(problem, base, value):
+    """Each baseline's positions, kinds, value, cost and efficiency relative to the layout's ``value``."""
+    crit = problem.criterion
+    out = []
+    for name, idx in base.items():
+        if idx is None:
+            out.append(Baseline(name, None, None))
+            continue
+        b_value = float(problem.value_of(idx))
+        b_order = _sorted_index(problem, idx)
+        out.append(Baseline(name, tuple(float(problem.positions[i]) for i in b_order), b_value,
+                            float(crit.relative(b_value, value)), tuple(problem.kinds[i] for i in b_order),
+                            _cost(problem, b_order)))
+    return tuple(out)
+
+
+def _solver_stats(relaxation):
+    """SolverStats of a relaxation: solver, status, certified gap, time, and the other counters as details."""
+    stats = dict(relaxation.stats)
+    return SolverStats(str(stats.pop("solver", "?")), str(stats.pop("status", "?")), float(relaxation.relative_gap),
+                       float(stats.pop("time_s", 0.0)), relaxation.method, stats)
+
+
+def _posterior_stds(problem, order, base, n_elements):
+    """Posterior std of log EI per element for the recommended layout and each feasible baseline."""
+    out = {"recommended": _posterior_std(problem, order, n_elements)}
+    for name, idx in base.items():
+        if idx is not None:
+            out[name] = _posterior_std(problem, idx, n_elements)
+    return out
 
 
 def _sorted_index(problem, index):

@@ -1,17 +1,19 @@
-"""Integer layouts: greedy (exact steps, pruned by upper bounds), exchange, rounding.
+"""Integer layouts: greedy (exact steps, pruned by upper bounds), exchange, rounding, the best of several starts.
 
 Everything here works through the criterion protocol (utility, upper
 bounds, submodularity), so a registered criterion gets greedy and exchange
 without changes here.
 
-Owns: greedy, exchange, rounding.  May import: errors, design.problem.
+Owns: greedy, exchange, rounding, the best layout from several starts.
+May import: errors, design.problem, design.feasibility.
 """
 
 import numpy as np
 
 from .._errors import SolverError
+from .feasibility import packing
 
-__all__ = ["iter_greedy", "greedy", "exchange", "round_weights", "sample_roundings"]
+__all__ = ["iter_greedy", "greedy", "exchange", "round_weights", "sample_roundings", "best_layout"]
 
 
 def _upper_bounds(problem, q):
@@ -245,3 +247,65 @@ def sample_roundings(problem, weights, n, rng):
         if len(chosen) == problem.count and sorted(chosen) not in out:
             out.append(sorted(chosen))
     return out
+
+
+def best_layout(problem, weights, starts, *, greedy_layout=None, rng=None):
+    """(method, layout, utility): the best of exchange from the rounded relaxed ``weights``, the greedy
+    layout (computed unless given), the best of the ``starts`` (candidate indices or None by name) and,
+    for criteria that ask for them, randomised roundings of the weights (seeded by ``rng``).
+
+    On large candidate grids each start is improved on a coarse grid and only
+    the best result is polished on all candidates.  Exchange never makes a
+    start worse, and a baseline still better than the
+    result is used as a start too, so the result is never worse than any
+    baseline.
+    """
+    tried, scored = _starts(problem, weights, starts, greedy_layout, rng)
+    best = None
+
+    def consider(method, start):
+        # on large grids: the coarse-grid local optimum only; the best one is polished below
+        nonlocal best
+        layout, util = exchange(problem, start, polish=False)
+        if best is None or util > best[2] + 1e-12 * max(1.0, abs(util)):
+            best = (method, layout, util)
+
+    for method, start in tried:
+        consider(method, start)
+    for util, name, start in scored[1:]:  # a baseline still better than the result
+        if util > best[2]:
+            consider(f"exchange from {name}", start)
+    layout, util = exchange(problem, best[1])
+    return best[0], layout, util
+
+
+def _starts(problem, weights, starts, greedy_layout, rng):
+    """The (method, layout) starts of :func:`best_layout`, and the feasible ``starts`` as
+    (utility, name, layout), best first."""
+    tried = []
+    try:
+        tried.append(("relaxation rounding + exchange", round_weights(problem, weights)))
+    except SolverError:
+        pass
+    if greedy_layout is None:
+        try:
+            greedy_layout = greedy(problem)[0]
+        except SolverError:
+            greedy_layout = None
+    if greedy_layout is not None:
+        tried.append(("greedy + exchange", greedy_layout))
+    scored = sorted(((problem.utility_of(s), name, s) for name, s in starts.items() if s is not None),
+                    key=lambda t: -t[0])
+    if scored:
+        tried.append((f"exchange from {scored[0][1]}", scored[0][2]))
+    if problem.criterion.random_starts:
+        tried += [("randomised rounding + exchange", s) for s in
+                  sample_roundings(problem, weights, problem.criterion.random_starts,
+                                   np.random.default_rng(rng))]
+    if not tried:  # the packing along the bridge (feasibility.packing) when every search failed
+        packed = packing(problem.positions, problem.spans, problem.min_spacing, problem.span_max)[:problem.count]
+        if problem.feasible(packed):
+            tried.append(("packing + exchange", packed))
+    if not tried:
+        raise SolverError("No feasible layout was found; relax 'budget', 'span_min', 'span_max' or 'min_spacing'.")
+    return tried, scored

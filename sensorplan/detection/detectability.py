@@ -37,7 +37,7 @@ from ..model.sensors import SENSOR_KINDS, SensorLayout
 from .results import POWER_TARGET, DetectabilityMap
 from .signatures import NUISANCES, SignatureModel, centre_grid
 
-__all__ = ["detectability", "MAX_CENTRES"]
+__all__ = ["detectability", "check_detection_options", "MAX_CENTRES"]
 
 MAX_CENTRES = 10_000
 _OWNER = "detectability"
@@ -58,7 +58,13 @@ def _number(value, name, requirement, ok):
     return out
 
 
-def _check_options(case, severity, length, false_alarm, n_crossings, nuisance, step):
+def check_detection_options(case, *, severity, length, false_alarm, n_crossings, nuisance, step):
+    """The options of a detectability computation on ``case``, checked and converted.
+
+    Returns (severity, length [m], false_alarm, n_crossings as int, step [m]);
+    a ConfigError names the parameter out of range (the messages of
+    :func:`detectability`, which the detect design criterion shares).
+    """
     total = case.bridge.length
     severity = _number(severity, "severity", "a loss fraction in (0, 1)", lambda v: 0.0 < v < 1.0)
     length = _number(length, "length", f"a zone length in [{MIN_ZONE_LENGTH:g}, {total:g}) m (1 mm to the bridge "
@@ -132,8 +138,7 @@ def detectability(case, *, layout=None, kind=None, severity=0.25, length=2.0, fa
         support springs: a quadratic log-EI trend per span (``"smooth"``)
         or one EI factor per span (``"levels"``).
     step : float
-        Spacing of the zone centres [m], from length/2 to L - length/2
-        (at most 10000 centres).
+        Spacing of the zone centres [m], from length/2 to L - length/2 (at most 10000 centres).
 
     Returns
     -------
@@ -150,11 +155,28 @@ def detectability(case, *, layout=None, kind=None, severity=0.25, length=2.0, fa
     >>> print(f"{max(result.min_detectable_loss):.2f}")  # near the supports
     0.44
     """
-    severity, length, false_alarm, n_crossings, step = _check_options(
-        case, severity, length, false_alarm, n_crossings, nuisance, step)
+    severity, length, false_alarm, n_crossings, step = check_detection_options(
+        case, severity=severity, length=length, false_alarm=false_alarm, n_crossings=n_crossings,
+        nuisance=nuisance, step=step)
     sensors, noise = _sensors_and_noise(case, layout, kind)
     centres = centre_grid(case.bridge.length, length, step)
     model = SignatureModel(case, sensors, noise, nuisance, length)
+    d, d_unit, power, exact, linear = _limits(model, centres, severity, n_crossings, false_alarm)
+    return DetectabilityMap(
+        centres_m=centres, d=d, power=power, min_detectable_loss=_optional(exact),
+        false_alarm_rate=false_alarm, n_crossings=n_crossings, severity=severity, length_m=length,
+        nuisance=nuisance, sensors_m=sensors.positions, supports_m=case.bridge.support_positions,
+        sensor_kinds=tuple(sensors.kinds), d_unit=d_unit, nuisance_names=model.nuisance_names,
+        min_detectable_loss_linear=_optional(linear))
+
+
+def _limits(model, centres, severity, n_crossings, false_alarm):
+    """(d, d_unit, power, exact and first-order minimum detectable losses) per centre (module docstring).
+
+    d and power are those of the loss ``severity``, d_unit that of the
+    projected unit signature; the arrays are made read-only (the result
+    holds them).
+    """
     root = math.sqrt(n_crossings)
     d = root * model.projected_norms(model.damage(centres, severity))
     d_unit = root * model.projected_norms(model.unit(centres))
@@ -168,12 +190,7 @@ def detectability(case, *, layout=None, kind=None, severity=0.25, length=2.0, fa
                                    centres, d_unit, target)
     for arr in (centres, d, d_unit, power):
         arr.setflags(write=False)
-    return DetectabilityMap(
-        centres_m=centres, d=d, power=power, min_detectable_loss=_optional(exact),
-        false_alarm_rate=false_alarm, n_crossings=n_crossings, severity=severity, length_m=length,
-        nuisance=nuisance, sensors_m=sensors.positions, supports_m=case.bridge.support_positions,
-        sensor_kinds=tuple(sensors.kinds), d_unit=d_unit, nuisance_names=model.nuisance_names,
-        min_detectable_loss_linear=_optional(linear))
+    return d, d_unit, power, exact, linear
 
 
 def _optional(losses):

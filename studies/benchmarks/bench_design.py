@@ -93,13 +93,12 @@ end): size 1, D + A + E recommend() 2.1 s (target 5 s, met; D 0.46, A 0.70,
 E 0.97 s).  The relaxation alone: cvxpy + Clarabel D 62.6 s, A 105.1 s,
 E 6.5 s; the fast path 0.18, 0.34 and 0.28 s (ratios 0.003, 0.003, 0.043).
 Size 2: 20.2 s (target 30 s, met: D 5.6, A 8.8, E 5.9 s; the E relaxation
-1.98 s, against 13.4 s with Clarabel solving the subspace SDPs at commit
-eb0fa44, and 59.8 s in total at commit de6ff65).  Every relaxation solved
+1.98 s).  Every relaxation solved
 reached a certified relative gap <= 1e-6 (largest 9.7e-7, cvxpy A at size 1;
 fast path <= 2.7e-8); cvxpy at size 2 was skipped (D, A) or timed out after
 120 s (E).  Certified efficiencies of the recommended layouts: size 1
-D 97.4 %, A 93.8 %, E 85.8 %; size 2 D 98.7 %, A 93.7 %, E 94.3 % (the same
-layouts as before: the integrality gap, not the solver, limits them).
+D 97.4 %, A 93.8 %, E 85.8 %; size 2 D 98.7 %, A 93.7 %, E 94.3 % (the
+integrality gap, not the solver, limits them).
 """
 
 import os

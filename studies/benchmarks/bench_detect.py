@@ -19,7 +19,7 @@ log-stiffnesses: Gram matrices of size 9), the wall time
     every centre (one forward solve of the damaged bridge per centre, in
     sensorplan.detection) and their Gram matrices;
 (b) ``solve_relaxation(problem, "fast")``: the epigraph barrier method with
-    column generation (sensorplan/design/relax_detect.py);
+    column generation (sensorplan/design/relaxation/detect_epigraph.py);
 (c) ``solve_relaxation(problem, "cvxpy")``: the generic formulation, one LMI
     [[A_ss - t, A_sN], [A_Ns, A_NN]] >= 0 per centre, solved by Clarabel
     (the reference), in the same run;
@@ -29,7 +29,7 @@ log-stiffnesses: Gram matrices of size 9), the wall time
 
 Reported: times, the ratio fast / cvxpy of (b) and (c), the certified
 relative gap of each relaxation ((bound - utility) / |bound|, the bound from
-the LP certificate of detect_criterion.certificate, independent of either
+the LP certificate of sensorplan.design.criteria.detect.certificate, independent of either
 solver), and the certified efficiency of the recommended layout (value /
 bound).  Targets: (d) < 5 s at size 1 and < 30 s at size 2 on one core
 (BLAS threads = 1, set here before numpy is imported); gap <= 1e-6.
@@ -64,9 +64,7 @@ size 2 (N 120, C 800, R 10):
   recommend() 30.9 s wall, 10.4 s CPU (target 30 s: met in CPU time, at the
   limit in wall time); certified efficiency 75.6 % (1.1509 against 1.5219).
 Building the problem (exact damage signatures of every candidate at 57
-centres, zone-only element integrals) is part of recommend(); before the
-zone-only formula (sensorplan.model.forward.response_change) it alone took
-16.5 s wall at size 1 under a similar load.
+centres, zone-only element integrals) is part of recommend().
 """
 
 import os

@@ -16,8 +16,7 @@ rmse of EI, then the criterion whose layout ranks first by verification
 
 Run:  nice python studies/design/criteria_vs_verification.py [--quick] [--out FILE]
 
-Last full run (integration of this session, after the detect criterion was registered; 12 locations, 4 controls,
-seed 1; 108 s on a loaded 2-core machine):
+Last full run (12 locations, 4 controls, seed 1; 108 s on a loaded 2-core machine):
 
     bridge            crit       detection  limit  loc. err [m]    coverage95          rmse  layout [m]
     simply-supported  D       1.000±0.000  1.000   0.09± 0.02  1.000±0.000  0.015±0.003  0, 10, 20

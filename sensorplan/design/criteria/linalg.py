@@ -1,44 +1,48 @@
-"""Small dense linear algebra shared by the criteria (Cholesky, log det, Gram matrices, eigen-splits).
+"""Small dense linear algebra shared by the criteria: Cholesky, log det, Gram matrices, eigen-splits.
 
-May import: errors.
+Owns: the dense kernels of the criteria.  May import: errors.
 """
 
 import numpy as np
 import scipy.linalg
 
-from .._errors import ConfigError
+from ..._errors import ConfigError
 
-__all__ = []
+__all__ = ["symmetrise", "cholesky", "log_det", "inverse", "whitened_blocks", "symmetric_gram", "eigen_split"]
 
 
-def _sym(q):
+def symmetrise(q):
+    """(Q + Q^T) / 2: the symmetric part, removing round-off asymmetry."""
     return 0.5 * (q + q.T)
 
 
-def _chol(q):
+def cholesky(q):
+    """Lower Cholesky factor L of Q = L L^T; ConfigError if Q is not positive definite."""
     try:
         return np.linalg.cholesky(q)
     except np.linalg.LinAlgError:
         raise ConfigError("The posterior precision is not positive definite; the prior must be proper.") from None
 
 
-def _logdet(q):
-    return float(2.0 * np.sum(np.log(np.diag(_chol(_sym(q))))))
+def log_det(q):
+    """log det Q of a positive definite Q (from the Cholesky factor of its symmetric part)."""
+    return float(2.0 * np.sum(np.log(np.diag(cholesky(symmetrise(q))))))
 
 
-def _inv(q):
-    return scipy.linalg.cho_solve((_chol(q), True), np.eye(q.shape[0]))
+def inverse(q):
+    """Q^-1 of a positive definite Q, by its Cholesky factor."""
+    return scipy.linalg.cho_solve((cholesky(q), True), np.eye(q.shape[0]))
 
 
-def _whitened_blocks(chol, blocks):
-    """A_i = L^-1 I_i L^-T for all blocks, as two tall products (A_i symmetric)."""
+def whitened_blocks(chol, blocks):
+    """A_i = L^-1 I_i L^-T for all blocks (m, P, P), as two tall products (A_i symmetric)."""
     m, p, _ = blocks.shape
     lt = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True).T.astype(blocks.dtype)
     xt = (blocks.reshape(m * p, p) @ lt).reshape(m, p, p).transpose(0, 2, 1).reshape(m * p, p)
     return (xt @ lt).reshape(m, p, p)
 
 
-def _gram_sym(a):
+def symmetric_gram(a):
     """<A_i, A_j>_F for symmetric A (m, P, P), from the upper triangles, in double precision."""
     p = a.shape[1]
     iu = np.triu_indices(p)
@@ -47,15 +51,15 @@ def _gram_sym(a):
     return (v @ v.T).astype(float)
 
 
-def _eigen_split(problem, q, k=16):
+def eigen_split(problem, q, k=16):
     """Eigen-split of Q for the upper bounds: R^P = V (k smallest eigenvectors) + W.
 
     Returns (lambda, V, W, S) with S_i = V^T (Q + I_i) V = Lambda_V + V^T I_i V
-    for every candidate (two tall products).
+    for every candidate of ``problem`` (two tall products).
     """
     p = q.shape[0]
     k = min(p, k)
-    lam, vec = np.linalg.eigh(_sym(q))
+    lam, vec = np.linalg.eigh(symmetrise(q))
     v, w = vec[:, :k], vec[:, k:]
     c = problem.n_candidates
     bv = (problem.blocks.reshape(c * p, p) @ v).reshape(c, p, k).transpose(0, 2, 1).reshape(c * k, p)

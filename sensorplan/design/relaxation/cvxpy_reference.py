@@ -1,7 +1,7 @@
-"""Reference relaxation: the generic cvxpy formulation solved by Clarabel.
+"""Reference relaxation: the generic cvxpy formulation of any criterion, solved by Clarabel.
 
 Owns: the cvxpy model of the relaxation and the Clarabel solve-and-check.
-May import: model, errors, design.relaxation.
+May import: errors, design.relaxation.
 """
 
 import time
@@ -9,10 +9,11 @@ import warnings
 
 import numpy as np
 
-from .._errors import SolverError
-from .relaxation import Relaxation, _repair, register_relaxation_solver
+from ..._errors import SolverError
+from .base import Relaxation, repair_weights
+from .registry import register_relaxation_solver
 
-__all__ = ["solve_relaxation_cvxpy"]
+__all__ = ["solve_relaxation_cvxpy", "solve_clarabel"]
 
 
 @register_relaxation_solver("cvxpy")
@@ -36,11 +37,11 @@ def solve_relaxation_cvxpy(problem, *, start_layout=None, tol=1e-8, candidates=N
             constraints.append(rows[keep] @ w <= b_ub[keep])
     objective, handle = problem.criterion.cvxpy_objective(cp, q, constraints)
     prob = cp.Problem(objective, constraints)
-    _solve_clarabel(cp, prob, w, tol, "relaxation")
+    solve_clarabel(cp, prob, w, tol=tol, what="relaxation")
     status = prob.status
     weights = np.zeros(problem.n_candidates)
     weights[idx] = np.clip(w.value, 0.0, 1.0)
-    weights = _repair(problem, weights)
+    weights = repair_weights(problem, weights)
     stats = {"solver": "CLARABEL", "status": status, "time_s": time.perf_counter() - start,
              "iterations": prob.solver_stats.num_iters if prob.solver_stats else None,
              "solver_value": float(prob.value)}
@@ -51,8 +52,9 @@ def solve_relaxation_cvxpy(problem, *, start_layout=None, tol=1e-8, candidates=N
     return Relaxation(weights, utility, max(bound, utility), "cvxpy-clarabel", stats)
 
 
-def _solve_clarabel(cp, prob, w, tol, what):
-    """Solve ``prob`` with Clarabel; SolverError unless (inaccurately) optimal.
+def solve_clarabel(cp, prob, w, *, tol, what):
+    """Solve the cvxpy problem ``prob`` (variable ``w``) with Clarabel at tolerance ``tol``; SolverError
+    (naming ``what``) unless it is (inaccurately) optimal.
 
     "Solution may be inaccurate" is not a warning here: the status is
     reported in the result and every bound is certified independently

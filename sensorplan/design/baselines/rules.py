@@ -1,43 +1,18 @@
-"""Baseline layouts a recommendation is compared with, behind one registry.
+"""The built-in baselines: equal spacing, the rule of thumb, Effective Independence, the best random layout.
 
-A baseline is a function ``(problem, context) -> candidate indices or None``
-registered under a label (formatted with the context's fields); None means
-the baseline cannot satisfy the constraints.
-
-Owns: the baselines.  May import: errors, design.problem.
+Owns: the built-in baselines.  May import: design.baselines.registry.
 """
-
-from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
 
-__all__ = ["BASELINES", "BaselineContext", "register_baseline", "baselines"]
+from .registry import register_baseline
 
-BASELINES: dict[str, Callable] = {}
-
-
-@dataclass(frozen=True)
-class BaselineContext:
-    """What baselines may use besides the problem: the bridge and the random baseline's settings."""
-
-    length: float
-    support_positions: tuple
-    n_random: int = 100
-    rng: object = 0
+__all__ = ["snap", "equally_spaced", "rule_of_thumb", "effective_independence", "best_random"]
 
 
-def register_baseline(label):
-    """Register ``function(problem, context)`` under ``label`` (may contain ``{n_random}``)."""
-    def decorator(function):
-        BASELINES[label] = function
-        return function
-    return decorator
-
-
-def _snap(problem, targets):
-    """Nearest feasible free candidate for each target position, in order."""
+def snap(problem, targets):
+    """Nearest feasible free candidate for each target position, in order (None if they do not make a layout)."""
     chosen = []
     for t in targets:
         order = np.argsort(np.abs(problem.positions - t))
@@ -56,7 +31,7 @@ def equally_spaced(problem, context):
     """Sensors at the centres of R equal stretches of the bridge."""
     length = context.length
     targets = length * (np.arange(problem.count) + 0.5) / problem.count
-    return _snap(problem, targets)
+    return snap(problem, targets)
 
 
 @register_baseline("rule_of_thumb")
@@ -68,7 +43,7 @@ def rule_of_thumb(problem, context):
     for f in fractions:
         for a, b in zip(support_positions[:-1], support_positions[1:]):
             targets.append(a + f * (b - a))
-    return _snap(problem, targets)
+    return snap(problem, targets)
 
 
 @register_baseline("effective_independence")
@@ -94,7 +69,7 @@ def effective_independence(problem, context):
     layout = [i for i in remaining]
     if not problem.feasible(layout):
         ranked = sorted(layout, key=lambda i: i)
-        layout = _snap(problem, problem.positions[ranked])
+        layout = snap(problem, problem.positions[ranked])
     return layout
 
 
@@ -116,9 +91,3 @@ def best_random(problem, context):
             if u > best_u:
                 best, best_u = chosen, u
     return best
-
-
-def baselines(problem, *, length, support_positions, n_random=100, rng=0):
-    """Baseline layouts (candidate indices) by name; None where one cannot satisfy the constraints."""
-    context = BaselineContext(float(length), tuple(support_positions), int(n_random), rng)
-    return {label.format(n_random=n_random): function(problem, context) for label, function in BASELINES.items()}

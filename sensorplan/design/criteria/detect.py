@@ -14,7 +14,7 @@ the squared noncentrality of the known-location test exactly as
 is min_c d^2_c: a minimum of functions that are concave in the weights (a
 minimum of linear functions of A), hence concave.
 
-Relaxation (:mod:`.relax_detect`, and cvxpy + Clarabel with one LMI
+Relaxation (:mod:`sensorplan.design.relaxation.detect_epigraph`, and cvxpy + Clarabel with one LMI
 [[A_ss - t, A_sN], [A_Ns, A_NN]] >= 0 per centre): d^2_c with a ridge
 ``RIDGE`` times the mean single-candidate diagonal added to A_NN, a weak
 prior on the nuisance that keeps A_NN(w) nonsingular on the whole relaxed
@@ -40,12 +40,13 @@ import numpy as np
 import scipy.optimize
 from scipy.special import ndtr, ndtri
 
-from .._errors import ConfigError, SolverError
-from ..detection.signatures import schur_d_squared
-from .criteria import Criterion, register_criterion
+from ..._errors import ConfigError, SolverError
+from ...detection.signatures import schur_d_squared
+from .base import Criterion
+from .registry import register_criterion
 
-__all__ = ["DetectCriterion", "RIDGE", "centre_d_squared", "centre_solution", "smooth_parts", "centre_gradients", "centre_hessian_roots",
-           "certificate"]
+__all__ = ["DetectCriterion", "RIDGE", "centre_d_squared", "centre_solution", "smooth_parts", "centre_gradients",
+           "centre_hessian_roots", "certificate"]
 
 RIDGE = 1e-10  # ridge on A_NN in the relaxation, relative to the mean single-candidate diagonal
 
@@ -164,7 +165,7 @@ class DetectCriterion(Criterion):
     """Worst case over damage centres of the detectability d^2 (maximised); see the module docstring.
 
     Built by :func:`~sensorplan.design.recommend.build_problem` from a case
-    (:mod:`.detect_problem`), not from a number of parameters.
+    (:mod:`sensorplan.design.detect_problem`), not from a number of parameters.
     """
 
     name = "detect"
@@ -173,7 +174,7 @@ class DetectCriterion(Criterion):
     information = "detection"
     params_label = "damage centres"
     random_starts = 10  # a minimum over centres has many local optima for single swaps
-    batch_size = 16  # one batched Cholesky for 16 candidates costs about two single evaluations
+    batch_size = 16  # one batched Cholesky of 16 candidates costs far less than 16 single ones
 
     def __init__(self, n_params, *, centres=None, ridge=None, false_alarm=0.05, n_crossings=1, severity=0.25,
                  length=2.0, nuisance="smooth", region=None, step=0.5, nuisance_names=()):

@@ -1,0 +1,171 @@
+"""The protocol every design criterion follows: :class:`Criterion`.
+
+A criterion is a concave utility of the relaxed weights w (C,) of the
+candidates, evaluated on the "precision" Q(w) = Q_0 + sum_i w_i I_i of a
+placement problem (:class:`~sensorplan.design.problem.DesignProblem`).
+
+Owns: the Criterion base class and its defaults.  May import: errors.
+"""
+
+import math
+from abc import ABC, abstractmethod
+from typing import ClassVar
+
+import numpy as np
+
+from ..._errors import ConfigError
+
+__all__ = ["Criterion"]
+
+
+class Criterion(ABC):
+    """The protocol of a design criterion (a concave utility of the weights).
+
+    Contract
+    --------
+    A subclass sets the class attributes ``name`` (its registry key, also
+    the ``--criterion`` choice) and ``description``, and implements three
+    methods:
+
+    * ``value(q) -> float``: the criterion of a precision Q (P, P);
+    * ``gradient_matrix(q) -> ndarray (P, P)``: a symmetric G with
+      d utility / d w_i = <G, I_i> (a supergradient where not smooth);
+    * ``cvxpy_objective(cp, q_expr, constraints) -> (objective, handle)``: the
+      cvxpy objective of the relaxation on the expression Q(w) (it may append
+      to ``constraints``; ``handle`` is passed back to :meth:`cvxpy_bound`).
+
+    The utility that is maximised is ``value`` if ``maximise`` else
+    ``-value``, and it must be concave in the weights: every certificate
+    (:meth:`bound`, :meth:`upper_bounds`) relies on that.  Everything else
+    has a correct default for any concave utility (central-difference
+    Hessian, first-order upper bounds, the Frank-Wolfe bound), which the
+    built-in criteria override with exact, faster forms.  Class attributes
+    that tune the search: ``submodular`` (lazy greedy is exact),
+    ``relaxation`` (the fast relaxation method registered under that name,
+    :mod:`sensorplan.design.relaxation`), ``information`` (what a sensor adds:
+    ``"fisher"`` blocks, or ``"detection"`` Gram stacks built by
+    :mod:`~sensorplan.design.detect_problem`), ``params_label`` (what
+    :attr:`n_effective` counts, for summaries), ``random_starts`` (randomised
+    roundings tried as exchange starts) and ``batch_size`` (candidates
+    :meth:`utilities` evaluates together).
+
+    A criterion becomes available to :func:`~sensorplan.design.recommend.recommend`,
+    greedy, exchange, both relaxation solvers and the command line once its
+    class is registered with
+    :func:`~sensorplan.design.criteria.registry.register_criterion`.
+
+    Parameters
+    ----------
+    n_params : int
+        Dimension of Q.
+    """
+
+    name: ClassVar[str] = ""
+    description: ClassVar[str] = ""
+    maximise: ClassVar[bool] = True
+    submodular: ClassVar[bool] = False  # gains only shrink as sensors are added: lazy greedy is exact
+    relaxation: ClassVar[str] = "interior-point"  # fast solver: "interior-point", "eigen-subspace", ...
+    information: ClassVar[str] = "fisher"  # what a sensor adds: Fisher blocks, or "detection" Gram stacks
+    params_label: ClassVar[str] = "parameters"  # what n_effective counts, for summaries
+    random_starts: ClassVar[int] = 0  # randomised roundings of the relaxation tried as exchange starts
+    batch_size: ClassVar[int] = 1  # candidates exchange evaluates together (``utilities``)
+
+    def __init__(self, n_params):
+        self.n_params = int(n_params)
+
+    @classmethod
+    def from_options(cls, n_params, *, n_elements=None, edges=None, region=None, functionals=None):
+        """Build the criterion from the options of :func:`~sensorplan.design.criteria.registry.make_criterion`."""
+        if region is not None or functionals is not None:
+            raise ConfigError(f"A region of interest or functionals apply to the A criterion only, "
+                              f"not to {cls.name}.")
+        return cls(n_params)
+
+    @property
+    def n_effective(self):
+        """Dimension used by a per-parameter efficiency."""
+        return self.n_params
+
+    # -- value and derivatives ---------------------------------------------------------
+    @abstractmethod
+    def value(self, q):
+        """The criterion of the precision ``q``."""
+
+    def utility(self, q):
+        """What is maximised: ``value`` or ``-value``."""
+        v = self.value(q)
+        return v if self.maximise else -v
+
+    def utilities(self, q, blocks):
+        """utility(Q + I_i) for each block of ``blocks`` (overridden where a batch is cheaper)."""
+        return [self.utility(q + b) for b in blocks]
+
+    @abstractmethod
+    def gradient_matrix(self, q):
+        """Symmetric G with d utility / d w_i = <G, I_i> (a supergradient if not smooth)."""
+
+    def hessian(self, q, chol, blocks):
+        """Hessian of the utility in the weights of ``blocks`` (m, P, P); default: central
+        differences of the gradient along each block (exact forms override it)."""
+        m = blocks.shape[0]
+        flat = blocks.reshape(m, -1).astype(float)
+        h = np.empty((m, m))
+        for j in range(m):
+            step = 1e-4 * max(1.0, float(np.abs(q).max())) / max(1.0, float(np.abs(flat[j]).max()))
+            plus = self.gradient_matrix(q + step * blocks[j])
+            minus = self.gradient_matrix(q - step * blocks[j])
+            h[:, j] = flat @ ((plus - minus) / (2.0 * step)).ravel()
+        return 0.5 * (h + h.T)
+
+    # -- bounds and certificates ---------------------------------------------------------
+    def upper_bounds(self, problem, q):
+        """(utility(Q), b) with b_i >= utility(Q + I_i) for every candidate (concavity)."""
+        u = self.utility(q)
+        return u, u + problem.flat_blocks @ self.gradient_matrix(q).ravel()
+
+    def bound(self, problem, w):
+        """Certified bound on the relaxed optimum of the utility, from weights ``w``.
+
+        For a concave utility f: f* <= f(w) + max_s g(w)^T (s - w) over the
+        relaxed feasible set (the Frank-Wolfe gap).
+        """
+        q = problem.precision(w)
+        g = problem.flat_blocks @ self.gradient_matrix(q).ravel()
+        best, _ = problem.linear_max(g)
+        return self.utility(q) + max(0.0, best - float(g @ w))
+
+    # -- cvxpy -----------------------------------------------------------------------------
+    def cvxpy_precision(self, cp, problem, w, idx):
+        """Q(w) as a cvxpy expression (weights ``w`` on the candidates ``idx``)."""
+        p = problem.n_params
+        q = problem.q0 + cp.reshape(problem.flat_blocks[idx].T @ w, (p, p), order="C")
+        return 0.5 * (q + q.T)
+
+    @abstractmethod
+    def cvxpy_objective(self, cp, q_expr, constraints):
+        """(objective, handle) of the relaxation; ``constraints`` may be extended."""
+
+    def cvxpy_bound(self, problem, weights, handle):
+        """Certified bound from a cvxpy solution (default: :meth:`bound` at the weights)."""
+        return self.bound(problem, weights)
+
+    def relaxed_utility(self, problem, w):
+        """What the relaxation maximises, at relaxed weights ``w`` (default: the utility)."""
+        return self.utility(problem.precision(w))
+
+    def describe(self, q):
+        """(JSON details, summary line) of a layout's Q beyond the value (none by default)."""
+        return {}, ""
+
+    # -- comparing values --------------------------------------------------------------------
+    def efficiency(self, value, bound):
+        """Certified lower bound on the efficiency of ``value`` against ``bound`` (in [0, 1])."""
+        if self.maximise:
+            return float(min(1.0, value / bound)) if bound > 0 and value > 0 else 0.0
+        return float(min(1.0, bound / value)) if value > 0 else 0.0
+
+    def relative(self, value, reference):
+        """Efficiency of ``value`` relative to ``reference`` (1 = as good)."""
+        if self.maximise:
+            return value / reference if reference != 0 else math.nan
+        return reference / value if value != 0 else math.nan

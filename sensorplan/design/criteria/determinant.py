@@ -1,0 +1,112 @@
+"""The determinant criteria: D (log det Q) and Ds (log det of the Schur complement of the nuisance block).
+
+* D  = log det Q
+* Ds = log det of the Schur complement of the spring block, i.e. the log
+  determinant of the precision of log EI with the springs marginalised
+
+Owns: DCriterion, DsCriterion.  May import: errors, design.criteria.
+"""
+
+import math
+
+import numpy as np
+
+from ..._errors import ConfigError
+from .base import Criterion
+from .linalg import eigen_split, inverse, log_det, symmetric_gram, symmetrise, whitened_blocks
+from .registry import register_criterion
+
+__all__ = ["DCriterion", "DsCriterion"]
+
+
+@register_criterion
+class DCriterion(Criterion):
+    """D-optimality: log det Q (submodular gains; exact Hessian)."""
+
+    name = "D"
+    description = "log det of the posterior precision"
+    submodular = True
+
+    def value(self, q):
+        return log_det(q)
+
+    def gradient_matrix(self, q):
+        return inverse(symmetrise(q))
+
+    def hessian(self, q, chol, blocks):
+        # H_ij = -<A_i, A_j>, A_i = L^-1 I_i L^-T (Q = L L^T), symmetric: a Gram
+        # matrix on the upper triangles (off-diagonals scaled by sqrt 2)
+        return -symmetric_gram(whitened_blocks(chol, blocks))
+
+    def upper_bounds(self, problem, q):
+        # Fischer's inequality on V (k smallest eigenvectors), concavity of log det on W
+        lam, v, w, small = eigen_split(problem, q)
+        k = v.shape[1]
+        logdet = 2.0 * np.log(np.diagonal(np.linalg.cholesky(small), axis1=1, axis2=2)).sum(axis=1)
+        first = problem.flat_blocks @ ((w / lam[k:]) @ w.T).ravel()
+        return float(np.sum(np.log(lam))), logdet + float(np.sum(np.log(lam[k:]))) + first
+
+    def cvxpy_objective(self, cp, q_expr, constraints):
+        return cp.Maximize(cp.log_det(q_expr)), None
+
+    def efficiency(self, value, bound):
+        return float(math.exp(min(0.0, (value - bound) / self.n_effective)))
+
+    def relative(self, value, reference):
+        return math.exp((value - reference) / self.n_effective)
+
+
+@register_criterion
+class DsCriterion(DCriterion):
+    """Ds-optimality: log det of the precision of the first ``n_keep`` parameters (the rest marginalised)."""
+
+    name = "Ds"
+    description = "log det of the posterior precision of log EI, springs marginalised"
+    submodular = False
+
+    def __init__(self, n_params, *, n_keep=None):
+        super().__init__(n_params)
+        self.n_keep = self.n_params if n_keep is None else int(n_keep)
+
+    @classmethod
+    def from_options(cls, n_params, *, n_elements=None, edges=None, region=None, functionals=None):
+        if region is not None or functionals is not None:
+            raise ConfigError("A region of interest or functionals apply to the A criterion only, not to Ds.")
+        return cls(n_params, n_keep=n_params if n_elements is None else n_elements)
+
+    @property
+    def n_effective(self):
+        return self.n_keep
+
+    def value(self, q):
+        q = symmetrise(q)
+        k = self.n_keep
+        return log_det(q) - log_det(q[k:, k:]) if k < q.shape[0] else log_det(q)
+
+    def gradient_matrix(self, q):
+        q = symmetrise(q)
+        g = inverse(q)
+        k = self.n_keep
+        if k < q.shape[0]:
+            g[k:, k:] -= inverse(q[k:, k:])
+        return g
+
+    def hessian(self, q, chol, blocks):
+        h = super().hessian(q, chol, blocks)
+        k = self.n_keep
+        if k < q.shape[0]:
+            ls = np.linalg.inv(np.linalg.cholesky(symmetrise(q)[k:, k:])).astype(blocks.dtype)
+            h = h + symmetric_gram(np.matmul(ls, np.matmul(blocks[:, k:, k:], ls.T)))
+        return h
+
+    def upper_bounds(self, problem, q):
+        return Criterion.upper_bounds(self, problem, q)
+
+    def cvxpy_objective(self, cp, q_expr, constraints):
+        k = self.n_keep
+        if k == self.n_params:
+            return cp.Maximize(cp.log_det(q_expr)), None
+        s = cp.Variable((k, k), symmetric=True)
+        block = cp.bmat([[q_expr[:k, :k] - s, q_expr[:k, k:]], [q_expr[k:, :k], q_expr[k:, k:]]])
+        constraints.append(0.5 * (block + block.T) >> 0)
+        return cp.Maximize(cp.log_det(s)), None

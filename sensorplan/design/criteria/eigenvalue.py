@@ -1,0 +1,63 @@
+"""The eigenvalue criterion E = lambda_min(Q).
+
+Not smooth: its relaxation is the eigen-subspace method
+(:mod:`sensorplan.design.relaxation.eigen_subspace`), certified by trace-one
+dual matrices (:meth:`ECriterion.bound_from_dual`).
+
+Owns: ECriterion.  May import: errors, design.criteria.
+"""
+
+import numpy as np
+
+from .base import Criterion
+from .linalg import eigen_split, symmetrise
+from .registry import register_criterion
+
+__all__ = ["ECriterion"]
+
+
+@register_criterion
+class ECriterion(Criterion):
+    """E-optimality: lambda_min(Q) (not smooth: eigen-subspace relaxation, trace-one certificates)."""
+
+    name = "E"
+    description = "smallest eigenvalue of the posterior precision"
+    relaxation = "eigen-subspace"
+
+    def value(self, q):
+        return float(np.linalg.eigvalsh(symmetrise(q))[0])
+
+    def gradient_matrix(self, q):
+        _, vecs = np.linalg.eigh(symmetrise(q))
+        u = vecs[:, 0]
+        return np.outer(u, u)
+
+    def upper_bounds(self, problem, q):
+        # Cauchy interlacing: lambda_min(Q + I_i) <= lambda_min(V^T (Q + I_i) V)
+        lam, _, _, small = eigen_split(problem, q)
+        return float(lam[0]), np.linalg.eigvalsh(small)[:, 0]
+
+    def bound(self, problem, w):
+        return self.bound_from_dual(problem, self.gradient_matrix(problem.precision(w)))
+
+    def bound_from_dual(self, problem, z):
+        """lambda_min(Q) <= <Z, Q> for every Z >= 0 with trace 1, so
+        E* <= <Z, Q_0> + max_s sum_i s_i <Z, I_i> (``z`` is projected onto that set)."""
+        vals, vecs = np.linalg.eigh(symmetrise(z))
+        vals = np.clip(vals, 0.0, None)
+        if vals.sum() <= 0:
+            return np.inf
+        z = (vecs * (vals / vals.sum())) @ vecs.T
+        best, _ = problem.linear_max(problem.flat_blocks @ z.ravel())
+        return float(np.sum(z * problem.q0)) + best
+
+    def cvxpy_objective(self, cp, q_expr, constraints):
+        # maximise t s.t. Q(w) - t I >= 0: the PSD constraint's dual is the Z of the bound
+        t = cp.Variable()
+        lmi = q_expr - t * np.eye(self.n_params) >> 0
+        constraints.append(lmi)
+        return cp.Maximize(t), lmi
+
+    def cvxpy_bound(self, problem, weights, handle):
+        dual = handle.dual_value
+        return self.bound_from_dual(problem, dual) if dual is not None else self.bound(problem, weights)

@@ -1,0 +1,196 @@
+"""The small SDP of the E relaxation, max t s.t. B0 + sum_i w_i B_i - t I >= 0, by its own interior point.
+
+A primal-dual path-following method for this small SDP (k x k LMI, m
+weights): HKM search direction with Mehrotra's predictor-corrector,
+infeasible start, the Newton system reduced to the (m + 1) x (m + 1)
+Schur complement M_ij = tr(A_i X A_j Z^-1) plus the diagonal of the linear
+inequalities (Helmberg, Rendl, Vanderbei & Wolkowicz, SIAM J. Optim. 6
+(1996) 342-361; Todd, Toh & Tutuncu, SIAM J. Optim. 8 (1998) 769-796).  In
+the dual standard form max b^T y s.t. Z = C - sum_j y_j A_j >= 0, y = (w, t),
+C = B0, A_i = -B_i, A_t = I, b = e_t; the primal matrix X is the LMI's
+multiplier (trace one).  Forming M costs m k^3 + m^2 k^2, far less than a
+general conic solver's factorisation of the full KKT system.
+
+Owns: lmi_interior_point.  May import: design.relaxation.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from .interior_point import boundary_step
+
+__all__ = ["lmi_interior_point"]
+
+
+@dataclass(frozen=True)
+class _Point:
+    """An iterate: the primal X (k, k) and lam, nu; the dual y = (w, t), Z (k, k) and the slacks s."""
+
+    x: np.ndarray
+    z: np.ndarray
+    y: np.ndarray
+    s: np.ndarray
+    lam: np.ndarray
+    nu: float
+
+
+@dataclass(frozen=True)
+class _Residuals:
+    r_p: np.ndarray  # primal: b - A(X) - G^T lam - nu 1
+    r_d: np.ndarray  # dual: C - A*(y) - Z
+    r_s: np.ndarray  # slacks: h - G w - s
+    r_e: float  # count - sum w
+    gap: float  # <X, Z> + s^T lam
+    scale: float  # max(1, |t|)
+    pobj: float  # primal objective
+
+
+class _SmallLmi:
+    """The data of the SDP, its linear maps A (X -> (<A_j, X>)_j), A* (y -> sum_j y_j A_j) and G^T."""
+
+    def __init__(self, b0, bmat, rows, rhs, count):
+        self.m, self.k, _ = bmat.shape
+        m, k = self.m, self.k
+        self.b0, self.bmat, self.count = b0, bmat, count
+        self.g_w = np.vstack([rows, np.eye(m), -np.eye(m)])  # G y <= h acts on w only
+        self.h = np.concatenate([rhs, np.ones(m), np.zeros(m)])
+        self.bflat = bmat.reshape(m, k * k)
+        self.eye = np.eye(k)
+        self.ones = np.concatenate([np.ones(m), [0.0]])
+        self.b = np.zeros(m + 1)
+        self.b[m] = 1.0
+
+    def astar(self, v):
+        return -(v[:self.m] @ self.bflat).reshape(self.k, self.k) + v[self.m] * self.eye
+
+    def a_op(self, x):
+        return np.concatenate([-(self.bflat @ x.ravel()), [np.trace(x)]])
+
+    def gt(self, v):
+        return np.concatenate([self.g_w.T @ v, [0.0]])
+
+    def start(self):
+        """Uniform weights, t one below the smallest eigenvalue, X = I / k, Z a multiple of I."""
+        m, k = self.m, self.k
+        w0 = np.full(m, self.count / m)
+        s0 = self.b0 + (w0 @ self.bflat).reshape(k, k)
+        y = np.concatenate([w0, [np.linalg.eigvalsh(0.5 * (s0 + s0.T))[0] - 1.0]])
+        z = self.eye * max(1.0, float(np.max(np.abs(s0))))
+        s = np.maximum(self.h - self.g_w @ y[:m], 1.0)
+        return _Point(self.eye / k, z, y, s, np.ones(self.h.size), 0.0)
+
+    def residuals(self, p):
+        m = self.m
+        r_p = self.b - self.a_op(p.x) - self.gt(p.lam) - p.nu * self.ones
+        r_d = self.b0 - self.astar(p.y) - p.z
+        r_d = 0.5 * (r_d + r_d.T)
+        r_s = self.h - self.g_w @ p.y[:m] - p.s
+        r_e = self.count - p.y[:m].sum()
+        gap = float(np.sum(p.x * p.z) + p.s @ p.lam)
+        scale = max(1.0, abs(float(p.y[m])))
+        pobj = float(np.sum(self.b0 * p.x) + self.h @ p.lam + self.count * p.nu)
+        return _Residuals(r_p, r_d, r_s, r_e, gap, scale, pobj)
+
+    def converged(self, res, p, tol):
+        """Relative gap, dual residuals and the sum within ``tol``; the primal residual within 1e-5."""
+        norm = np.linalg.norm
+        dual_ok = (norm(res.r_d) <= tol * (1.0 + norm(self.b0)) and norm(res.r_s) <= tol * (1.0 + norm(self.h))
+                   and abs(res.r_e) <= tol * (1.0 + self.count))
+        return dual_ok and res.gap <= tol * res.scale and abs(res.pobj - p.y[self.m]) <= 10 * tol * res.scale \
+            and norm(res.r_p) <= 1e-5 * (1.0 + norm(self.b))
+
+
+class _Newton:
+    """The Newton system at one iterate, reduced to the Schur complement M (LinAlgError if X, Z or M
+    is not positive definite), its directions and step lengths."""
+
+    def __init__(self, lmi, p, res):
+        self.lmi, self.p, self.res = lmi, p, res
+        m, bmat = lmi.m, lmi.bmat
+        self.zc = np.linalg.cholesky(p.z)
+        self.xc = np.linalg.cholesky(p.x)
+        zi = scipy.linalg.cho_solve((self.zc, True), lmi.eye)
+        self.zi = zi = 0.5 * (zi + zi.T)
+        xbz = np.matmul(np.matmul(p.x, bmat), zi)  # X B_j Z^-1
+        mmat = np.empty((m + 1, m + 1))
+        mmat[:m, :m] = lmi.bflat @ xbz.reshape(m, -1).T
+        xz = p.x @ zi
+        col = -np.einsum("ij,mji->m", xz, bmat)
+        mmat[:m, m] = mmat[m, :m] = col
+        mmat[m, m] = np.trace(xz)
+        mmat = 0.5 * (mmat + mmat.T)
+        mmat[:m, :m] += (lmi.g_w.T * (p.lam / p.s)) @ lmi.g_w
+        self.factor = scipy.linalg.cho_factor(mmat, check_finite=False)
+        self.u1 = scipy.linalg.cho_solve(self.factor, lmi.ones, check_finite=False)
+
+    def direction(self, rc_x, rc_lin):
+        """(dX, dy, dZ, ds, dlam, dnu) for the complementarity right-hand sides ``rc_x``, ``rc_lin``."""
+        lmi, p, res, zi = self.lmi, self.p, self.res, self.zi
+        rhs_y = res.r_p - lmi.a_op(rc_x - p.x @ res.r_d @ zi) - lmi.gt((rc_lin - p.lam * res.r_s) / p.s)
+        u0 = scipy.linalg.cho_solve(self.factor, rhs_y, check_finite=False)
+        dnu = (lmi.ones @ u0 - res.r_e) / (lmi.ones @ self.u1)
+        dy = u0 - dnu * self.u1
+        dz = res.r_d - lmi.astar(dy)
+        dx = rc_x - p.x @ dz @ zi
+        ds = res.r_s - lmi.g_w @ dy[:lmi.m]
+        return 0.5 * (dx + dx.T), dy, dz, ds, (rc_lin - p.lam * ds) / p.s, dnu
+
+    def max_steps(self, dx, dz, ds, dlam):
+        """Largest primal and dual steps (at most 1) that keep X, lam and Z, s positive."""
+        steps = []
+        for chol, dmat, v, dv in ((self.xc, dx, self.p.lam, dlam), (self.zc, dz, self.p.s, ds)):
+            li = scipy.linalg.solve_triangular(chol, self.lmi.eye, lower=True, check_finite=False)
+            low = np.linalg.eigvalsh(li @ dmat @ li.T)[0]
+            steps.append(boundary_step(v, dv, 1.0 if low >= 0 else min(1.0, -1.0 / low)))
+        return steps
+
+    def predictor_corrector(self):
+        """The next iterate: Mehrotra's predictor (affine scaling) and corrector, 98 % of the way to
+        the boundary."""
+        p, zi = self.p, self.zi
+        mu = self.res.gap / (self.lmi.k + self.lmi.h.size)
+        dx, dy, dz, ds, dlam, dnu = self.direction(-p.x, -p.lam * p.s)  # predictor
+        ap, ad = self.max_steps(dx, dz, ds, dlam)
+        gap_aff = float(np.sum((p.x + ap * dx) * (p.z + ad * dz)) + (p.s + ad * ds) @ (p.lam + ap * dlam))
+        sigma = (max(gap_aff, 0.0) / self.res.gap) ** 3
+        dx, dy, dz, ds, dlam, dnu = self.direction(sigma * mu * zi - p.x - dx @ dz @ zi,  # corrector
+                                                   sigma * mu - p.lam * p.s - dlam * ds)
+        ap, ad = self.max_steps(dx, dz, ds, dlam)
+        ap, ad = 0.98 * ap, 0.98 * ad
+        x = p.x + ap * dx
+        z = p.z + ad * dz
+        return _Point(0.5 * (x + x.T), 0.5 * (z + z.T), p.y + ad * dy, p.s + ad * ds, p.lam + ap * dlam,
+                      p.nu + ap * dnu)
+
+
+def lmi_interior_point(b0, bmat, rows, rhs, count, *, tol=1e-9, max_iter=100):
+    """max t s.t. B0 + sum_i w_i B_i - t I >= 0, 0 <= w <= 1, rows w <= rhs, sum w = count (module docstring).
+
+    Returns (t, w, X, nu, status, iterations), nu the multiplier of
+    sum w = count.  ``status`` is "optimal" when the relative gap, the dual
+    residuals and the sum constraint are within ``tol`` and the primal
+    residual (the multiplier equations, which only affect the quality of X
+    as a certificate, checked independently by the caller) within 1e-5.
+    """
+    lmi = _SmallLmi(b0, bmat, rows, rhs, count)
+    m = lmi.m
+    p = lmi.start()
+    best, extra = None, 0
+    for it in range(1, max_iter + 1):
+        res = lmi.residuals(p)
+        if lmi.converged(res, p, tol):
+            best = (float(p.y[m]), p.y[:m].copy(), p.x.copy(), float(p.nu))
+            extra += 1  # a few more steps to tighten the primal residual
+            if extra > 3 or res.gap <= 0.1 * tol * res.scale and np.linalg.norm(res.r_p) <= tol:
+                break
+        try:
+            newton = _Newton(lmi, p, res)
+        except np.linalg.LinAlgError:
+            break
+        p = newton.predictor_corrector()
+    if best is None:
+        status = "max iterations" if it == max_iter else "numerical problems"
+        return float(p.y[m]), p.y[:m], p.x, float(p.nu), status, it
+    return (*best, "optimal", it)

@@ -1,0 +1,171 @@
+"""Relaxation of smooth criteria: column generation around a primal-dual interior point.
+
+A problem restricted to a working set of candidates is solved by a
+primal-dual interior-point method with the criterion's exact Hessian
+(:meth:`Criterion.hessian`); the linear oracle over *all* candidates then
+gives the certified bound, and the candidates whose gradient beats the
+multiplier of the count constraint join the working set
+(:mod:`.column_generation`), until the duality gap over all candidates is
+below the tolerance.
+
+Owns: the fast relaxation of smooth criteria and its restricted interior point.
+May import: errors, design.relaxation.
+"""
+
+import time
+from functools import partial
+
+import numpy as np
+
+from ..._errors import SolverError
+from .base import Relaxation, repair_weights
+from .column_generation import Round, WorkingSet, column_generation, initial_size
+from .interior_point import RestrictedPolytope, boundary_step, solve_with_sum
+from .registry import register_fast_method
+
+__all__ = ["solve_column_generation", "restricted_interior_point"]
+
+
+@register_fast_method("interior-point")
+def solve_column_generation(problem, *, tol=1e-7, start_layout=None, max_rounds=50):
+    """Relaxation by column generation with a certified duality gap (relative ``tol``).
+
+    D, Ds and A: a primal-dual interior-point method (exact Hessians) solves
+    the problem restricted to a working set of candidates; the linear
+    oracle over *all* candidates then gives the certified bound, and the
+    candidates whose gradient exceeds the multiplier of the count
+    constraint join the working set, until the gap is below ``tol``.
+    """
+    t0 = time.perf_counter()
+    c = problem.n_candidates
+    g = problem.gradient(np.full(c, problem.count / c))
+    first = np.argsort(-g, kind="stable")[:initial_size(c, problem.count, 8)].tolist()
+    working = WorkingSet(c, first, start_layout=start_layout)
+    last, rounds, newton_iters = column_generation(problem, working, partial(_solve_round, problem), tol=tol,
+                                                   max_rounds=max_rounds)
+    stats = {"solver": "column-generation+interior-point",
+             "status": "optimal" if last.gap <= tol else "gap above tolerance",
+             "rounds": rounds, "working_set": len(working), "newton_iterations": newton_iters,
+             "time_s": time.perf_counter() - t0}
+    return Relaxation(last.weights, last.utility, max(last.bound, last.utility), "fast", stats)
+
+
+def _solve_round(problem, working, idx, w_prev, inner):
+    """The restricted interior point on ``idx`` (all candidates if the constraints need more) and the
+    Frank-Wolfe certificate over all candidates."""
+    try:
+        x, nu, it = restricted_interior_point(problem, idx, w_prev, tol=inner)
+    except SolverError:
+        if idx.size == problem.n_candidates:
+            raise
+        idx = working.fill()  # the constraints need candidates outside the working set
+        x, nu, it = restricted_interior_point(problem, idx, None, tol=inner)
+    weights = np.zeros(problem.n_candidates)
+    weights[idx] = x
+    weights = repair_weights(problem, weights)
+    crit = problem.criterion
+    q = problem.precision(weights)
+    utility = crit.utility(q)
+    grad = problem.flat_blocks @ crit.gradient_matrix(q).ravel()
+    best, s = problem.linear_max(grad)
+    bound = utility + max(0.0, best - float(grad @ weights))
+    gap = (bound - utility) / max(1.0, abs(bound))
+    return Round(idx=idx, x=x, weights=weights, utility=utility, bound=bound, gap=gap, threshold=nu, maximiser=s,
+                 iterations=it, entry_gradient=lambda: grad)
+
+
+class _Restricted:
+    """Utility, gradient and Hessian of the criterion in the weights ``x`` of the working set ``idx``.
+
+    The Hessian uses a single-precision copy of the blocks (the Newton
+    direction needs a few digits; utility, gradient and hence the
+    interior-point residuals and the certificate stay in double precision).
+    """
+
+    def __init__(self, problem, idx):
+        self.problem = problem
+        self.blocks = problem.blocks[idx]
+        self.flat = self.blocks.reshape(idx.size, -1)
+        self.blocks_h = self.blocks.astype(np.float32)
+
+    def derivatives(self, x, *, hessian=True):
+        """(utility, gradient, Hessian) at ``x``; (-inf, None, None) outside the domain."""
+        crit = self.problem.criterion
+        p = self.blocks.shape[1]
+        q = self.problem.q0 + (x @ self.flat).reshape(p, p)
+        q = 0.5 * (q + q.T)
+        try:
+            chol = np.linalg.cholesky(q)
+        except np.linalg.LinAlgError:
+            return -np.inf, None, None
+        u = crit.utility(q)
+        grad = self.flat @ crit.gradient_matrix(q).ravel()
+        if not hessian:
+            return u, grad, None
+        h = crit.hessian(q, chol, self.blocks_h)
+        return u, grad, 0.5 * (h + h.T)
+
+
+def restricted_interior_point(problem, idx, w_prev, *, tol, max_iter=200):
+    """Maximise the utility over candidates ``idx``: primal-dual interior point.
+
+    Boyd & Vandenberghe, Convex Optimization (2004), section 11.7: inequalities
+    G x <= h (side constraints and the box), equality sum(x) = R; returns
+    (x, nu, iterations) with nu the multiplier of the equality (the
+    threshold a candidate's gradient must exceed to enter).
+    """
+    poly = RestrictedPolytope.for_working_set(problem, idx)
+    smooth = _Restricted(problem, idx)
+    x = poly.interior_start(w_prev, idx)
+    slack = poly.slack(x)
+    lam = 1.0 / slack
+    nu = 0.0
+    ones = np.ones(poly.m)
+    u, g, hess = smooth.derivatives(x)
+    for it in range(1, max_iter + 1):
+        eta = float(slack @ lam)  # the surrogate duality gap
+        t = 10.0 * poly.n_ineq / eta  # barrier parameter: aim at a tenth of the gap
+        r_dual = -g + poly.apply_transpose(lam) + nu * ones
+        scale = max(1.0, float(np.max(np.abs(g))))
+        if eta <= tol * max(1.0, abs(u)) and np.max(np.abs(r_dual)) <= tol * scale \
+                and abs(x.sum() - poly.count) <= 1e-9 * poly.count:
+            break
+        kmat = poly.add_barrier_hessian(-hess, lam / slack)
+        dx, dnu = solve_with_sum(kmat, g - nu * ones - poly.apply_transpose(1.0 / (t * slack)),
+                                 poly.count - x.sum())
+        gdx = poly.apply(dx)
+        dlam = (lam * gdx - (lam * slack - 1.0 / t)) / slack
+        r0 = np.sqrt(r_dual @ r_dual + np.sum((lam * slack - 1.0 / t) ** 2) + (x.sum() - poly.count) ** 2)
+        step = _step(smooth, poly, (x, lam, nu), (dx, dlam, dnu), gdx, slack, t, r0)
+        if step <= 1e-12:
+            break
+        x = x + step * dx
+        lam = lam + step * dlam
+        nu = nu + step * dnu
+        slack = poly.slack(x)
+        u, g, hess = smooth.derivatives(x)
+    return np.clip(x, 0.0, 1.0), float(nu), it
+
+
+def _step(smooth, poly, point, direction, gdx, slack, t, r0, *, alpha=0.01, beta=0.5):
+    """Step length: 99 % of the way to the boundary, then backtracking until the residual norm
+    decreases by the fraction ``alpha`` of the step (0 when no step does)."""
+    (x, lam, nu), (dx, dlam, dnu) = point, direction
+    step = 0.99 * boundary_step(lam, dlam)
+    step = min(step, 0.99 * boundary_step(slack, -gdx, np.inf))
+    while step > 1e-12:
+        un, rn = _residual_norm(smooth, poly, x + step * dx, lam + step * dlam, nu + step * dnu, t)
+        if np.isfinite(un) and rn <= (1.0 - alpha * step) * r0:
+            break
+        step *= beta
+    return step
+
+
+def _residual_norm(smooth, poly, x, lam, nu, t):
+    """(utility, norm of the primal-dual residuals: dual, centring, primal) at a trial point."""
+    u, g, _ = smooth.derivatives(x, hessian=False)
+    sl = poly.slack(x)
+    r_dual = -g + poly.apply_transpose(lam) + nu * np.ones(poly.m)
+    r_cent = lam * sl - 1.0 / t
+    r_pri = x.sum() - poly.count
+    return u, np.sqrt(r_dual @ r_dual + r_cent @ r_cent + r_pri * r_pri)
