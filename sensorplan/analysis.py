@@ -5,7 +5,7 @@ design, verification, diagnosis (never plotting, report or cli).
 """
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -43,6 +43,7 @@ class Analysis:
     candidates: object
     design: object
     verification: object
+    _: KW_ONLY
     posterior: object = None
     diagnosis: object = None
     detectability: object = None
@@ -85,44 +86,20 @@ def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None 
     Analysis
     """
     from .design.recommend import CandidateGrid, recommend
-    from .model.fisher import fisher_blocks
-    from .model.sensors import SensorLayout
-    from .verification.verify import verify_layouts
 
     count = case.sensors.n_sensors if count is None else int(count)
     spacing = spacing if spacing is not None else max(0.25, round(case.bridge.length / 60.0 * 4) / 4)
-    positions = np.linspace(0.0, case.bridge.length, 9)
-    candidates = fisher_blocks(case, sensors=SensorLayout.candidates(
-        positions, case.default_kind, noise_std=[case.noise_std_for(case.default_kind)] * positions.size),
-        parameterisation="ei")
+    candidates = _candidate_informativeness(case)
     options = {"grid": CandidateGrid(spacing=spacing), "rng": seed, **(design_options or {})}
     design = recommend(case, count, criterion, **options)
     if progress:
         progress("layout recommended")
-    from .design.candidates import sensor_layout
-    from .model.noise import NoiseModel
-
-    def layout_of(xs, kinds):  # new sensors with the design's noise std of their kind
-        kinds = tuple(kinds) or (design.kind,) * len(xs)
-        return sensor_layout(xs, kinds, [design.noise_std[k] for k in kinds])
-
-    feasible = [b for b in design.baselines if b.feasible]
-    verification = verify_layouts(case, [layout_of(design.layout_m, design.layout_kind)]
-                                  + [layout_of(b.layout_m, b.layout_kind) for b in feasible],
-                                  names=["recommended"] + [b.name for b in feasible], n_locations=n_scenarios,
-                                  n_crossings=n_crossings, seed=seed)
+    verification = _verify_design(case, design, n_scenarios=n_scenarios, n_crossings=n_crossings, seed=seed)
     if progress:
         progress("layouts verified")
     detect_map = None
     if detect:
-        from .detection.detectability import detectability
-
-        # new and existing sensors, each with its own kind and noise (the case's correlation length)
-        installed = sensor_layout(tuple(design.layout_m) + tuple(design.fixed_m),
-                                  tuple(design.layout_kind) + tuple(design.fixed_kind),
-                                  [design.noise_std[k] for k in design.layout_kind] + list(design.fixed_noise_std))
-        noise = NoiseModel(np.asarray(installed.noise_std), case.noise.correlation_length if case.noise else 0.0)
-        detect_map = detectability(case.with_sensors(installed, noise), n_crossings=n_crossings)
+        detect_map = _installed_detectability(case, design, n_crossings=n_crossings)
         if progress:
             progress("detectability mapped")
     posterior = diagnosis = None
@@ -132,5 +109,45 @@ def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None 
 
         posterior = invert(case, data)
         diagnosis = diagnose(case, data)
-    return Analysis(case, candidates, design, verification, posterior, diagnosis, detect_map,
-                    tuple(getattr(options["grid"], "exclude", ())))
+    return Analysis(case, candidates, design, verification, posterior=posterior, diagnosis=diagnosis,
+                    detectability=detect_map, exclude=tuple(getattr(options["grid"], "exclude", ())))
+
+
+def _candidate_informativeness(case):
+    """Fisher blocks (EI parameters) of 9 evenly spaced candidate sensors of the case's default kind."""
+    from .model.fisher import fisher_blocks
+    from .model.sensors import SensorLayout
+
+    positions = np.linspace(0.0, case.bridge.length, 9)
+    return fisher_blocks(case, sensors=SensorLayout.candidates(
+        positions, case.default_kind, noise_std=[case.noise_std_for(case.default_kind)] * positions.size),
+        parameterisation="ei")
+
+
+def _verify_design(case, design, *, n_scenarios, n_crossings, seed):
+    """The recommended layout and the feasible baselines verified on the same scenarios."""
+    from .design.candidates import sensor_layout
+    from .verification.verify import verify_layouts
+
+    def layout_of(xs, kinds):  # new sensors with the design's noise std of their kind
+        kinds = tuple(kinds) or (design.kind,) * len(xs)
+        return sensor_layout(xs, kinds, [design.noise_std[k] for k in kinds])
+
+    feasible = [b for b in design.baselines if b.feasible]
+    return verify_layouts(case, [layout_of(design.layout_m, design.layout_kind)]
+                          + [layout_of(b.layout_m, b.layout_kind) for b in feasible],
+                          names=["recommended"] + [b.name for b in feasible], n_locations=n_scenarios,
+                          n_crossings=n_crossings, seed=seed)
+
+
+def _installed_detectability(case, design, *, n_crossings):
+    """The detectability map of the new and existing sensors, each with its own kind and noise."""
+    from .design.candidates import sensor_layout
+    from .detection.detectability import detectability
+    from .model.noise import NoiseModel
+
+    installed = sensor_layout(tuple(design.layout_m) + tuple(design.fixed_m),
+                              tuple(design.layout_kind) + tuple(design.fixed_kind),
+                              [design.noise_std[k] for k in design.layout_kind] + list(design.fixed_noise_std))
+    noise = NoiseModel(np.asarray(installed.noise_std), case.noise.correlation_length if case.noise else 0.0)
+    return detectability(case.with_sensors(installed, noise), n_crossings=n_crossings)

@@ -10,7 +10,7 @@ import sensorplan as sp
 from sensorplan import CandidateGrid, Constraints, example_case, recommend
 from sensorplan.cli import main
 from sensorplan.verification.ranking import rank_layouts
-from sensorplan.verification.results import Metric, VerificationResult, _aggregate
+from sensorplan.verification.results import LayoutScore, Metric, VerificationResult
 
 MIXED = ["--kind", "rotation,deflection", "--noise-std", "deflection=2e-6", "--cost", "rotation=1,deflection=2",
          "--budget", "5", "--per-span-min", "1,1", "--per-span-max", "2,2", "--keep-case-sensors", "--spacing", "1"]
@@ -94,14 +94,15 @@ def _score(layout, detected, limit, loc=0.5, cov=0.95):
                 "detected": float(d), **({"localisation_error_m": loc} if d else {})} for d in detected]
     records += [{"kind": "control", "rmse": 0.1, "coverage95": cov, "band_width": 0.2, "converged": 1.0,
                  "false_alarm": 0.0}]
-    return _aggregate(layout, records, limit)
+    return LayoutScore.from_records(layout, records, detection_limit=limit)
 
 
 def test_ranking_by_verification_names_a_baseline_that_verifies_better():
     rec = _score([1.0, 2.0], [1, 0, 0, 0], 0.30)
     base = _score([5.0, 9.0], [1, 1, 1, 0], 0.70)
     tie = _score([3.0, 4.0], [1, 0, 0, 0], 0.30)  # equal to the recommended layout: not ranked above it
-    result = VerificationResult((tie, rec, base), (), 10, 0, 0.25, 2.0, ("tie", "recommended", "even"))
+    result = VerificationResult((tie, rec, base), (), n_crossings=10, seed=0, severity=0.25, length=2.0,
+                                names=("tie", "recommended", "even"))
     ranking = rank_layouts(result, criterion="D", values={"recommended": 10.0, "even": 9.0, "tie": 8.0})
     assert [e.name for e in ranking.entries] == ["even", "recommended", "tie"]
     assert ranking.verifies_better == ("even",)
@@ -116,10 +117,12 @@ def test_ranking_by_verification_names_a_baseline_that_verifies_better():
     assert "NOTE: baseline even verifies better than the D-optimal layout" in text
     assert Metric.of([1, 0, 0, 0]).mean == pytest.approx(ranking.entries[1].detection_rate)
     # when the recommended layout is best, the summary says so and the list is empty
-    alone = rank_layouts(VerificationResult((rec, tie), (), 10, 0, 0.25, 2.0, ("recommended", "tie")), criterion="A")
+    alone = rank_layouts(VerificationResult((rec, tie), (), n_crossings=10, seed=0, severity=0.25, length=2.0,
+                                            names=("recommended", "tie")), criterion="A")
     assert alone.verifies_better == () and "the A-optimal layout (recommended) verifies best." in alone.summary()
     # unnamed layouts are labelled by position, deflection sensors marked in a layout of mixed kinds
-    mixed = _aggregate([2.0, 13.0, 28.5], rec.records, 0.3, ("rotation", "deflection", "rotation"))
+    mixed = LayoutScore.from_records([2.0, 13.0, 28.5], rec.records, detection_limit=0.3,
+                                     layout_kind=("rotation", "deflection", "rotation"))
     assert mixed.label == "2, 13:deflection, 28.5" and rec.label == "1, 2"
 
 

@@ -230,9 +230,9 @@ def test_conclusion_says_plainly_when_a_baseline_verified_better(built_report):
 
 
 def render_report_conclusion(analysis):
-    from sensorplan.report import _conclusion
+    from sensorplan.report.conclusion import conclusion_html
 
-    return _conclusion(analysis)
+    return conclusion_html(analysis)
 
 
 def _browser():

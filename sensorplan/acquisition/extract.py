@@ -1,6 +1,7 @@
 """From a continuous logger record to crossings: detect, fit, judge, convert."""
 
 import dataclasses
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -123,50 +124,81 @@ def _extract(case, series, *, speed, axle_times, axle_speeds, speed_range, quiet
         temps = {k: float(np.mean(v[a:b])) for k, v in series.temperatures.items()}
         active = (float(t[a]), float(t[b - 1]))
         if b - a < _MIN_SAMPLES or active[1] - active[0] < 0.5 * template.length / hi:
-            events.append(CrossingEvent(label, *active, np.nan, np.nan, np.nan, np.nan, False, "too short", temps))
+            events.append(CrossingEvent(label, t_start=active[0], t_end=active[1], entry_time=np.nan, speed=np.nan,
+                                        speed_ci95=np.nan, fit_rms=np.nan, accepted=False, reason="too short",
+                                        temperatures=temps))
             i += 1
             continue
-        given_speed, given_entry = speed, None
-        if axle_times is not None:
-            before = np.flatnonzero(np.asarray(axle_times) <= active[0])
-            if before.size:
-                given_entry = float(axle_times[before[-1]])
-                given_speed = None if axle_speeds is None else float(axle_speeds[before[-1]])
-        while True:  # one vehicle's activity may fall apart into runs (a tiltmeter reads zero in between)
-            right = t.size if i == len(segments) - 1 else (segments[i][1] + segments[i + 1][0]) // 2
-            active = (float(t[a]), float(t[segments[i][1] - 1]))
-            margin = max(quiet_gap, 0.5 * (active[1] - active[0]))
-            window = slice(max(left, int(np.searchsorted(t, active[0] - margin))),
-                           min(right, int(np.searchsorted(t, active[1] + margin))))
-            fit = fit_vehicles(template, t[window], series.values[:, window], noise, active=active,
-                               speed_range=(lo, hi), fixed_speed=given_speed, fixed_entry=given_entry)
-            off = fit.entry_times[0] + template.length / fit.speeds[0]
-            if i + 1 < len(segments) and t[segments[i + 1][0]] < off + quiet_gap:
-                i += 1
-                continue
-            break
-        b = segments[i][1]
-        i += 1
+        given_speed, given_entry = _given(speed, axle_times, axle_speeds, active[0])
+        event = _fit_event(template, series, noise, segments, i, left=left, quiet_gap=quiet_gap,
+                           speed_range=(lo, hi), fixed_speed=given_speed, fixed_entry=given_entry)
+        fit, window, active = event.fit, event.window, event.active
+        b = segments[event.last][1]
+        i = event.last + 1
         temps = {k: float(np.mean(v[a:b])) for k, v in series.temperatures.items()}
         v, t0 = float(fit.speeds[0]), float(fit.entry_times[0])
-        reason = _judge(fit, template, t, series, noise, window, active, (lo, hi), max_rms, quiet_gap,
-                        given_speed is not None or given_entry is not None)
+        reason = _judge(fit, template, t[window], series.values[:, window], noise, active=active,
+                        speed_range=(lo, hi), max_rms=max_rms, quiet_gap=quiet_gap,
+                        constrained=given_speed is not None or given_entry is not None)
         span = (t0, t0 + template.length / v) if not reason else active  # accepted: the time on the bridge
-        events.append(CrossingEvent(label, span[0], span[1], t0, v, float(fit.speed_ci95[0]), fit.rms, not reason, reason,
-                                    temps, t[window], fit.model))
+        events.append(CrossingEvent(label, t_start=span[0], t_end=span[1], entry_time=t0, speed=v,
+                                    speed_ci95=float(fit.speed_ci95[0]), fit_rms=fit.rms, accepted=not reason,
+                                    reason=reason, temperatures=temps, fit_time=t[window], fit_values=fit.model))
         if not reason:
             z = v * (t[window] - t0)
             keep = (z >= 0.0) & (z <= template.length)
             values = (series.values[:, window] - fit.offsets)[:, keep]
             crossings.append(Crossing(label, z[keep], values, np.ones(int(keep.sum()))))
     source = "given" if speed is not None else ("axle detector" if axle_times is not None else "fitted")
-    return ExtractedCrossings(series.names, kinds, noise, tuple(events),
-                              Crossings(series.names, tuple(crossings)) if crossings else None,
-                              float(t[-1] - t[0]), source)
+    return ExtractedCrossings(series.names, kinds, noise_std=noise, events=tuple(events),
+                              crossings=Crossings(series.names, tuple(crossings)) if crossings else None,
+                              duration=float(t[-1] - t[0]), speed_source=source)
 
 
-def _judge(fit, template, t, series, noise, window, active, speed_range, max_rms, quiet_gap, constrained):
-    """Why the fit of one event is rejected ("" when it is accepted)."""
+def _given(speed, axle_times, axle_speeds, start):
+    """(speed, entry time) known for an event whose activity starts at ``start`` (None where not known).
+
+    With an axle detector the event takes its latest time before ``start``, and that vehicle's speed
+    when the detector gives speeds.
+    """
+    if axle_times is not None:
+        before = np.flatnonzero(np.asarray(axle_times) <= start)
+        if before.size:
+            return (None if axle_speeds is None else float(axle_speeds[before[-1]])), float(axle_times[before[-1]])
+    return speed, None
+
+
+@dataclass(frozen=True, eq=False)
+class _EventFit:
+    """The fit of one event: the vehicle fit, its window of the record, the activity and its last segment."""
+
+    fit: object
+    window: slice
+    active: tuple
+    last: int
+
+
+def _fit_event(template, series, noise, segments, i, *, left, quiet_gap, speed_range, fixed_speed, fixed_entry):
+    """Fit the event starting at segment ``i``, taking in the following segments its vehicle is still on."""
+    t = series.time
+    a = segments[i][0]
+    while True:  # one vehicle's activity may fall apart into runs (a tiltmeter reads zero in between)
+        right = t.size if i == len(segments) - 1 else (segments[i][1] + segments[i + 1][0]) // 2
+        active = (float(t[a]), float(t[segments[i][1] - 1]))
+        margin = max(quiet_gap, 0.5 * (active[1] - active[0]))
+        window = slice(max(left, int(np.searchsorted(t, active[0] - margin))),
+                       min(right, int(np.searchsorted(t, active[1] + margin))))
+        fit = fit_vehicles(template, t[window], series.values[:, window], noise, active=active,
+                           speed_range=speed_range, fixed_speed=fixed_speed, fixed_entry=fixed_entry)
+        off = fit.entry_times[0] + template.length / fit.speeds[0]
+        if i + 1 < len(segments) and t[segments[i + 1][0]] < off + quiet_gap:
+            i += 1
+            continue
+        return _EventFit(fit, window, active, i)
+
+
+def _judge(fit, template, time, values, noise, *, active, speed_range, max_rms, quiet_gap, constrained):
+    """Why the fit of one event (its window's ``time`` and ``values``) is rejected ("" when it is accepted)."""
     v, t0 = float(fit.speeds[0]), float(fit.entry_times[0])
     if not constrained and not (speed_range[0] <= v <= speed_range[1]):
         return "implausible speed"
@@ -176,9 +208,8 @@ def _judge(fit, template, t, series, noise, window, active, speed_range, max_rms
     if fit.rms <= _OVERLAP_GATE and not outside:
         return ""
     if not constrained:
-        two = fit_vehicles(template, t[window], series.values[:, window], noise, active=active,
-                           speed_range=speed_range, n_vehicles=2)
-        n = series.values[:, window].size
+        two = fit_vehicles(template, time, values, noise, active=active, speed_range=speed_range, n_vehicles=2)
+        n = values.size
         gain = (fit.rms ** 2 - two.rms ** 2) * n / max(two.rms, 1.0) ** 2  # chi^2 drop, in units of the noise
         plausible = bool(np.all((two.speeds >= speed_range[0]) & (two.speeds <= speed_range[1])))
         if plausible and two.rms <= 0.8 * fit.rms and gain > _OVERLAP_CHI2:

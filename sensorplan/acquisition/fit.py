@@ -50,7 +50,7 @@ class Template:
         return np.stack([np.interp(z, self.positions, line, left=0.0, right=0.0) for line in self.lines])
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, kw_only=True)
 class VehicleFit:
     """Least-squares fit of one or more vehicles to a window of the record.
 
@@ -88,11 +88,12 @@ class _Problem:
         span = max(time[-1] - time[0], 1e-9)
         basis = np.column_stack([np.ones_like(time), (time - time.mean()) / span])
         self.q = np.linalg.qr(basis)[0]
-        self.data = self._project(values * self.scale)
+        self.data = self.project(values * self.scale)
         self.stride = max(1, time.size // 400)  # the grid search looks at <= 800 samples per channel
         self.q_grid = np.linalg.qr(basis[::self.stride])[0]
 
-    def _project(self, x):
+    def project(self, x):
+        """``x`` without its offset lines (the projection on the complement of the offset basis)."""
         return x - (x @ self.q) @ self.q.T
 
     def signal(self, params):
@@ -103,7 +104,7 @@ class _Problem:
         return total
 
     def residual(self, params):
-        return (self.data - self._project(self.signal(params) * self.scale)).ravel()
+        return (self.data - self.project(self.signal(params) * self.scale)).ravel()
 
     def grid_costs(self, data, speeds, entries):
         """Cost of one vehicle at every (speed, entry time) of the grid against ``data``."""
@@ -149,11 +150,35 @@ def fit_vehicles(template, time, values, noise_std, *, active, speed_range, n_ve
     fixed_speed, fixed_entry : float, optional
         Known speed [m/s] or entry time [s] (single vehicle only).
     """
-    from scipy.optimize import least_squares
-
     problem = _Problem(template, np.asarray(time, float), np.asarray(values, float), noise_std)
+    x0 = _grid_start(problem, active=active, speeds=_grid_speeds(speed_range, fixed_speed), n_vehicles=n_vehicles,
+                     fixed_entry=fixed_entry)
+    free = np.ones(x0.size, bool)
+    if fixed_entry is not None:
+        free[0::2] = False
+    if fixed_speed is not None:
+        free[1::2] = False
+    x, fun, jac = _refine(problem, x0, free, speed_range)
+    dof = max(fun.size - 2 * problem.data.shape[0] - int(free.sum()), 1)
+    chi2 = float(fun @ fun)
+    ci = np.zeros(x.size)
+    jtj = jac.T @ jac
+    if np.all(np.isfinite(jtj)) and np.linalg.matrix_rank(jtj) == jtj.shape[0]:
+        cov = np.linalg.inv(jtj) * max(1.0, chi2 / dof)
+        ci[free] = 1.96 * np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    else:
+        ci[free] = np.inf
+    signal = problem.signal(x)
+    raw = np.asarray(values, float) - signal
+    offsets = (raw @ problem.q) @ problem.q.T
+    return VehicleFit(entry_times=x[0::2], speeds=x[1::2], speed_ci95=ci[1::2], entry_ci95=ci[0::2],
+                      rms=float(np.sqrt(chi2 / dof)), model=signal + offsets, offsets=offsets)
+
+
+def _grid_start(problem, *, active, speeds, n_vehicles, fixed_entry):
+    """(entry time, speed) of each vehicle from the grid, one vehicle at a time against what is left."""
     dt = float(np.median(np.diff(problem.time)))
-    speeds = _grid_speeds(speed_range, fixed_speed)
+    template = problem.template
 
     def entries(v):
         if fixed_entry is not None:
@@ -167,13 +192,14 @@ def fit_vehicles(template, time, values, noise_std, *, active, speed_range, n_ve
     for _ in range(n_vehicles):
         _, start = problem.grid_costs(data, speeds, entries)
         params.extend(start)
-        data = problem.data - problem._project(problem.signal(np.array(params)) * problem.scale)
-    x0 = np.array(params)
-    free = np.ones(x0.size, bool)
-    if fixed_entry is not None:
-        free[0::2] = False
-    if fixed_speed is not None:
-        free[1::2] = False
+        data = problem.data - problem.project(problem.signal(np.array(params)) * problem.scale)
+    return np.array(params)
+
+
+def _refine(problem, x0, free, speed_range):
+    """Least-squares refinement of the free parameters from ``x0``; returns (x, residual, Jacobian)."""
+    from scipy.optimize import least_squares
+
     lo_v, hi_v = speed_range[0] / 2.0, speed_range[1] * 2.0
     lower = np.where(np.arange(x0.size) % 2 == 0, -np.inf, lo_v)[free]
     upper = np.where(np.arange(x0.size) % 2 == 0, np.inf, hi_v)[free]
@@ -185,23 +211,9 @@ def fit_vehicles(template, time, values, noise_std, *, active, speed_range, n_ve
         return problem.residual(full)
 
     x = x0.copy()
-    if free.any():
-        sol = least_squares(residual, x0[free], bounds=(lower, upper),
-                            x_scale=np.maximum(np.abs(x0[free]), 1.0), diff_step=1e-7)
-        x[free] = sol.x
-        fun, jac = sol.fun, sol.jac
-    else:
-        fun, jac = problem.residual(x), np.zeros((problem.data.size, 0))
-    dof = max(fun.size - 2 * problem.data.shape[0] - int(free.sum()), 1)
-    chi2 = float(fun @ fun)
-    ci = np.zeros(x.size)
-    jtj = jac.T @ jac
-    if np.all(np.isfinite(jtj)) and np.linalg.matrix_rank(jtj) == jtj.shape[0]:
-        cov = np.linalg.inv(jtj) * max(1.0, chi2 / dof)
-        ci[free] = 1.96 * np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    else:
-        ci[free] = np.inf
-    signal = problem.signal(x)
-    raw = np.asarray(values, float) - signal
-    offsets = (raw @ problem.q) @ problem.q.T
-    return VehicleFit(x[0::2], x[1::2], ci[1::2], ci[0::2], float(np.sqrt(chi2 / dof)), signal + offsets, offsets)
+    if not free.any():
+        return x, problem.residual(x), np.zeros((problem.data.size, 0))
+    sol = least_squares(residual, x0[free], bounds=(lower, upper),
+                        x_scale=np.maximum(np.abs(x0[free]), 1.0), diff_step=1e-7)
+    x[free] = sol.x
+    return x, sol.fun, sol.jac

@@ -1,6 +1,6 @@
 """Results of turning a logger record into crossings."""
 
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, dataclass, field
 from functools import cached_property
 
 import numpy as np
@@ -41,6 +41,7 @@ class CrossingEvent:
     """
 
     label: str
+    _: KW_ONLY
     t_start: float
     t_end: float
     entry_time: float
@@ -86,6 +87,7 @@ class ExtractedCrossings:
 
     names: tuple
     kinds: tuple
+    _: KW_ONLY
     noise_std: np.ndarray
     events: tuple
     crossings: object

@@ -68,8 +68,7 @@ def _limit_blas_threads():
 
     sensorplan's dense algebra works on small matrices (tens to a few
     hundred parameters), where multi-threaded BLAS only adds overhead and,
-    on a busy machine, stalls (measured 10-100x slower in
-    studies/benchmarks/bench_inversion.py).
+    on a busy machine, stalls (studies/benchmarks/bench_inversion.py).
     """
     if "numpy" in sys.modules:
         return

@@ -243,9 +243,7 @@ def check_signal(case, noise, n_crossings):
     The Fisher information a sensor adds about log EI is about the sum of its
     squared predicted readings over the noise variance (the readings are
     homogeneous of degree -1 in EI); below 3^2 for the best position over all
-    crossings, the prior dominates and every layout is "certified" trivially
-    (openlab-like at 1e-4 rad: signal-to-noise 2.4, every baseline within
-    0.2 % of the recommended layout).
+    crossings, the prior dominates and every layout is "certified" trivially.
     """
     import numpy as np
 

@@ -8,6 +8,7 @@ tiltmeters, ``noise_std_mm`` for deflection sensors.
 import math
 import os
 import tomllib
+from contextlib import contextmanager
 from importlib import resources
 from pathlib import Path
 
@@ -125,66 +126,93 @@ def _inf(value):
 
 
 def case_from_dict(data, *, source="config", name="case"):
-    """Build a :class:`Case` from a parsed TOML document."""
+    """Build a :class:`Case` from a parsed TOML document.
+
+    Each section is read by its own function; an error names the file and the section it arose in.
+    """
     unknown = set(data) - set(_KEYS)
     if unknown:
         raise ConfigError(
             f"{source}: unknown section [{sorted(unknown)[0]}]; expected "
             f"{', '.join('[' + k + ']' for k in _KEYS)}.")
-    section = "bridge"
-    try:
-        b = _section(data, "bridge", source)
-        bridge = Bridge(b["spans"], _inf(b.get("rotational_springs")), _inf(b.get("vertical_springs")))
-        plausibility.check_bridge(bridge)
-        if "elements" in b and "element_length" in b:
-            raise ConfigError("give either 'elements' or 'element_length', not both.")
-        if "element_length" in b:
-            mesh = Mesh.from_length(bridge, b["element_length"])
-        else:
-            mesh = Mesh.uniform(bridge, b.get("elements", 10 * bridge.n_spans))
-        ei = b["ei"]
-        section = "vehicle"
-        v = _section(data, "vehicle", source)
-        vehicle = Vehicle(v["axle_offsets"], v["axle_loads"])
-        plausibility.check_vehicle(vehicle)
-        section = "sensors"
-        s = _section(data, "sensors", source)
-        sensors = _sensors(s, bridge)
-        section = "noise"
-        n = _section(data, "noise", source)
-        noise = None
-        if sensors.noise_std is not None:
-            noise = NoiseModel(sensors.noise_std, n.get("correlation_length", 0.0))
-        elif "correlation_length" in n:
-            raise ConfigError("'correlation_length' needs a noise standard deviation in [sensors].")
-        plausibility.check_noise(noise)
-        section = "loads"
-        lo = _section(data, "loads", source)
-        sweep = None
-        if lo:
-            missing = {"start", "stop", "step"} - set(lo)
-            if missing:
-                raise ConfigError(f"the key {sorted(missing)[0]!r} is missing (give start, stop and step).")
-            sweep = LoadSweep.from_range(lo["start"], lo["stop"], lo["step"])
-        section = "logger"
+    with _in_section("bridge", source):
+        bridge, mesh, ei = _bridge(_section(data, "bridge", source))
+    with _in_section("vehicle", source):
+        vehicle = _vehicle(_section(data, "vehicle", source))
+    with _in_section("sensors", source):
+        sensors = _sensors(_section(data, "sensors", source), bridge)
+    with _in_section("noise", source):
+        noise = _noise(_section(data, "noise", source), sensors)
+    with _in_section("loads", source):
+        sweep = _sweep(_section(data, "loads", source))
+    with _in_section("logger", source):
         _logger_format(data, source)
-        section = "case"
+    with _in_section("case", source):
         name = _section(data, "case", source).get("name", name)
-        section = "bridge"
-        case = Case(bridge, mesh, ei, vehicle, sensors, noise, sweep, str(name))
+    with _in_section("bridge", source):
+        case = Case(bridge=bridge, mesh=mesh, ei=ei, vehicle=vehicle, sensors=sensors, noise=noise, sweep=sweep,
+                    name=str(name))
         plausibility.check_ei(case.ei)
-        section = "loads"
+    with _in_section("loads", source):
         plausibility.check_sweep(case)
-        section = "bridge"
+    with _in_section("bridge", source):
         lines = plausibility.check_case(case)
-        section = "vehicle"
+    with _in_section("vehicle", source):
         plausibility.check_signal(case, lines)
-        return case
+    return case
+
+
+@contextmanager
+def _in_section(section, source):
+    """Prefix a ConfigError raised inside with the file and ``[section]`` (unless it names the file already)."""
+    try:
+        yield
     except ConfigError as exc:
         message = str(exc)
         if message.startswith(source):
             raise
         raise ConfigError(f"{source}: [{section}] {message}") from None
+
+
+def _bridge(b):
+    """The bridge, its EI mesh and the EI values of the [bridge] section."""
+    bridge = Bridge(b["spans"], _inf(b.get("rotational_springs")), _inf(b.get("vertical_springs")))
+    plausibility.check_bridge(bridge)
+    if "elements" in b and "element_length" in b:
+        raise ConfigError("give either 'elements' or 'element_length', not both.")
+    if "element_length" in b:
+        mesh = Mesh.from_length(bridge, b["element_length"])
+    else:
+        mesh = Mesh.uniform(bridge, b.get("elements", 10 * bridge.n_spans))
+    return bridge, mesh, b["ei"]
+
+
+def _vehicle(v):
+    """The vehicle of the [vehicle] section."""
+    vehicle = Vehicle(v["axle_offsets"], v["axle_loads"])
+    plausibility.check_vehicle(vehicle)
+    return vehicle
+
+
+def _noise(n, sensors):
+    """The noise model of the sensors' noise std and the [noise] section (None without a noise std)."""
+    noise = None
+    if sensors.noise_std is not None:
+        noise = NoiseModel(sensors.noise_std, n.get("correlation_length", 0.0))
+    elif "correlation_length" in n:
+        raise ConfigError("'correlation_length' needs a noise standard deviation in [sensors].")
+    plausibility.check_noise(noise)
+    return noise
+
+
+def _sweep(lo):
+    """The load sweep of the [loads] section (None without one: the case's default)."""
+    if not lo:
+        return None
+    missing = {"start", "stop", "step"} - set(lo)
+    if missing:
+        raise ConfigError(f"the key {sorted(missing)[0]!r} is missing (give start, stop and step).")
+    return LoadSweep.from_range(lo["start"], lo["stop"], lo["step"])
 
 
 def _sensors(s, bridge):

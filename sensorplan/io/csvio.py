@@ -86,6 +86,34 @@ def check_delimiter(header, source, columns):
 
 
 def parse_crossings(text, sensors=None, *, source="data"):
+    """Crossings from CSV ``text`` (see :func:`read_crossings`); errors name ``source`` and the row or column."""
+    rows = _rows(text, source)
+    header = [h.strip() for h in rows[0]]
+    sensor_cols = _check_header(header, sensors, source)
+    col = {h: i for i, h in enumerate(header)}
+    groups = {}
+    for line, row in enumerate(rows[1:], start=2):
+        if len(row) != len(header):
+            raise DataError(f"{source}: row {line} has {len(row)} fields, the header has {len(header)}.")
+        label = row[col["crossing"]].strip()
+        if not label:
+            raise DataError(f"{source}: row {line}, column 'crossing' is empty.")
+        numbers = [_number(row[col[h]], source, line, h)
+                   for h in ["position_m", *sensor_cols]
+                   + (["load_factor"] if "load_factor" in col else [])]
+        groups.setdefault(label, []).append(numbers)
+    if not groups:
+        raise DataError(f"{source}: the file has a header but no data rows.")
+    out = [_crossing(label, np.array(data), len(sensor_cols), "load_factor" in col, source)
+           for label, data in groups.items()]
+    crossings = Crossings(tuple(sensor_cols), tuple(out))
+    if sensors is not None:
+        _check_magnitudes(crossings, sensors, source)
+    return crossings
+
+
+def _rows(text, source):
+    """The non-blank CSV rows of ``text``, at least the header."""
     reader = csv.reader(io.StringIO(text))
     try:
         rows = [r for r in reader if r and any(cell.strip() for cell in r)]
@@ -95,7 +123,11 @@ def parse_crossings(text, sensors=None, *, source="data"):
     if not rows:
         raise DataError(f"{source}: the file is empty; expected a header "
                         "'crossing,position_m,<sensor names>'.")
-    header = [h.strip() for h in rows[0]]
+    return rows
+
+
+def _check_header(header, sensors, source):
+    """The sensor columns of a valid header (every one a sensor of ``sensors`` when given)."""
     check_delimiter(header, source, "crossing,position_m,<sensors>")
     for required in ("crossing", "position_m"):
         if required not in header:
@@ -112,40 +144,23 @@ def parse_crossings(text, sensors=None, *, source="data"):
         if unknown:
             raise DataError(f"{source}: column '{unknown[0]}' is not a sensor of the case; "
                             f"sensor names are {', '.join(sensors.names)}.")
-    col = {h: i for i, h in enumerate(header)}
-    groups = {}
-    for line, row in enumerate(rows[1:], start=2):
-        if len(row) != len(header):
-            raise DataError(f"{source}: row {line} has {len(row)} fields, the header has {len(header)}.")
-        label = row[col["crossing"]].strip()
-        if not label:
-            raise DataError(f"{source}: row {line}, column 'crossing' is empty.")
-        numbers = [_number(row[col[h]], source, line, h)
-                   for h in ["position_m", *sensor_cols]
-                   + (["load_factor"] if "load_factor" in col else [])]
-        groups.setdefault(label, []).append(numbers)
-    if not groups:
-        raise DataError(f"{source}: the file has a header but no data rows.")
-    out = []
-    n_s = len(sensor_cols)
-    for label, data in groups.items():
-        arr = np.array(data)
-        pos = arr[:, 0]
-        if np.any(np.diff(pos) <= 0.0):
-            raise DataError(f"{source}: positions of crossing '{label}' must be strictly increasing; "
-                            "sort the rows of each crossing by position_m.")
-        factor = arr[:, 1 + n_s] if "load_factor" in col else np.ones(pos.size)
-        if np.any(factor <= 0.0):
-            raise DataError(f"{source}: column 'load_factor' of crossing '{label}' must be positive.")
-        if np.any(factor < _LOAD_FACTOR[0]) or np.any(factor > _LOAD_FACTOR[1]):
-            bad = float(factor[(factor < _LOAD_FACTOR[0]) | (factor > _LOAD_FACTOR[1])][0])
-            raise DataError(f"{source}: column 'load_factor' of crossing '{label}' is {bad:g}; a load factor (vehicle "
-                            f"weight / the case's vehicle) is {_LOAD_FACTOR[0]:g} to {_LOAD_FACTOR[1]:g}.")
-        out.append(Crossing(label, pos, arr[:, 1:1 + n_s].T.copy(), factor))
-    crossings = Crossings(tuple(sensor_cols), tuple(out))
-    if sensors is not None:
-        _check_magnitudes(crossings, sensors, source)
-    return crossings
+    return sensor_cols
+
+
+def _crossing(label, arr, n_s, with_factor, source):
+    """One crossing from its rows (position, ``n_s`` readings[, load factor]), positions increasing."""
+    pos = arr[:, 0]
+    if np.any(np.diff(pos) <= 0.0):
+        raise DataError(f"{source}: positions of crossing '{label}' must be strictly increasing; "
+                        "sort the rows of each crossing by position_m.")
+    factor = arr[:, 1 + n_s] if with_factor else np.ones(pos.size)
+    if np.any(factor <= 0.0):
+        raise DataError(f"{source}: column 'load_factor' of crossing '{label}' must be positive.")
+    if np.any(factor < _LOAD_FACTOR[0]) or np.any(factor > _LOAD_FACTOR[1]):
+        bad = float(factor[(factor < _LOAD_FACTOR[0]) | (factor > _LOAD_FACTOR[1])][0])
+        raise DataError(f"{source}: column 'load_factor' of crossing '{label}' is {bad:g}; a load factor (vehicle "
+                        f"weight / the case's vehicle) is {_LOAD_FACTOR[0]:g} to {_LOAD_FACTOR[1]:g}.")
+    return Crossing(label, pos, arr[:, 1:1 + n_s].T.copy(), factor)
 
 
 def _number(cell, source, line, column):

@@ -224,7 +224,7 @@ class Mesh:
                 f"The 'elements' parameter of Mesh must be an integer from the number of spans "
                 f"({bridge.n_spans}) to {_MAX_ELEMENTS}. Got {n_elements!r} instead.")
         counts = _split_count(np.array(bridge.spans), int(n_elements))
-        return cls._from_counts(bridge, counts)
+        return cls.from_counts(bridge, counts)
 
     @classmethod
     def from_length(cls, bridge, element_length):
@@ -234,10 +234,11 @@ class Mesh:
         if sum(counts) > _MAX_ELEMENTS:
             raise ConfigError(f"The 'element_length' parameter of Mesh gives {sum(counts)} elements, "
                               f"more than {_MAX_ELEMENTS}. Use a longer element length.")
-        return cls._from_counts(bridge, counts)
+        return cls.from_counts(bridge, counts)
 
     @classmethod
-    def _from_counts(cls, bridge, counts):
+    def from_counts(cls, bridge, counts):
+        """Mesh with ``counts[i]`` equal elements in span ``i``."""
         pieces = [
             np.linspace(a, b, n + 1)[:-1]
             for a, b, n in zip(bridge.support_positions[:-1], bridge.support_positions[1:], counts)

@@ -13,7 +13,7 @@ Owns: VerificationRanking, rank_layouts.  May import: the foundations.
 """
 
 import math
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 
 import numpy as np
 
@@ -32,6 +32,7 @@ class RankedLayout:
 
     name: str
     rank: int
+    _: KW_ONLY
     detection_rate: float | None
     detection_rate_se: float | None
     detection_limit: float | None
@@ -147,8 +148,10 @@ def rank_layouts(verification, *, reference="recommended", criterion=None, value
         s = scores[name]
         diff, se = _paired(s, ref) if name != reference else (None, None)
         det = s.metrics["detection_rate"]
-        entries.append(RankedLayout(name, rank, _mean(det), None if math.isnan(det.se) else det.se,
-                                    s.detection_limit, _mean(s.metrics["localisation_error_m"]),
-                                    _mean(s.metrics["coverage95"]), None if values is None else values.get(name),
-                                    () if name == reference else _better_on(s, ref), diff, se))
+        entries.append(RankedLayout(
+            name, rank, detection_rate=_mean(det), detection_rate_se=None if math.isnan(det.se) else det.se,
+            detection_limit=s.detection_limit, localisation_error_m=_mean(s.metrics["localisation_error_m"]),
+            coverage95=_mean(s.metrics["coverage95"]), criterion=None if values is None else values.get(name),
+            better_on=() if name == reference else _better_on(s, ref), detection_rate_diff=diff,
+            detection_rate_diff_se=se))
     return VerificationRanking(tuple(entries), reference, criterion)

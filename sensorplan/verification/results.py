@@ -5,7 +5,7 @@ May import: the foundations.
 """
 
 import math
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 
 import numpy as np
 
@@ -48,8 +48,35 @@ class LayoutScore:
     n_scenarios: int
     metrics: dict  # name -> Metric
     records: tuple  # one dict per scenario
+    _: KW_ONLY
     detection_limit: float | None = None  # mean known-location power at the Bonferroni level (local scenarios)
     layout_kind: tuple = ()  # kind of each sensor (parallel to layout_m)
+
+    @classmethod
+    def from_records(cls, layout, records, *, detection_limit=None, layout_kind=()):
+        """Metrics of one layout over its scenarios' records (local losses, span softenings, controls)."""
+        mean_se = Metric.of
+        local = [r for r in records if r["kind"] == "local"]
+        damaged = [r for r in records if r["kind"] != "control"]
+        controls = [r for r in records if r["kind"] == "control"]
+        metrics = {
+            "rmse": mean_se([r["rmse"] for r in records]),
+            # the detector's centre against the truth, over the detected local losses
+            "localisation_error_m": mean_se([r.get("localisation_error_m") for r in local]),
+            # local losses (what detection_limit measures); span softenings are span_detection_rate
+            "detection_rate": mean_se([r["detected"] for r in local]),
+            "false_alarm_rate": mean_se([r["false_alarm"] for r in controls]),
+            "coverage95": mean_se([r["coverage95"] for r in records]),
+            "band_width": mean_se([r["band_width"] for r in records]),
+            "control_coverage95": mean_se([r["coverage95"] for r in controls]),
+            "damaged_coverage95": mean_se([r["coverage95"] for r in damaged]),
+            "span_detection_rate": mean_se([r["detected"] for r in damaged if r["kind"] == "span"]),
+            # share of the detected local losses whose 95 % loss interval covers the true loss
+            "loss_coverage95": mean_se([r.get("loss_covered") for r in local]),
+            "non_converged": mean_se([1.0 - r["converged"] for r in records]),
+        }
+        return cls(tuple(float(x) for x in layout), len(records), metrics, tuple(records),
+                   detection_limit=detection_limit, layout_kind=tuple(layout_kind))
 
     @property
     def label(self):
@@ -83,6 +110,7 @@ class VerificationResult:
 
     layouts: tuple  # LayoutScore
     scenarios: tuple
+    _: KW_ONLY
     n_crossings: int
     seed: int
     severity: float
@@ -127,29 +155,3 @@ class VerificationResult:
         return {"layouts": layouts, "n_crossings": self.n_crossings, "seed": self.seed,
                 "severity": self.severity, "damage_length_m": self.length, "false_alarm": self.false_alarm,
                 "nuisance": self.nuisance}
-
-
-
-def _aggregate(layout, records, limit=None, kinds=()):
-    """Metrics of one layout over its scenarios (local losses, span softenings, controls)."""
-    mean_se = Metric.of
-    local = [r for r in records if r["kind"] == "local"]
-    damaged = [r for r in records if r["kind"] != "control"]
-    controls = [r for r in records if r["kind"] == "control"]
-    metrics = {
-        "rmse": mean_se([r["rmse"] for r in records]),
-        # the detector's centre against the truth, over the detected local losses
-        "localisation_error_m": mean_se([r.get("localisation_error_m") for r in local]),
-        # local losses (what detection_limit measures); span softenings are span_detection_rate
-        "detection_rate": mean_se([r["detected"] for r in local]),
-        "false_alarm_rate": mean_se([r["false_alarm"] for r in controls]),
-        "coverage95": mean_se([r["coverage95"] for r in records]),
-        "band_width": mean_se([r["band_width"] for r in records]),
-        "control_coverage95": mean_se([r["coverage95"] for r in controls]),
-        "damaged_coverage95": mean_se([r["coverage95"] for r in damaged]),
-        "span_detection_rate": mean_se([r["detected"] for r in damaged if r["kind"] == "span"]),
-        # share of the detected local losses whose 95 % loss interval covers the true loss
-        "loss_coverage95": mean_se([r.get("loss_covered") for r in local]),
-        "non_converged": mean_se([1.0 - r["converged"] for r in records]),
-    }
-    return LayoutScore(tuple(float(x) for x in layout), len(records), metrics, tuple(records), limit, tuple(kinds))

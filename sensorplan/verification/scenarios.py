@@ -65,7 +65,7 @@ def make_scenarios(case, n_locations=8, *, severity=0.25, length=2.0, n_controls
 def truth_mesh(case):
     """Finer, differently aligned mesh: 4 k + 1 elements in a span of k elements."""
     counts = np.bincount(case.bridge.span_of(case.mesh.midpoints), minlength=case.bridge.n_spans)
-    return Mesh._from_counts(case.bridge, [4 * int(k) + 1 for k in counts])
+    return Mesh.from_counts(case.bridge, [4 * int(k) + 1 for k in counts])
 
 
 def element_average_ei(fine_mesh, fine_ei, mesh):

@@ -19,16 +19,20 @@ import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor
 from contextlib import nullcontext
-from dataclasses import asdict, dataclass, fields
+from dataclasses import KW_ONLY, asdict, dataclass, fields
+from typing import TYPE_CHECKING
 
 from .._errors import ConfigError
 from .._executors import executor_for, map_ordered
 from .verify import plan_verification, run_pilot, run_scenario
 
+if TYPE_CHECKING:
+    from ..model.case import Case
+
 __all__ = ["design_study", "DesignStudy", "StudyRow"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class StudyRow:
     """One layout of a design study with its criterion value and its verification metrics.
 
@@ -64,6 +68,7 @@ class DesignStudy:
     """The table of a design study (:func:`design_study`): one :class:`StudyRow` per case, count, criterion, layout."""
 
     rows: tuple
+    _: KW_ONLY
     seed: int
     n_crossings: int
     severity: float
@@ -140,15 +145,36 @@ def _load(case):
     return case
 
 
+@dataclass(frozen=True)
+class _DesignJob:
+    """One (case, count, criterion) to recommend, with the design options every job shares."""
+
+    case: "Case"
+    count: int
+    criterion: str
+    spacing: float
+    n_crossings: int
+    seed: int
+
+
+@dataclass(frozen=True)
+class _Candidate:
+    """A layout a design offers for verification: the recommended one or a feasible baseline."""
+
+    name: str
+    layout_m: tuple
+    value: float
+    efficiency: float
+
+
 def _recommend(job):
-    """Layout, value, efficiency and baselines of one (case, count, criterion); run on a worker."""
+    """The recommended layout and the feasible baselines of one job; run on a worker."""
     from ..design.recommend import CandidateGrid, recommend
 
-    case, count, criterion, spacing, n_crossings, seed = job
-    design = recommend(case, count, criterion, grid=CandidateGrid(spacing=spacing), kind=case.default_kind,
-                       n_crossings=n_crossings, rng=seed, curve_max=0)
-    rows = [("recommended", design.layout_m, design.value, design.efficiency)]
-    rows += [(b.name, b.layout_m, b.value, min(1.0, b.relative * design.efficiency))
+    design = recommend(job.case, job.count, job.criterion, grid=CandidateGrid(spacing=job.spacing),
+                       kind=job.case.default_kind, n_crossings=job.n_crossings, rng=job.seed, curve_max=0)
+    rows = [_Candidate("recommended", design.layout_m, design.value, design.efficiency)]
+    rows += [_Candidate(b.name, b.layout_m, b.value, min(1.0, b.relative * design.efficiency))
              for b in design.baselines if b.feasible]
     return rows
 
@@ -183,8 +209,27 @@ def design_study(cases: Sequence, *, criteria: Sequence[str] = ("D",), counts: "
     progress : callable, optional
         Called with (done, total) after each verification scenario.
     """
-    from ..design.criteria import CRITERIA
+    loaded = _load_cases(cases)
+    criteria = _check_criteria(criteria)
+    jobs = [_DesignJob(case, int(r), crit, float(spacing), int(design_crossings), int(seed))
+            for case, cs in zip(loaded, _counts(loaded, counts)) for r in cs for crit in criteria]
+    with nullcontext(executor) if executor is not None else executor_for(workers, scheduler) as runner:
+        designs = map_ordered(runner, _recommend, jobs, chunksize=1)
+        _check_baselines(baselines, designs)
+        selected = [(job, [row for row in rows if _keep(row.name, baselines)]) for job, rows in zip(jobs, designs)]
+        plans = [plan_verification(case, _layouts_of(case, selected), n_locations=n_scenarios, severity=severity,
+                                   length=length, n_controls=n_controls, n_crossings=n_crossings, seed=seed,
+                                   kind=case.default_kind, false_alarm=false_alarm, nuisance=nuisance)
+                 for case in loaded]
+        verifications = _verify_all(runner, loaded, plans, progress)
+    rows = [row for job, chosen in selected for row in _study_rows(job, chosen, verifications[job.case.name])]
+    return DesignStudy(tuple(rows), seed=int(seed), n_crossings=int(n_crossings), severity=float(severity),
+                       length=float(length), false_alarm=float(false_alarm), nuisance=nuisance,
+                       verifications=verifications)
 
+
+def _load_cases(cases):
+    """The cases as Case objects, at least one, with distinct names."""
     loaded = [_load(c) for c in cases]
     if not loaded:
         raise ConfigError("The 'cases' parameter needs at least one case.")
@@ -192,58 +237,79 @@ def design_study(cases: Sequence, *, criteria: Sequence[str] = ("D",), counts: "
     if len(set(names)) != len(names):
         raise ConfigError(f"The 'cases' parameter has cases with the same name ({', '.join(names)}); rename them "
                           "(Case.name) so that the rows can tell them apart.")
+    return loaded
+
+
+def _check_criteria(criteria):
+    """The criteria as a list, every one known."""
+    from ..design.criteria import CRITERIA
+
     criteria = [criteria] if isinstance(criteria, str) else list(criteria)
     unknown = [c for c in criteria if c not in CRITERIA]
     if not criteria or unknown:
         raise ConfigError(f"The 'criteria' parameter must list criteria among {', '.join(CRITERIA)}. "
                           f"Got {criteria!r} instead.")
+    return criteria
+
+
+def _counts(loaded, counts):
+    """The sensor counts studied for each case (default: the case's own number of sensors)."""
     per_case = [[c.sensors.n_sensors] if counts is None else [counts] if isinstance(counts, int) else list(counts)
                 for c in loaded]
     for cs in per_case:
         if not cs or any(isinstance(r, bool) or int(r) != r or r < 1 for r in cs):
             raise ConfigError(f"The 'counts' parameter must be positive integers. Got {counts!r} instead.")
-    jobs = [(case, int(r), crit, float(spacing), int(design_crossings), int(seed))
-            for case, cs in zip(loaded, per_case) for r in cs for crit in criteria]
-    with nullcontext(executor) if executor is not None else executor_for(workers, scheduler) as runner:
-        designs = map_ordered(runner, _recommend, jobs, chunksize=1)
-        if not isinstance(baselines, bool):
-            known = {row[0] for rows in designs for row in rows}
-            missing = sorted(set(baselines) - known)
-            if missing:
-                raise ConfigError(f"The 'baselines' parameter names no feasible baseline of these designs: "
-                                  f"{', '.join(missing)}; choose among {', '.join(sorted(known - {'recommended'}))}.")
-        selected = [(job, [row for row in rows if _keep(row[0], baselines)]) for job, rows in zip(jobs, designs)]
-        plans = []
-        for case in loaded:
-            layouts = list(dict.fromkeys(row[1] for job, rows in selected if job[0] is case for row in rows))
-            plans.append(plan_verification(case, layouts, n_locations=n_scenarios, severity=severity, length=length,
-                                           n_controls=n_controls, n_crossings=n_crossings, seed=seed,
-                                           kind=case.default_kind, false_alarm=false_alarm, nuisance=nuisance))
-        starts = map_ordered(runner, run_pilot, [t for plan in plans for t in plan.pilots()], chunksize=1)
-        tasks, k = [], 0
-        for plan in plans:
-            tasks += plan.tasks(starts[k:k + len(plan.layouts)])
-            k += len(plan.layouts)
-        records = map_ordered(runner, run_scenario, tasks, progress=progress)
+    return per_case
+
+
+def _check_baselines(baselines, designs):
+    """Baselines named by the caller must be feasible baselines of some design."""
+    if isinstance(baselines, bool):
+        return
+    known = {row.name for rows in designs for row in rows}
+    missing = sorted(set(baselines) - known)
+    if missing:
+        raise ConfigError(f"The 'baselines' parameter names no feasible baseline of these designs: "
+                          f"{', '.join(missing)}; choose among {', '.join(sorted(known - {'recommended'}))}.")
+
+
+def _layouts_of(case, selected):
+    """The distinct layouts chosen for ``case`` over its jobs, in order of first appearance."""
+    return list(dict.fromkeys(row.layout_m for job, rows in selected if job.case is case for row in rows))
+
+
+def _verify_all(runner, loaded, plans, progress):
+    """Every case's verification (case name -> VerificationResult), all the pilots and tasks on ``runner``."""
+    starts = map_ordered(runner, run_pilot, [t for plan in plans for t in plan.pilots()], chunksize=1)
+    tasks, k = [], 0
+    for plan in plans:
+        tasks += plan.tasks(starts[k:k + len(plan.layouts)])
+        k += len(plan.layouts)
+    records = map_ordered(runner, run_scenario, tasks, progress=progress)
     verifications, k = {}, 0
     for case, plan in zip(loaded, plans):
         n = len(plan.layouts) * len(plan.scenarios)
         verifications[case.name] = plan.result(records[k:k + n])
         k += n
+    return verifications
+
+
+def _study_rows(job, chosen, result):
+    """The rows of one job's chosen layouts, with their scores in the case's verification."""
+    scores = {s.layout_m: s for s in result.layouts}
     rows = []
-    for (case, count, crit, *_), chosen in selected:
-        result = verifications[case.name]
-        scores = {s.layout_m: s for s in result.layouts}
-        for name, layout, value, efficiency in chosen:
-            score = scores[tuple(float(x) for x in layout)]
-            m = score.metrics
-            rows.append(StudyRow(
-                case.name, count, crit, name, score.layout_m, float(value), float(efficiency),
-                m["detection_rate"].mean, m["detection_rate"].se, score.detection_limit,
-                m["localisation_error_m"].mean, m["localisation_error_m"].se, m["coverage95"].mean,
-                m["coverage95"].se, m["false_alarm_rate"].mean, m["false_alarm_rate"].se, score.n_scenarios))
-    return DesignStudy(tuple(rows), int(seed), int(n_crossings), float(severity), float(length), float(false_alarm),
-                       nuisance, verifications)
+    for row in chosen:
+        score = scores[tuple(float(x) for x in row.layout_m)]
+        m = score.metrics
+        rows.append(StudyRow(
+            case=job.case.name, count=job.count, criterion=job.criterion, layout=row.name, layout_m=score.layout_m,
+            value=float(row.value), efficiency=float(row.efficiency), detection_rate=m["detection_rate"].mean,
+            detection_rate_se=m["detection_rate"].se, detection_limit=score.detection_limit,
+            localisation_error_m=m["localisation_error_m"].mean, localisation_error_m_se=m["localisation_error_m"].se,
+            coverage95=m["coverage95"].mean, coverage95_se=m["coverage95"].se,
+            false_alarm_rate=m["false_alarm_rate"].mean, false_alarm_rate_se=m["false_alarm_rate"].se,
+            n_scenarios=score.n_scenarios))
+    return rows
 
 
 def _keep(name, baselines):

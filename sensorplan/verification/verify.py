@@ -17,7 +17,7 @@ import warnings
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Executor
 from contextlib import nullcontext
-from dataclasses import dataclass, replace
+from dataclasses import KW_ONLY, dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -31,7 +31,7 @@ from ..inference.inversion import invert
 from ..model.noise import NoiseModel
 from ..model.sensors import SensorLayout
 from ..model.simulate import simulate_crossings
-from .results import VerificationResult, _aggregate
+from .results import LayoutScore, VerificationResult
 from .scenarios import Scenario, element_average_ei, make_scenarios, truth_mesh
 
 if TYPE_CHECKING:
@@ -40,8 +40,10 @@ if TYPE_CHECKING:
 __all__ = ["verify_layouts", "detection_limit", "plan_verification", "VerificationPlan"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class _Task:
+    """One inversion to run: a layout's sensors on one scenario, with its noise seed and warm start."""
+
     case: object
     layout: SensorLayout  # positions, kinds and noise std of the sensors
     scenario: Scenario
@@ -205,6 +207,7 @@ class VerificationPlan:
 
     case: object
     layouts: tuple  # SensorLayout per layout (positions, kinds, noise std)
+    _: KW_ONLY
     scenarios: tuple
     seeds: tuple
     n_crossings: int
@@ -216,24 +219,28 @@ class VerificationPlan:
 
     def pilots(self):
         """One pilot task per layout (the first scenario): its posterior warm-starts that layout's tasks."""
-        return [_Task(self.case, layout, self.scenarios[0], self.seeds[0], self.n_crossings, self.false_alarm,
-                      self.nuisance) for layout in self.layouts]
+        return [self._task(layout, self.scenarios[0], self.seeds[0]) for layout in self.layouts]
 
     def tasks(self, starts):
         """The (layout, scenario) tasks, layout by layout; ``starts`` are the pilots' results."""
-        return [_Task(self.case, layout, scenario, s, self.n_crossings, self.false_alarm, self.nuisance, start)
+        return [self._task(layout, scenario, s, start)
                 for layout, start in zip(self.layouts, starts) for scenario, s in zip(self.scenarios, self.seeds)]
+
+    def _task(self, layout, scenario, seed, start=(1.0, None)):
+        return _Task(case=self.case, layout=layout, scenario=scenario, seed=seed, n_crossings=self.n_crossings,
+                     false_alarm=self.false_alarm, nuisance=self.nuisance, start=start)
 
     def result(self, records, names=None):
         """The VerificationResult of the tasks' records (in the order of :meth:`tasks`)."""
         n = len(self.scenarios)
-        scores = tuple(_aggregate(layout.positions, records[k * n:(k + 1) * n],
-                                  detection_limit(self.case, layout, self.scenarios, n_crossings=self.n_crossings,
-                                                  false_alarm=self.false_alarm, nuisance=self.nuisance),
-                                  layout.kinds)
-                       for k, layout in enumerate(self.layouts))
-        return VerificationResult(scores, self.scenarios, self.n_crossings, self.seed, self.severity,
-                                  self.length, tuple(names) if names else (), self.false_alarm, self.nuisance)
+        scores = tuple(LayoutScore.from_records(
+            layout.positions, records[k * n:(k + 1) * n],
+            detection_limit=detection_limit(self.case, layout, self.scenarios, n_crossings=self.n_crossings,
+                                            false_alarm=self.false_alarm, nuisance=self.nuisance),
+            layout_kind=layout.kinds) for k, layout in enumerate(self.layouts))
+        return VerificationResult(scores, self.scenarios, n_crossings=self.n_crossings, seed=self.seed,
+                                  severity=self.severity, length=self.length, names=tuple(names) if names else (),
+                                  false_alarm=self.false_alarm, nuisance=self.nuisance)
 
 
 def plan_verification(case, layouts, *, n_locations=8, severity=0.25, length=2.0, n_controls=None, n_crossings=10,
@@ -248,8 +255,9 @@ def plan_verification(case, layouts, *, n_locations=8, severity=0.25, length=2.0
         case.bridge.check_on_bridge(layout.positions, "layout", "verify")
     scenarios = make_scenarios(case, n_locations, severity=severity, length=length, n_controls=n_controls)
     seeds = np.random.SeedSequence(seed).spawn(len(scenarios))
-    return VerificationPlan(case, layout_list, tuple(scenarios), tuple(seeds), int(n_crossings), float(false_alarm),
-                            nuisance, int(seed), float(severity), float(length))
+    return VerificationPlan(case, layout_list, scenarios=tuple(scenarios), seeds=tuple(seeds),
+                            n_crossings=int(n_crossings), false_alarm=float(false_alarm), nuisance=nuisance,
+                            seed=int(seed), severity=float(severity), length=float(length))
 
 
 def run_pilot(task):

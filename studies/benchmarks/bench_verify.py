@@ -77,6 +77,7 @@ How to run
 From the repository root (the folder holding ``sensorplan/``)::
 
     python studies/benchmarks/bench_verify.py
+    python studies/benchmarks/bench_verify.py --locations 3 --repeats 1 --invert-repeats 1 --no-dask  # quick check
 
 It takes a few minutes on an idle 2-core machine (10-15 minutes on a busy one).
 """
@@ -89,6 +90,7 @@ for _var in THREAD_VARS:  # before numpy is imported (the pool workers inherit i
     os.environ.setdefault(_var, "1")
 
 import contextlib  # noqa: E402
+import hashlib  # noqa: E402
 import json  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -102,15 +104,14 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from sensorplan._executors import executor_for  # noqa: E402
-from sensorplan.io.config import example_case  # noqa: E402
 from sensorplan._errors import SensorplanWarning  # noqa: E402
+from sensorplan._executors import executor_for  # noqa: E402
 from sensorplan.inference.inversion import invert  # noqa: E402
+from sensorplan.io.config import example_case  # noqa: E402
 from sensorplan.model.noise import NoiseModel  # noqa: E402
-from sensorplan.model.sensors import SensorLayout  # noqa: E402
 from sensorplan.model.simulate import simulate_crossings  # noqa: E402
-from sensorplan.verification.verify import (_run_task, _Task, make_scenarios, truth_mesh,  # noqa: E402
-                                      verify_layouts)
+from sensorplan.verification.scenarios import truth_mesh  # noqa: E402
+from sensorplan.verification.verify import plan_verification, run_pilot, verify_layouts  # noqa: E402
 
 EXAMPLE = "openlab-like"
 LAYOUT = (11.0, 19.0)
@@ -137,22 +138,18 @@ def package_commit():
         return "unknown"
 
 
-def scenario_inputs(case):
+def scenario_inputs(case, n_locations):
     """Per-scenario (case with the layout's sensors, data, warm start), as inside verify_layouts."""
-    scenarios = make_scenarios(case, N_LOCATIONS, length=DAMAGE_LENGTH)
-    seeds = np.random.SeedSequence(SEED).spawn(len(scenarios))
-    pilot = _run_task(_Task(case, LAYOUT, "rotation", scenarios[0], seeds[0], N_CROSSINGS,
-                            FALSE_ALARM, "smooth"), posterior=True)
-    start = (pilot.noise_scale, pilot.tau)
-    # the same steps as sensorplan.verification.verify._run_task, up to the inversion
-    sensors = SensorLayout.candidates(list(LAYOUT), "rotation",
-                                      noise_std=[float(np.median(case.noise.std))] * len(LAYOUT))
-    inv_case = replace(case, sensors=sensors,
-                       noise=NoiseModel(sensors.noise_std, case.noise.correlation_length))
+    plan = plan_verification(case, [LAYOUT], n_locations=n_locations, length=DAMAGE_LENGTH, n_crossings=N_CROSSINGS,
+                             seed=SEED, false_alarm=FALSE_ALARM)
+    start = run_pilot(plan.pilots()[0])  # (noise scale, tau) of the pilot inversion
+    # the same steps as a verification task (sensorplan.verification.verify), up to the inversion
+    sensors = plan.layouts[0]
+    inv_case = replace(case, sensors=sensors, noise=NoiseModel(sensors.noise_std, case.noise.correlation_length))
     fine_mesh = truth_mesh(inv_case)
     fine = inv_case.with_mesh(fine_mesh)
     out = []
-    for scenario, seed in zip(scenarios, seeds):
+    for scenario, seed in zip(plan.scenarios, plan.seeds):
         truth = scenario.truth(fine_mesh, fine.ei)
         data = simulate_crossings(fine, N_CROSSINGS, noise=True, rng=np.random.default_rng(seed), ei=truth)
         out.append((scenario, data))
@@ -165,9 +162,9 @@ def run_invert(inv_case, data, start):
         return invert(inv_case, data, screen=False, noise_scale=start[0], tau=start[1])
 
 
-def run_verify(case, workers, scheduler=None, executor=None):
+def run_verify(case, workers, n_locations, scheduler=None, executor=None):
     t0 = time.perf_counter()
-    result = verify_layouts(case, [LAYOUT], n_locations=N_LOCATIONS, n_crossings=N_CROSSINGS, seed=SEED,
+    result = verify_layouts(case, [LAYOUT], n_locations=n_locations, n_crossings=N_CROSSINGS, seed=SEED,
                             workers=workers, length=DAMAGE_LENGTH, scheduler=scheduler, executor=executor)
     return time.perf_counter() - t0, result
 
@@ -180,19 +177,33 @@ def has_dask():
     return True
 
 
-def main():
+def parse_args(argv=None):
+    import argparse
+
+    parser = argparse.ArgumentParser(description="Benchmark of verify_layouts (see the module docstring).")
+    parser.add_argument("--locations", type=int, default=N_LOCATIONS,
+                        help=f"local-damage locations (default {N_LOCATIONS}; smaller for a quick check)")
+    parser.add_argument("--repeats", type=int, default=REPEATS, help=f"runs of each variant (default {REPEATS})")
+    parser.add_argument("--invert-repeats", type=int, default=INVERT_REPEATS,
+                        help=f"repeats of reference 1 (default {INVERT_REPEATS})")
+    parser.add_argument("--no-dask", action="store_true", help="skip the Dask variants even when dask is installed")
+    return parser.parse_args(argv)
+
+
+def main(argv=None):
+    args = parse_args(argv)
     wall0 = time.perf_counter()
     load0 = os.getloadavg()
     case = example_case(EXAMPLE)
 
     # --- References: one inversion, and all inversions back to back -------------------------
-    inv_case, inputs, start = scenario_inputs(case)
+    inv_case, inputs, start = scenario_inputs(case, args.locations)
     n_scen = len(inputs)
     ref_k = next(k for k, (s, _) in enumerate(inputs) if s.kind == "local" and s.centre > 5.0)
     ref_scenario, ref_data = inputs[ref_k]
     run_invert(inv_case, ref_data, start)  # warm-up
     t_inv_all = []
-    for _ in range(INVERT_REPEATS):
+    for _ in range(args.invert_repeats):
         t0 = time.perf_counter()
         post = run_invert(inv_case, ref_data, start)
         t_inv_all.append(time.perf_counter() - t0)
@@ -208,16 +219,16 @@ def main():
     # machine biases none of them
     runs = {w: [] for w in WORKERS}
     dicts = {}
-    dask_runs = ([], [], set()) if has_dask() else None
+    dask_runs = ([], [], set()) if has_dask() and not args.no_dask else None
     with (executor_for(2, "local") if dask_runs else contextlib.nullcontext()) as cluster:
-        for _ in range(REPEATS):
+        for _ in range(args.repeats):
             for w in WORKERS:
-                dt, result = run_verify(case, w)
+                dt, result = run_verify(case, w, args.locations)
                 runs[w].append(dt)
                 dicts.setdefault(w, json.dumps(result.to_dict(), sort_keys=True))
             if dask_runs:
                 for k, options in ((0, dict(scheduler="local")), (1, dict(executor=cluster))):
-                    dt, other = run_verify(case, 2, **options)
+                    dt, other = run_verify(case, 2, args.locations, **options)
                     dask_runs[k].append(dt)
                     dask_runs[2].add(json.dumps(other.to_dict(), sort_keys=True))
     n_total = result.layouts[0].n_scenarios
@@ -241,12 +252,12 @@ def main():
     print(f"  layout {LAYOUT} m (rotation, noise {case.noise.std[0]:.1e} rad), {case.sweep.n_loads} load "
           f"positions, {N_CROSSINGS} crossings per scenario, seed {SEED}.")
     kinds = [s.kind for s, _ in inputs]
-    print(f"Scenarios: n_locations={N_LOCATIONS} -> {n_scen} = {kinds.count('local')} local + "
+    print(f"Scenarios: n_locations={args.locations} -> {n_scen} = {kinds.count('local')} local + "
           f"{kinds.count('span')} span + {kinds.count('control')} control "
           f"(+ 1 pilot inversion before dispatch).")
     print(line)
     print(f"Reference 1: one invert() on one scenario's data ({ref_scenario.kind} loss at "
-          f"{ref_scenario.centre:.2f} m), best of {INVERT_REPEATS}: {1e3 * t_inv:.1f} ms "
+          f"{ref_scenario.centre:.2f} m), best of {args.invert_repeats}: {1e3 * t_inv:.1f} ms "
           f"(median {1e3 * t_inv_med:.1f} ms; {post.n_iter} GN iterations, converged {post.converged})")
     print(f"Reference 2: invert() on all {n_scen} scenarios back to back: {t_inv_sum:.3f} s = "
           f"{1e3 * t_inv_sum / n_scen:.1f} ms per scenario = {t_inv_sum / n_scen / t_inv:.2f} x reference 1;")
@@ -280,6 +291,8 @@ def main():
     print(line)
     print(f"workers=1, workers=2{' and the Dask LocalCluster' if dask_runs else ''} give identical JSON "
           f"(result.to_dict()): {'yes' if same else 'NO'}")
+    print(result.summary())
+    print(f"result JSON (sorted keys) sha256 {hashlib.sha256(dicts[WORKERS[0]].encode()).hexdigest()[:16]}")
     print(line)
     met = rate[2] >= TARGET_PER_S
     note = "" if cores == 2 else f" (this machine has {cores} logical CPUs, not 2)"
