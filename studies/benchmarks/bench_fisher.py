@@ -56,6 +56,7 @@ It is deterministic (numpy Generator, fixed seed) and takes well under a
 minute on a 2-core machine.
 """
 
+import inspect
 import os
 import sys
 import time
@@ -166,7 +167,7 @@ def main():
     case = Case(bridge, mesh, ei, vehicle, candidates, noise, sweep)
     subset = np.sort(rng.choice(N_SENSORS, N_SUBSET, replace=False))
     rho = noise.rho(positions)
-    default_chunk = fisher_blocks.__kwdefaults__["chunk_size"]
+    default_chunk = inspect.signature(fisher_blocks).parameters["chunk_size"].default  # through the decorator
 
     def fast():
         return fisher_blocks(case, sensors=candidates, noise=noise,
