@@ -182,17 +182,21 @@ def inversion_verdict(*, edges: np.ndarray, log_mean: np.ndarray, log_std: np.nd
         "detector": None if detection is None else detection.to_dict(),
         "damage_probability": damage_probability,
     }
-    noisy = noise_configured and noise_scale > NOISE_SCALE_LIMIT
-    if flagged or noisy:
+    if flagged or (noise_configured and noise_scale > NOISE_SCALE_LIMIT):
         why = (f"systematic residuals at {', '.join(flagged)}" if flagged else
                f"the residuals are {noise_scale:.2g} times the configured noise")
         return Verdict("model_error", f"Model error: {why} that a change of EI does not explain; no damage "
                        f"conclusion can be drawn until it is resolved.", evidence=evidence,
                        next_step="check each flagged sensor's sign, position and unit and the supports, then run "
                                  "`sensorplan diagnose` to name the unmodelled effect")
+    return _data_verdict(stretches, detection, damage_probability, evidence)
+
+
+def _data_verdict(stretches: list, detection: Any, damage_probability: float | None, evidence: dict) -> Verdict:
+    """The verdict of a fit without a model error: a local loss, a departure, insufficient data or no change."""
     fired = detection is not None and detection.detected
     doubted = fired and damage_probability is not None and damage_probability < MIN_LOSS_PROBABILITY
-    if fired and not doubted:
+    if detection is not None and fired and not doubted:
         half = 0.5 * detection.length_m
         where = (detection.centre_m - half, detection.centre_m + half)
         lo, hi = detection.loss_ci95
