@@ -10,7 +10,7 @@ import sensorplan as sp
 from sensorplan import CandidateGrid, Constraints, example_case, recommend
 from sensorplan.cli import main
 from sensorplan.verification.ranking import rank_layouts
-from sensorplan.verification.results import LayoutScore, Metric, VerificationResult
+from sensorplan.verification.results import LayoutScore, Metric, ScenarioRecord, VerificationResult
 
 MIXED = ["--kind", "rotation,deflection", "--noise-std", "deflection=2e-6", "--cost", "rotation=1,deflection=2",
          "--budget", "5", "--per-span-min", "1,1", "--per-span-max", "2,2", "--keep-case-sensors", "--spacing", "1"]
@@ -90,10 +90,10 @@ def test_recommend_bad_kind_noise_cost_and_budget_input(tmp_path, capsys, extra,
 
 
 def _score(layout, detected, limit, loc=0.5, cov=0.95):
-    records = [{"kind": "local", "rmse": 0.1, "coverage95": cov, "band_width": 0.2, "converged": 1.0,
-                "detected": float(d), **({"localisation_error_m": loc} if d else {})} for d in detected]
-    records += [{"kind": "control", "rmse": 0.1, "coverage95": cov, "band_width": 0.2, "converged": 1.0,
-                 "false_alarm": 0.0}]
+    common = dict(rmse=0.1, coverage95=cov, band_width=0.2, converged=1.0, statistic=0.0, threshold=1.0)
+    records = [ScenarioRecord(kind="local", centre_m=0.0, detected=float(d), localisation_error_m=loc if d else None,
+                              **common) for d in detected]
+    records += [ScenarioRecord(kind="control", centre_m=0.0, false_alarm=0.0, **common)]
     return LayoutScore.from_records(layout, records, detection_limit=limit)
 
 

@@ -42,13 +42,13 @@ def test_control_coverage_and_false_alarm_reported():
     # the per-scenario records: 2 local losses, 1 span softening, 12 controls; every metric is the
     # mean over its scenarios with the standard error std(ddof=1) / sqrt(n)
     records = score.records
-    assert [r["kind"] for r in records].count("control") == 12 and len(records) == score.n_scenarios == 15
-    controls = [r for r in records if r["kind"] == "control"]
-    damaged = [r for r in records if r["kind"] != "control"]
-    for name, values in (("control_coverage95", [r["coverage95"] for r in controls]),
-                         ("false_alarm_rate", [r["false_alarm"] for r in controls]),
-                         ("detection_rate", [r["detected"] for r in damaged if r["kind"] == "local"]),
-                         ("rmse", [r["rmse"] for r in records])):
+    assert [r.kind for r in records].count("control") == 12 and len(records) == score.n_scenarios == 15
+    controls = [r for r in records if r.kind == "control"]
+    damaged = [r for r in records if r.kind != "control"]
+    for name, values in (("control_coverage95", [r.coverage95 for r in controls]),
+                         ("false_alarm_rate", [r.false_alarm for r in controls]),
+                         ("detection_rate", [r.detected for r in damaged if r.kind == "local"]),
+                         ("rmse", [r.rmse for r in records])):
         assert score.metrics[name].mean == pytest.approx(np.mean(values), rel=1e-12)
         assert score.metrics[name].se == pytest.approx(np.std(values, ddof=1) / math.sqrt(len(values)), rel=1e-12)
     # the JSON form carries those numbers

@@ -63,8 +63,8 @@ def run(args, out, files):
     report = render_report(analysis, provenance=record)
     path = files.write_text(args.out / "report.html", report.html)
     json_path = stage_json(files, args.json or args.out / "design.json",
-                           {"recommend_argv": argv, "provenance": record, "layout_m": list(analysis.design.layout_m),
-                            "design": analysis.design.to_dict()})
+                           {"recommend_argv": argv, "provenance": record.to_dict(),
+                            "layout_m": list(analysis.design.layout_m), "design": analysis.design.to_dict()})
     out(analysis.design.summary())
     out(f"report with {len(report.sections)} sections written to {path}; design inputs: {json_path}")
     return 0

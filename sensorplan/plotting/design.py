@@ -115,10 +115,11 @@ def plot_verification(verification, *, axes=None, supports=None):
         _, axes = new_figure((8, 5.6), 2, 1, sharex=True)
     names = verification.names or [s.label for s in verification.layouts]
     for name, score in zip(names, verification.layouts):
-        local = [r for r in score.records if r["kind"] == "local"]
-        x = [r["centre_m"] for r in local]
-        axes[0].plot(x, [r["statistic"] / r["threshold"] for r in local], "o-", markersize=4, label=name)
-        axes[1].plot(x, [r.get("localisation_error_m", np.nan) for r in local], "o-", markersize=4, label=name)
+        local = [r for r in score.records if r.kind == "local"]
+        x = [r.centre_m for r in local]
+        axes[0].plot(x, [r.statistic / r.threshold for r in local], "o-", markersize=4, label=name)
+        axes[1].plot(x, [np.nan if r.localisation_error_m is None else r.localisation_error_m for r in local], "o-",
+                     markersize=4, label=name)
     axes[0].axhline(1.0, color="k", linestyle="--", linewidth=0.8)
     axes[0].set_ylabel("scan statistic / threshold\n(> 1: detected)")
     axes[0].set_title(f"Verification: {100 * verification.severity:.0f} % EI loss over "

@@ -98,8 +98,8 @@ def _f(value, fmt=".3f"):
 
 def _paired(score, ref, key="detected"):
     """Mean and standard error of the per-scenario differences over the local losses."""
-    a = [r[key] for r in score.records if r["kind"] == "local"]
-    b = [r[key] for r in ref.records if r["kind"] == "local"]
+    a = [getattr(r, key) for r in score.records if r.kind == "local"]
+    b = [getattr(r, key) for r in ref.records if r.kind == "local"]
     if not a or len(a) != len(b):
         return None, None
     d = np.asarray(a, float) - np.asarray(b, float)

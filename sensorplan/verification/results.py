@@ -1,4 +1,4 @@
-"""Result types of the verification: Metric, LayoutScore, VerificationResult.
+"""Result types of the verification: Metric, ScenarioRecord, LayoutScore, VerificationResult.
 
 Owns: aggregation of per-scenario records into metrics with Monte-Carlo errors.
 May import: the foundations.
@@ -9,7 +9,7 @@ from dataclasses import KW_ONLY, dataclass
 
 import numpy as np
 
-__all__ = ["Metric", "LayoutScore", "VerificationResult", "METRICS", "EXTRA_METRICS"]
+__all__ = ["Metric", "ScenarioRecord", "LayoutScore", "VerificationResult", "METRICS", "EXTRA_METRICS"]
 
 METRICS = ("rmse", "localisation_error_m", "detection_rate", "false_alarm_rate", "coverage95", "band_width")
 EXTRA_METRICS = ("control_coverage95", "damaged_coverage95", "span_detection_rate", "loss_coverage95",
@@ -40,6 +40,37 @@ class Metric:
         return {"mean": self.mean, "se": self.se, "n": self.n}
 
 
+@dataclass(frozen=True, kw_only=True)
+class ScenarioRecord:
+    """What one scenario gave for one layout: the inversion's accuracy and bands, the detector's verdict.
+
+    ``detected`` is set for damaged scenarios, ``false_alarm`` for undamaged controls (1.0 when the
+    detector fired, else 0.0); ``localisation_error_m`` and ``loss_covered`` for detected local losses.
+    """
+
+    kind: str  # "local", "span" or "control"
+    centre_m: float  # centre of the damaged zone [m] (0 for a control)
+    rmse: float  # of EI / truth - 1 over the elements
+    coverage95: float  # share of the elements whose 95 % band covers the true EI
+    band_width: float  # mean width of the 95 % band relative to the nominal EI
+    converged: float  # 1.0 when the inversion converged
+    statistic: float  # the detector's scan statistic
+    threshold: float  # and its threshold
+    detected: float | None = None
+    false_alarm: float | None = None
+    localisation_error_m: float | None = None
+    loss_covered: float | None = None  # 1.0 when the 95 % interval of the loss covers the true one
+
+    def to_dict(self):
+        out = {"kind": self.kind, "centre_m": self.centre_m, "rmse": self.rmse, "coverage95": self.coverage95,
+               "band_width": self.band_width, "converged": self.converged, "statistic": self.statistic,
+               "threshold": self.threshold}
+        for name in ("false_alarm", "detected", "localisation_error_m", "loss_covered"):
+            if getattr(self, name) is not None:
+                out[name] = getattr(self, name)
+        return out
+
+
 @dataclass(frozen=True, eq=False)
 class LayoutScore:
     """Aggregated metrics of one layout with Monte-Carlo standard errors."""
@@ -47,7 +78,7 @@ class LayoutScore:
     layout_m: tuple
     n_scenarios: int
     metrics: dict  # name -> Metric
-    records: tuple  # one dict per scenario
+    records: tuple  # one ScenarioRecord per scenario
     _: KW_ONLY
     detection_limit: float | None = None  # mean known-location power at the Bonferroni level (local scenarios)
     layout_kind: tuple = ()  # kind of each sensor (parallel to layout_m)
@@ -56,24 +87,24 @@ class LayoutScore:
     def from_records(cls, layout, records, *, detection_limit=None, layout_kind=()):
         """Metrics of one layout over its scenarios' records (local losses, span softenings, controls)."""
         mean_se = Metric.of
-        local = [r for r in records if r["kind"] == "local"]
-        damaged = [r for r in records if r["kind"] != "control"]
-        controls = [r for r in records if r["kind"] == "control"]
+        local = [r for r in records if r.kind == "local"]
+        damaged = [r for r in records if r.kind != "control"]
+        controls = [r for r in records if r.kind == "control"]
         metrics = {
-            "rmse": mean_se([r["rmse"] for r in records]),
+            "rmse": mean_se([r.rmse for r in records]),
             # the detector's centre against the truth, over the detected local losses
-            "localisation_error_m": mean_se([r.get("localisation_error_m") for r in local]),
+            "localisation_error_m": mean_se([r.localisation_error_m for r in local]),
             # local losses (what detection_limit measures); span softenings are span_detection_rate
-            "detection_rate": mean_se([r["detected"] for r in local]),
-            "false_alarm_rate": mean_se([r["false_alarm"] for r in controls]),
-            "coverage95": mean_se([r["coverage95"] for r in records]),
-            "band_width": mean_se([r["band_width"] for r in records]),
-            "control_coverage95": mean_se([r["coverage95"] for r in controls]),
-            "damaged_coverage95": mean_se([r["coverage95"] for r in damaged]),
-            "span_detection_rate": mean_se([r["detected"] for r in damaged if r["kind"] == "span"]),
+            "detection_rate": mean_se([r.detected for r in local]),
+            "false_alarm_rate": mean_se([r.false_alarm for r in controls]),
+            "coverage95": mean_se([r.coverage95 for r in records]),
+            "band_width": mean_se([r.band_width for r in records]),
+            "control_coverage95": mean_se([r.coverage95 for r in controls]),
+            "damaged_coverage95": mean_se([r.coverage95 for r in damaged]),
+            "span_detection_rate": mean_se([r.detected for r in damaged if r.kind == "span"]),
             # share of the detected local losses whose 95 % loss interval covers the true loss
-            "loss_coverage95": mean_se([r.get("loss_covered") for r in local]),
-            "non_converged": mean_se([1.0 - r["converged"] for r in records]),
+            "loss_coverage95": mean_se([r.loss_covered for r in local]),
+            "non_converged": mean_se([1.0 - r.converged for r in records]),
         }
         return cls(tuple(float(x) for x in layout), len(records), metrics, tuple(records),
                    detection_limit=detection_limit, layout_kind=tuple(layout_kind))

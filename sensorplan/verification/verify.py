@@ -31,7 +31,7 @@ from ..inference.inversion import invert
 from ..model.noise import NoiseModel
 from ..model.sensors import SensorLayout
 from ..model.simulate import simulate_crossings
-from .results import LayoutScore, VerificationResult
+from .results import LayoutScore, ScenarioRecord, VerificationResult
 from .scenarios import Scenario, element_average_ei, make_scenarios, truth_mesh
 
 if TYPE_CHECKING:
@@ -101,18 +101,17 @@ def _score(case, post, detection, scenario, truth):
     covered = float(np.mean((truth >= ci[:, 0]) & (truth <= ci[:, 1])))
     width = float(np.mean((ci[:, 1] - ci[:, 0]) / post.ei_nominal))
     rmse = float(np.sqrt(np.mean((post.ei_mean / truth - 1.0) ** 2)))
-    out = {"kind": scenario.kind, "centre_m": scenario.centre, "rmse": rmse, "coverage95": covered,
-           "band_width": width, "converged": float(bool(post.converged)), "statistic": detection.statistic,
-           "threshold": detection.threshold}
+    common = dict(kind=scenario.kind, centre_m=scenario.centre, rmse=rmse, coverage95=covered, band_width=width,
+                  converged=float(bool(post.converged)), statistic=detection.statistic,
+                  threshold=detection.threshold)
     if scenario.kind == "control":
-        out["false_alarm"] = float(detection.detected)
-        return out
-    out["detected"] = float(detection.detected)
+        return ScenarioRecord(**common, false_alarm=float(detection.detected))
     if scenario.kind == "local" and detection.detected:
-        out["localisation_error_m"] = float(abs(detection.centre_m - scenario.centre))
         lo, hi = detection.loss_ci95
-        out["loss_covered"] = float(lo <= scenario.severity <= hi)
-    return out
+        return ScenarioRecord(**common, detected=float(detection.detected),
+                              localisation_error_m=float(abs(detection.centre_m - scenario.centre)),
+                              loss_covered=float(lo <= scenario.severity <= hi))
+    return ScenarioRecord(**common, detected=float(detection.detected))
 
 
 def detection_limit(case, layout, scenarios, *, kind="rotation", noise_std=None, n_crossings, false_alarm,

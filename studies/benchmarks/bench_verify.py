@@ -96,7 +96,7 @@ import subprocess  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 import warnings  # noqa: E402
-from dataclasses import replace  # noqa: E402
+from dataclasses import dataclass, replace  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -190,15 +190,32 @@ def parse_args(argv=None):
     return parser.parse_args(argv)
 
 
-def main(argv=None):
-    args = parse_args(argv)
-    wall0 = time.perf_counter()
-    load0 = os.getloadavg()
-    case = example_case(EXAMPLE)
+@dataclass(frozen=True)
+class References:
+    """Reference 1 (one inversion, best and median of repeats) and reference 2 (all inversions back to back)."""
 
-    # --- References: one inversion, and all inversions back to back -------------------------
+    inputs: list  # (scenario, data) per scenario
+    scenario: object  # the scenario of reference 1
+    post: object  # its posterior
+    best: float  # [s]
+    median: float  # [s]
+    total: float  # [s], reference 2
+
+
+@dataclass(frozen=True)
+class Runs:
+    """Wall times of verify_layouts per variant, the last result and whether every variant gave the same JSON."""
+
+    times: dict  # workers -> [s] per repeat
+    dask: tuple | None  # (cold times, warm times) or None when not measured
+    result: object
+    json_text: str  # result.to_dict() of workers=1, sorted keys
+    same: bool
+
+
+def measure_references(case, args):
+    """Reference 1: one invert() on one scenario's data; reference 2: invert() on every scenario in turn."""
     inv_case, inputs, start = scenario_inputs(case, args.locations)
-    n_scen = len(inputs)
     ref_k = next(k for k, (s, _) in enumerate(inputs) if s.kind == "local" and s.centre > 5.0)
     ref_scenario, ref_data = inputs[ref_k]
     run_invert(inv_case, ref_data, start)  # warm-up
@@ -207,16 +224,19 @@ def main(argv=None):
         t0 = time.perf_counter()
         post = run_invert(inv_case, ref_data, start)
         t_inv_all.append(time.perf_counter() - t0)
-    t_inv = float(min(t_inv_all))
-    t_inv_med = float(np.median(t_inv_all))
     t0 = time.perf_counter()
     for _, data in inputs:
         run_invert(inv_case, data, start)
     t_inv_sum = time.perf_counter() - t0
+    return References(inputs, ref_scenario, post, float(min(t_inv_all)), float(np.median(t_inv_all)), t_inv_sum)
 
-    # --- verify_layouts with 1 and 2 workers -------------------------------------------------
-    # interleaved (1 worker, pool, Dask cold, Dask warm in every repeat) so that a drifting load on a shared
-    # machine biases none of them
+
+def measure_runs(case, args):
+    """verify_layouts with 1 and 2 workers (and on Dask), interleaved in every repeat.
+
+    Interleaved (1 worker, pool, Dask cold, Dask warm in every repeat) so that a drifting load on a shared
+    machine biases none of them.
+    """
     runs = {w: [] for w in WORKERS}
     dicts = {}
     dask_runs = ([], [], set()) if has_dask() and not args.no_dask else None
@@ -231,53 +251,77 @@ def main(argv=None):
                     dt, other = run_verify(case, 2, args.locations, **options)
                     dask_runs[k].append(dt)
                     dask_runs[2].add(json.dumps(other.to_dict(), sort_keys=True))
-    n_total = result.layouts[0].n_scenarios
     same = len(set(dicts.values()) | (dask_runs[2] if dask_runs else set())) == 1
-    load1 = os.getloadavg()
+    return Runs(runs, dask_runs[:2] if dask_runs else None, result, dicts[WORKERS[0]], same)
 
-    # --- Report ------------------------------------------------------------------------------
+
+def main(argv=None):
+    args = parse_args(argv)
+    wall0 = time.perf_counter()
+    load0 = os.getloadavg()
+    case = example_case(EXAMPLE)
+    refs = measure_references(case, args)
+    runs = measure_runs(case, args)
+    load1 = os.getloadavg()
+    print_setup(case, args, refs, (load0, load1))
+    rate = print_runs(refs, runs)
+    print_target(refs, rate)
+    print(f"Total benchmark run time: {time.perf_counter() - wall0:.1f} s")
+
+
+LINE = "-" * 96
+
+
+def print_setup(case, args, refs, loads):
+    """The machine, the case, the scenarios and the two references."""
     cores = os.cpu_count()
-    line = "-" * 96
     env = ", ".join(f"{k}={os.environ.get(k)}" + ("" if THREADS_PRESET[k] is not None else " (set here)")
                     for k in THREAD_VARS)
     print("sensorplan verification benchmark (verify_layouts: simulate + invert + score per scenario)")
     print(f"sensorplan commit {package_commit()}; numpy {np.__version__}, {cores} logical CPU(s); {env}")
     print("  (BLAS threads should be 1: the CLI sets OPENBLAS_NUM_THREADS=1; pool workers inherit it)")
-    print(f"load average (1 min) {load0[0]:.2f} at start, {load1[0]:.2f} at end "
+    print(f"load average (1 min) {loads[0][0]:.2f} at start, {loads[1][0]:.2f} at end "
           f"(> {cores} means other processes compete for the cores)")
-    print(line)
+    print(LINE)
     b = case.bridge
     print(f"Case: {EXAMPLE}, spans {'+'.join(f'{x:g}' for x in b.spans)} m, {case.n_elements} elements, "
           f"rotational springs {' and '.join(f'{k:.1e}' for k in b.spring_stiffness())} N m/rad (estimated),")
     print(f"  layout {LAYOUT} m (rotation, noise {case.noise.std[0]:.1e} rad), {case.sweep.n_loads} load "
           f"positions, {N_CROSSINGS} crossings per scenario, seed {SEED}.")
-    kinds = [s.kind for s, _ in inputs]
+    n_scen = len(refs.inputs)
+    kinds = [s.kind for s, _ in refs.inputs]
     print(f"Scenarios: n_locations={args.locations} -> {n_scen} = {kinds.count('local')} local + "
           f"{kinds.count('span')} span + {kinds.count('control')} control "
           f"(+ 1 pilot inversion before dispatch).")
-    print(line)
-    print(f"Reference 1: one invert() on one scenario's data ({ref_scenario.kind} loss at "
-          f"{ref_scenario.centre:.2f} m), best of {args.invert_repeats}: {1e3 * t_inv:.1f} ms "
-          f"(median {1e3 * t_inv_med:.1f} ms; {post.n_iter} GN iterations, converged {post.converged})")
-    print(f"Reference 2: invert() on all {n_scen} scenarios back to back: {t_inv_sum:.3f} s = "
-          f"{1e3 * t_inv_sum / n_scen:.1f} ms per scenario = {t_inv_sum / n_scen / t_inv:.2f} x reference 1;")
-    print(f"  -> at most {n_scen / t_inv_sum:.1f} scenarios/s per core if only the inversions cost anything")
-    print(line)
+    print(LINE)
+    post = refs.post
+    print(f"Reference 1: one invert() on one scenario's data ({refs.scenario.kind} loss at "
+          f"{refs.scenario.centre:.2f} m), best of {args.invert_repeats}: {1e3 * refs.best:.1f} ms "
+          f"(median {1e3 * refs.median:.1f} ms; {post.n_iter} GN iterations, converged {post.converged})")
+    print(f"Reference 2: invert() on all {n_scen} scenarios back to back: {refs.total:.3f} s = "
+          f"{1e3 * refs.total / n_scen:.1f} ms per scenario = {refs.total / n_scen / refs.best:.2f} x reference 1;")
+    print(f"  -> at most {n_scen / refs.total:.1f} scenarios/s per core if only the inversions cost anything")
+    print(LINE)
+
+
+def print_runs(refs, runs):
+    """The table of the verify_layouts variants, the Dask ratios and the identical-JSON check; returns the rates."""
+    n_scen, n_total, t_inv = len(refs.inputs), runs.result.layouts[0].n_scenarios, refs.best
     print(f"{'workers':>7}{'best [s]':>10}{'worst [s]':>11}{'scen/s':>9}{'wall/scen [ms]':>16}"
           f"{'core-ms/scen':>14}{'/ 1 invert':>12}{'overhead/scen':>15}")
     rate = {}
     for w in WORKERS:
-        best, worst = min(runs[w]), max(runs[w])
+        best, worst = min(runs.times[w]), max(runs.times[w])
         rate[w] = n_total / best
         per = best / n_total
         core = per * w
         print(f"{w:>7d}{best:>10.3f}{worst:>11.3f}{rate[w]:>9.1f}{1e3 * per:>16.1f}{1e3 * core:>14.1f}"
               f"{core / t_inv:>12.2f}{(core - t_inv) / t_inv:>14.2f}x")
     print(f"speed-up 2 workers / 1 worker: {rate[2] / rate[1]:.2f} (ideal 2.00)")
-    if dask_runs is None:
+    if runs.dask is None:
         print("Dask LocalCluster: not measured (the dask extra is not installed)")
     else:
-        for label, times in (("cold", dask_runs[0]), ("warm", dask_runs[1])):
+        for label, times in (("cold", runs.dask[0]), ("warm", runs.dask[1])):
             best = min(times)
             print(f"Dask LocalCluster, 2 processes, {label}: best {best:.3f} s, worst {max(times):.3f} s, "
                   f"{n_total / best:.1f} scen/s = {n_total / best / rate[2]:.2f} x the 2-process pool")
@@ -287,13 +331,20 @@ def main(argv=None):
     print("'/ 1 invert' divides it by reference 1; overhead/scen = (core-ms/scen - 1 invert) / 1 invert")
     print("(simulation of the truth, truth mesh, scoring, pilot, pool start-up and pickling, idle time).")
     print(f"Of the 1-worker time, the {n_scen} inversions alone (reference 2) are "
-          f"{100 * t_inv_sum / min(runs[1]):.0f} %.")
-    print(line)
-    print(f"workers=1, workers=2{' and the Dask LocalCluster' if dask_runs else ''} give identical JSON "
-          f"(result.to_dict()): {'yes' if same else 'NO'}")
-    print(result.summary())
-    print(f"result JSON (sorted keys) sha256 {hashlib.sha256(dicts[WORKERS[0]].encode()).hexdigest()[:16]}")
-    print(line)
+          f"{100 * refs.total / min(runs.times[1]):.0f} %.")
+    print(LINE)
+    print(f"workers=1, workers=2{' and the Dask LocalCluster' if runs.dask else ''} give identical JSON "
+          f"(result.to_dict()): {'yes' if runs.same else 'NO'}")
+    print(runs.result.summary())
+    print(f"result JSON (sorted keys) sha256 {hashlib.sha256(runs.json_text.encode()).hexdigest()[:16]}")
+    print(LINE)
+    return rate
+
+
+def print_target(refs, rate):
+    """Whether the target of scenarios per second was met, and the ceiling the inversions alone set."""
+    cores = os.cpu_count()
+    n_scen = len(refs.inputs)
     met = rate[2] >= TARGET_PER_S
     note = "" if cores == 2 else f" (this machine has {cores} logical CPUs, not 2)"
     print(f"Target: >= {TARGET_PER_S:g} scenarios per second on 2 cores (workers=2).")
@@ -302,10 +353,9 @@ def main(argv=None):
     if not met:
         need = 2.0 / TARGET_PER_S
         print(f"  At 2 cores, 50 scenarios/s allows {1e3 * need:.0f} core-ms per scenario; one inversion "
-              f"alone takes {1e3 * t_inv:.1f} ms (reference 1),")
-        print(f"  {1e3 * t_inv_sum / n_scen:.1f} ms on average (reference 2): even with no overhead at all "
-              f"the ceiling here is {2 * n_scen / t_inv_sum:.1f} scenarios/s.")
-    print(f"Total benchmark run time: {time.perf_counter() - wall0:.1f} s")
+              f"alone takes {1e3 * refs.best:.1f} ms (reference 1),")
+        print(f"  {1e3 * refs.total / n_scen:.1f} ms on average (reference 2): even with no overhead at all "
+              f"the ceiling here is {2 * n_scen / refs.total:.1f} scenarios/s.")
 
 
 if __name__ == "__main__":

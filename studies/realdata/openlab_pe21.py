@@ -552,6 +552,19 @@ def _plot(elastic, steps_span, steps_split, out):
 
 def main(out, table=TABLE, folder=None):
     plateaus = read_plateaus(folder)
+    _print_data(plateaus, table, folder)
+    elastic_plats = [p for p in plateaus if p.step in ELASTIC_STEPS]
+    case, result = fit(elastic_plats, hyper="evidence")
+    _print_elastic(case, result, elastic_plats)
+    _print_overfit(plateaus, result)
+    steps_span, steps_split = _print_per_step(plateaus, result)
+    for path in _plot((case, result, elastic_plats), steps_span, steps_split, out):
+        print("figure:", path)
+    return plateaus, (case, result), steps_span, steps_split
+
+
+def _print_data(plateaus, table, folder):
+    """The source, the derived table, the plateaus, the tare check, the pier laser and the secant flexibility."""
     print("openLAB PE 2.1 load test, 6 May 2025 (Herbers, Richter, Walker, Marx, TU Dresden; "
           "DOI 10.25532/OPARA-852; CC BY-SA 4.0)")
     print(f"data: {data_dir(folder)}")
@@ -568,8 +581,9 @@ def main(out, table=TABLE, folder=None):
     for p in plateaus:
         print(f"  step {p.step}: {_mm(p.deflection / p.force * NOMINAL_LOAD)}")
 
-    elastic_plats = [p for p in plateaus if p.step in ELASTIC_STEPS]
-    case, result = fit(elastic_plats, hyper="evidence")
+
+def _print_elastic(case, result, elastic_plats):
+    """The elastic reference fit (steps 1-2 jointly), the bearing at x = 30 m and the load share."""
     print(f"\nElastic reference: steps {ELASTIC_STEPS} jointly, two-span beam 15 + 15 m, one EI per "
           "span, springs rot_0, rot_30, vert_30,")
     print("hyperparameters (noise scale, tau) by evidence maximisation:")
@@ -599,6 +613,9 @@ def main(out, table=TABLE, folder=None):
     print("  three girders (and part of which the monolithic pier takes), so span 1 of girder line 1 "
           "shares the load more.")
 
+
+def _print_overfit(plateaus, result):
+    """Why each step is fitted with the stated noise: evidence maximisation on one step overfits."""
     with warnings.catch_warnings(record=True) as caught:  # invert flags the overfit: shown below
         warnings.simplefilter("always", sp.SensorplanWarning)
         _, lone = fit([plateaus[0]], hyper="evidence", start=result)
@@ -609,6 +626,9 @@ def main(out, table=TABLE, folder=None):
     for w in caught:
         print(f"  (invert warns: {str(w.message).split(':')[1].strip()})")
 
+
+def _print_per_step(plateaus, result):
+    """Each load step alone on both meshes, the softening and the evidence; returns the two lists of fits."""
     steps_span = per_step(plateaus, SPAN_MESH, start=result)
     steps_split = per_step(plateaus, SPLIT_MESH, start=result)
     print(f"\nPer load step, each step alone (fixed noise std {1e3 * NOISE_STD:.1f} mm, same prior), "
@@ -641,9 +661,7 @@ def main(out, table=TABLE, folder=None):
     bad = [r for _, _, r in steps_span + steps_split if not r.converged]
     if bad:
         print(f"  WARNING: {len(bad)} per-step fits did not converge")
-    for path in _plot((case, result, elastic_plats), steps_span, steps_split, out):
-        print("figure:", path)
-    return plateaus, (case, result), steps_span, steps_split
+    return steps_span, steps_split
 
 
 if __name__ == "__main__":

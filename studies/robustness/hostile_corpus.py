@@ -210,9 +210,14 @@ def toml_cases():
 
 
 def option_cases():
+    """The cases of the command-line options: extreme values, sizes, options that might skip checks."""
+    return _extreme_cases() + _size_cases() + _misused_option_cases()
+
+
+def _extreme_cases():
+    """Numerically extreme values inside the declared ranges."""
     c = []
     add = c.append
-    # numerically extreme values inside the declared ranges
     add(Case("extreme/recommend-noise-1", "extreme", ["recommend", *EX, "--count", "2", "--noise-std", "1",
                                                       "--out", "out"], expect="error", fields=("--noise-std",)))
     add(Case("extreme/recommend-budget-1e15", "extreme", ["recommend", *SS, "--count", "2", "--spacing", "2",
@@ -267,7 +272,13 @@ def option_cases():
              expect="error", fields=("--min-speed", "--max-speed")))
     add(Case("extreme/simulate-crossings-10000", "extreme", ["simulate", *SS, "--crossings", "10000",
                                                              "--out", "out/x.csv"]))
-    # sizes
+    return c
+
+
+def _size_cases():
+    """Sizes without a guard: many positions, candidates, sensors, axles or load steps."""
+    c = []
+    add = c.append
     add(Case("size/informativeness-1000-positions", "size",
              ["informativeness", *EX, "--positions", ",".join(f"{0.03 * i:.2f}" for i in range(1000)),
               "--out", "out"]))
@@ -310,7 +321,13 @@ def option_cases():
     add(Case("size/toml-load-steps", "size", ["invert", "--config", "case.toml", "--data", "data.csv",
                                              "--out", "out"],
              {"case.toml": _sub("step = 0.25", "step = 1e-5")(_example())}, fields=("step",)))
-    # options that might skip checks
+    return c
+
+
+def _misused_option_cases():
+    """Options that might skip checks: outputs on files or folders, unreachable schedulers, clean data."""
+    c = []
+    add = c.append
     add(Case("option/out-is-a-file", "option", ["informativeness", *EX, "--out", "data.csv"], expect="error",
              fields=("data.csv",)))
     add(Case("option/out-under-a-file", "option", ["recommend", *SS, "--count", "2", "--out", "data.csv/sub"],
@@ -555,14 +572,7 @@ def run_case(case, fixtures):
     work.mkdir()
     tmpdir.mkdir()
     try:
-        for name, content in fixtures.items():
-            (work / name).write_bytes(content)
-        for name, content in case.files.items():
-            path = work / name
-            path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_bytes(content if isinstance(content, bytes) else content.encode("utf-8"))
-        for ro in {Path(n).parts[0] for n in case.files if n.startswith("ro/")}:
-            (work / ro).chmod(0o555)
+        _write_inputs(work, fixtures, case)
         before = _snapshot(tmp)
         env = dict(ENV, TMPDIR=str(tmpdir))
         t0 = time.perf_counter()
@@ -580,49 +590,66 @@ def run_case(case, fixtures):
             (work / ro).chmod(0o755)
         after = _snapshot(tmp)
         new = sorted(k for k in after if k not in before or after[k] != before[k])
-        err = proc.stderr.strip()
-        lines = err.splitlines()
-        detail = f"rc {proc.returncode} ({seconds:.1f} s): {err[:300]}"
-        if "Traceback" in proc.stderr or "Traceback" in proc.stdout:
-            return False, "traceback: " + " | ".join((proc.stderr + proc.stdout).strip().splitlines()[-3:])
-        if proc.returncode not in (0, 1):
-            return False, "exit code: " + detail
-        leftovers = [k for k in after if k.startswith("tmpdir/")]
-        if leftovers:
-            return False, f"left in TMPDIR: {leftovers[:3]}; " + detail
-        if proc.returncode == 1:
-            if case.expect == "ok":
-                return False, "expected a result: " + detail
-            if new:
-                return False, f"files left behind on failure: {new[:5]}; " + detail
-            if len(lines) != 1 or ": error: " not in lines[0]:
-                return False, f"{len(lines)} stderr lines: " + detail
-            missing = [f for f in case.fields if f not in lines[0]]
-            if missing:
-                return False, f"the error does not name {missing}: " + detail
-            return True, detail
-        if case.expect == "error":
-            return False, "expected an error: " + detail
-        roots = [Path("work") / r for r in _targets(case.argv)]
-        outside = [k for k in new if not _under(Path(k), roots)]
-        if outside:
-            return False, f"written outside the outputs: {outside[:5]}; " + detail
-        try:
-            for k in new:
-                if k.endswith(".json"):
-                    _strict_json(tmp / k)
-                elif k.endswith(".csv"):
-                    _finite_csv(tmp / k)
-        except (ValueError, UnicodeDecodeError) as exc:
-            return False, f"insane output ({exc}); " + detail
-        if not new:
-            return False, "exit 0 but no output written; " + detail
-        return True, detail
+        return _judge(case, proc, f"rc {proc.returncode} ({seconds:.1f} s): {proc.stderr.strip()[:300]}", tmp,
+                      after, new)
     finally:
         for p in tmp.rglob("*"):
             if p.is_dir():
                 p.chmod(0o755)
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _write_inputs(work, fixtures, case):
+    """The fixtures and the case's own files in ``work``; its ``ro/`` folders made read-only."""
+    for name, content in fixtures.items():
+        (work / name).write_bytes(content)
+    for name, content in case.files.items():
+        path = work / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(content if isinstance(content, bytes) else content.encode("utf-8"))
+    for ro in {Path(n).parts[0] for n in case.files if n.startswith("ro/")}:
+        (work / ro).chmod(0o555)
+
+
+def _judge(case, proc, detail, tmp, after, new):
+    """(passed, detail) of a finished process: no traceback, exit 0 or 1, nothing left in TMPDIR, then the
+    rules of an error (one line naming the fields, no file) or of a result (sane files under the outputs)."""
+    if "Traceback" in proc.stderr or "Traceback" in proc.stdout:
+        return False, "traceback: " + " | ".join((proc.stderr + proc.stdout).strip().splitlines()[-3:])
+    if proc.returncode not in (0, 1):
+        return False, "exit code: " + detail
+    leftovers = [k for k in after if k.startswith("tmpdir/")]
+    if leftovers:
+        return False, f"left in TMPDIR: {leftovers[:3]}; " + detail
+    if proc.returncode == 1:
+        lines = proc.stderr.strip().splitlines()
+        if case.expect == "ok":
+            return False, "expected a result: " + detail
+        if new:
+            return False, f"files left behind on failure: {new[:5]}; " + detail
+        if len(lines) != 1 or ": error: " not in lines[0]:
+            return False, f"{len(lines)} stderr lines: " + detail
+        missing = [f for f in case.fields if f not in lines[0]]
+        if missing:
+            return False, f"the error does not name {missing}: " + detail
+        return True, detail
+    if case.expect == "error":
+        return False, "expected an error: " + detail
+    roots = [Path("work") / r for r in _targets(case.argv)]
+    outside = [k for k in new if not _under(Path(k), roots)]
+    if outside:
+        return False, f"written outside the outputs: {outside[:5]}; " + detail
+    try:
+        for k in new:
+            if k.endswith(".json"):
+                _strict_json(tmp / k)
+            elif k.endswith(".csv"):
+                _finite_csv(tmp / k)
+    except (ValueError, UnicodeDecodeError) as exc:
+        return False, f"insane output ({exc}); " + detail
+    if not new:
+        return False, "exit 0 but no output written; " + detail
+    return True, detail
 
 
 def main(argv=None):
