@@ -43,7 +43,7 @@ def working_rows(problem, idx):
 class RestrictedPolytope:
     """G x <= h, G = [rows; I; -I], h = [rhs; 1; 0], and sum(x) = ``count`` on a working set of m candidates.
 
-    ``k`` side rows; ``n_ineq`` = k + 2 m inequalities.
+    ``k`` side rows; ``n_ineq`` = k + 2 m inequalities; ``sum_row`` the row of ones of the equality.
     """
 
     def __init__(self, rows, rhs, count):
@@ -51,6 +51,7 @@ class RestrictedPolytope:
         self.k, self.m = rows.shape
         self.h = np.concatenate([rhs, np.ones(self.m), np.zeros(self.m)])
         self.n_ineq = self.h.size
+        self.sum_row = np.ones(self.m)
 
     @classmethod
     def for_working_set(cls, problem, idx):

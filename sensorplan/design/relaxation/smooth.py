@@ -120,7 +120,7 @@ def restricted_interior_point(problem, idx, w_prev, *, tol, max_iter=200):
     slack = poly.slack(x)
     lam = 1.0 / slack
     nu = 0.0
-    ones = np.ones(poly.m)
+    ones = poly.sum_row
     u, g, hess = smooth.derivatives(x)
     for it in range(1, max_iter + 1):
         eta = float(slack @ lam)  # the surrogate duality gap
@@ -165,7 +165,7 @@ def _residual_norm(smooth, poly, x, lam, nu, t):
     """(utility, norm of the primal-dual residuals: dual, centring, primal) at a trial point."""
     u, g, _ = smooth.derivatives(x, hessian=False)
     sl = poly.slack(x)
-    r_dual = -g + poly.apply_transpose(lam) + nu * np.ones(poly.m)
+    r_dual = -g + poly.apply_transpose(lam) + nu * poly.sum_row
     r_cent = lam * sl - 1.0 / t
     r_pri = x.sum() - poly.count
     return u, np.sqrt(r_dual @ r_dual + r_cent @ r_cent + r_pri * r_pri)
