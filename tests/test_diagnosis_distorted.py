@@ -106,15 +106,16 @@ def test_six_moved_sensors_on_precise_data_are_named_after_a_longer_fit():
 @pytest.mark.parametrize("alpha, starts", [(5.0, 2), (1.5, 1)])
 def test_the_nominal_start_follows_the_noise_scale_of_the_model_a_fit_starts_from(monkeypatch, alpha, starts):
     # A support-spring fit that does not converge is fitted again from the nominal EI only while the model it
-    # starts from is grossly distorted (noise scale above DISTORTED).  After picks that explain most of the gap the
-    # noise scale is re-estimated below it and the second start is skipped: it cost two fits of every spring
-    # candidate in every later step (thermal drift + a settled bearing on a random bridge: 20 s -> 9.5 s of CPU,
-    # same verdict).  The fits are replaced by a stub that never converges; what is counted is the starts.
+    # starts from is grossly distorted (noise scale above the policy's ``distorted``).  After picks that explain
+    # most of the gap the noise scale is re-estimated below it and the second start is skipped.  The fits are
+    # replaced by a stub that never converges; what is counted is the starts.
     from types import SimpleNamespace
 
-    from sensorplan.diagnosis import diagnose as dg
+    from sensorplan.diagnosis.effects import make_effect
+    from sensorplan.diagnosis.selection import context
+    from sensorplan.diagnosis.selection.policy import DEFAULT_POLICY
 
-    assert 1.5 < dg.DISTORTED < 5.0
+    assert 1.5 < DEFAULT_POLICY.distorted < 5.0
     case = sp.example_case("openlab-like")
     case = case.with_mesh(sp.Mesh.uniform(case.bridge, 8))
     data = sp.simulate_crossings(case, 2, noise=True, rng=0)
@@ -124,9 +125,11 @@ def test_the_nominal_start_follows_the_noise_scale_of_the_model_a_fit_starts_fro
         calls.append(theta.copy())
         return SimpleNamespace(converged=False, abandoned=False, log_evidence=0.0, problem=problem, theta=theta)
 
-    monkeypatch.setattr(dg, "quick_fit", stub)
+    monkeypatch.setattr(context, "quick_fit", stub)
     blocks = {"log_ei": np.log(np.broadcast_to(case.ei, (case.mesh.n_elements,))) + 0.5}  # a distorted base EI
-    ctx = dg._Context(case, data, sp.GMRFPrior(), True, alpha, 1.0, blocks, [], None)
+    ctx = context.DiagnosisContext(case, data, prior=sp.GMRFPrior(), effects={"vertical_support_spring": make_effect(
+        "vertical_support_spring")}, estimate_springs=True, noise_scale=alpha, tau=1.0, blocks=blocks, test_masks=[],
+        predictions=[])
     ctx.fit(["vertical_support_spring"])
     assert len(calls) == starts
     if starts == 2:  # the second start: the nominal EI
