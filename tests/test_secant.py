@@ -7,7 +7,7 @@ import pytest
 import scipy.optimize
 
 from sensorplan.inference.hyperposterior import integrate_problem
-from sensorplan.inference.laplace import Linearisation, SecantCurvature, solve_map
+from sensorplan.inference.engine import Linearisation, SecantCurvature, solve_map
 from sensorplan.model.prior import HyperPrior
 
 T = np.linspace(0.0, 1.0, 50)

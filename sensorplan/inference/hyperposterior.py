@@ -42,7 +42,7 @@ import scipy.linalg
 import scipy.optimize
 
 from .._errors import DataError
-from .laplace import LOG_NOISE_FLOOR, SecantCurvature, solve_map
+from .engine import LOG_NOISE_FLOOR, SecantCurvature, solve_map
 from .mixture import GaussianMixture
 
 __all__ = ["IntegratedFit", "integrate_problem", "LOG_TAU_BOUNDS", "BOUND_MASS"]
@@ -353,7 +353,7 @@ def integrate_problem(problem, rough, fixed, theta0, hyperprior, *, noise_scale=
     before the Levenberg-Marquardt fallback (default ``max_iter``); ``tol``
     and ``atol`` are the fallback's tolerances (:func:`solve_map`).  With
     ``secant`` the fallback also learns the curvature Gauss-Newton leaves
-    out, node after node (:class:`~.laplace.SecantCurvature`).
+    out, node after node (:class:`~.engine.SecantCurvature`).
     """
     ctx = _Context(problem, rough, fixed, theta0, hyperprior, problem.n_data,
                    -0.5 * problem.log_det_noise - 0.5 * problem.n_data * math.log(2.0 * math.pi),

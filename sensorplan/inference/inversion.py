@@ -1,24 +1,23 @@
-"""Bayesian identification of EI(x) (and spring stiffnesses) from crossings.
+"""Bayesian identification of EI(x) (and spring stiffnesses) from crossings: :func:`invert`.
 
-Model (paper section Bayesian Inference Framework): whitened data
-r = W (y - F(theta)) / std ~ N(0, alpha^2 I), where W applies the AR(1)
-whitening per sensor and crossing, std the configured noise of each sensor
-and alpha a common noise scale; prior theta ~ N(theta_0, Q(tau)^{-1}) with
-Q(tau) = tau S + F (GMRF roughness S on log EI plus the fixed proper part F).
+The model and its parameters are :class:`~.ei_problem.EIProblem` (whitened
+data r = W (y - F(theta)) / std ~ N(0, alpha^2 I), GMRF prior
+theta ~ N(theta_0, Q(tau)^{-1}), Q(tau) = tau S + F).
 
-* MAP by Gauss-Newton with a Levenberg-Marquardt safeguard: a step is
-  accepted only if it lowers the negative log posterior, so every iterate
-  decreases the objective.
+* MAP by Gauss-Newton with a Levenberg-Marquardt safeguard (the engine's
+  :func:`~.engine.solve_map`): a step is accepted only if it lowers the
+  negative log posterior, so every iterate decreases the objective.
 * Laplace covariance H^{-1}, H = J^T J / alpha^2 + Q at the MAP; exact for
   the linear-Gaussian case.
 * Hyperparameters integrated out (default, ``hyper="integrated"``): a
   log-normal (or PC) prior on tau^{-1/2} and a log-normal prior on alpha, alpha by Laplace,
   log tau by quadrature; the posterior is a Gaussian mixture
   (:mod:`.hyperposterior`).
-* Or point estimates: evidence maximisation (MacKay's fixed-point
+* Or point estimates (:mod:`.laplace`): evidence maximisation (MacKay's fixed-point
   conditions alpha^2 = |r|^2 / (M - gamma), tau = gamma_tau / (d^T S d) of
   the Laplace evidence, interleaved with the MAP), quasi-optimality or GCV
   on the linearised problem, or fixed values.
+* Local-loss hypotheses of the damage detector in the bands (:mod:`.damage`).
 * Checks of the result (:mod:`.checks`): noise scale far from 1, tau at the
   end of its range, systematic residuals, each a SensorplanWarning.
 """
@@ -32,160 +31,19 @@ from .._errors import ConfigError, DataError, SensorplanWarning
 from .._threads import single_threaded
 from ..detection.scan import detect_damage
 from ..model.crossings import Crossings
-from ..model.forward import influence_lines
 from ..model.prior import GMRFPrior, HyperPrior
 from .checks import fit_warnings
 from .damage import damage_hypotheses
+from .ei_problem import EIProblem, prior_matrices
 from .hyperposterior import BOUND_MASS, LOG_TAU_BOUNDS, integrate_problem
-from .laplace import Linearisation, WhitenedData, fit_problem
+from .laplace import fit_problem
 from .mixture import GaussianMixture
-from .posterior import CrossingFit, PosteriorResult
+from .posterior import PosteriorResult
 from .screening import check_case_data_scale, screen_crossings
 
 __all__ = ["invert", "HYPER_METHODS"]
 
 HYPER_METHODS = ("integrated", "evidence", "fixed", "quasi-optimality", "gcv")
-
-
-class _Problem(WhitenedData):
-    """Whitened residuals and Jacobians of all crossings for a parameter vector."""
-
-    def __init__(self, case, crossings, *, estimate_springs, parameterisation, mesh=None):
-        super().__init__(case, crossings)
-        self.mesh = case.mesh if mesh is None else mesh
-        self.parameterisation = parameterisation
-        self.n_elements = self.mesh.n_elements
-        self.spring_names = case.bridge.spring_names if estimate_springs else ()
-        self.n_springs = len(self.spring_names)
-        self.n_params = self.n_elements + self.n_springs
-        self.ei_nominal = np.asarray(case.ei_at(self.mesh.midpoints), dtype=float)
-        self.spring_nominal = case.bridge.spring_stiffness() if estimate_springs else np.zeros(0)
-        if parameterisation == "log_ei":
-            self.theta0 = np.concatenate([np.log(self.ei_nominal), np.log(self.spring_nominal)])
-        elif parameterisation == "compliance":
-            if self.n_springs or len(case.bridge.spring_parameters) or case.bridge.n_spans > 1 or any(
-                    k > 0 for k in case.bridge.rotational_springs):
-                raise ConfigError("parameterisation='compliance' is the linear-Gaussian case: it needs a "
-                                  "statically determinate bridge (one pinned span, rigid supports).")
-            self.theta0 = 1.0 / self.ei_nominal
-        else:
-            raise ConfigError(f"The 'parameterisation' parameter must be 'log_ei' or 'compliance'. "
-                              f"Got {parameterisation!r} instead.")
-        self.n_evaluations = 0
-        self._last = None
-
-    def split(self, theta):
-        n = self.n_elements
-        if self.parameterisation == "log_ei":
-            ei = np.exp(theta[:n])
-        else:
-            if np.any(theta[:n] <= 0.0):
-                return None, None
-            ei = 1.0 / theta[:n]
-        bridge = self.case.bridge
-        if self.n_springs:
-            bridge = bridge.with_spring_stiffness(np.exp(theta[n:]))
-        return ei, bridge
-
-    def lines(self, theta):
-        """Influence lines per distinct position set (shared between crossings)."""
-        ei, bridge = self.split(theta)
-        if ei is None:
-            return None
-        self.n_evaluations += 1
-        out = {}
-        for c in self.crossings:
-            key = c.positions.tobytes()
-            if key not in out:
-                out[key] = influence_lines(bridge, self.mesh, ei, self.sensors, self.case.vehicle,
-                                           c.positions)
-        return out
-
-    def evaluate(self, theta, *, jacobian=True):
-        """Linearisation of the whitened misfit at ``theta``, or None if invalid.
-
-        Crossings that share positions and load factors share one whitened
-        Jacobian; only the normal-equation quantities r.r, J^T J and J^T r
-        are formed (J is never stacked).
-        """
-        key = theta.tobytes()
-        if self._last is not None and self._last[0] == key and (self._last[1].jtj is not None or not jacobian):
-            return self._last[1]
-        if not np.all(np.isfinite(theta)):
-            return None
-        try:
-            lines = self.lines(theta)
-        except ConfigError:  # a trial step made the bridge unstable (extreme springs): reject it
-            return None
-        if lines is None:
-            return None
-        rr = 0.0
-        jtj = np.zeros((self.n_params, self.n_params)) if jacobian else None
-        jtr = np.zeros(self.n_params) if jacobian else None
-        groups = {}
-        for c, wd in zip(self.crossings, self.white_data):
-            ln = lines[c.positions.tobytes()]
-            gkey = c.positions.tobytes() + c.load_factor.tobytes()
-            if gkey not in groups:
-                pred = ln.predictions * c.load_factor[None, :]
-                white_pred = self.noise.whiten(pred, c.positions)
-                wj = None
-                if jacobian:
-                    j = self._raw_jacobian(ln) * c.load_factor[None, :, None]
-                    wj = self.noise.whiten(j, c.positions).reshape(-1, self.n_params)
-                groups[gkey] = (white_pred, wj)
-            white_pred, wj = groups[gkey]
-            r = (wd - white_pred).ravel()
-            rr += float(r @ r)
-            if jacobian:
-                jtr += wj.T @ r
-        if jacobian:
-            counts = {}
-            for c in self.crossings:
-                gkey = c.positions.tobytes() + c.load_factor.tobytes()
-                counts[gkey] = counts.get(gkey, 0) + 1
-            for gkey, n in counts.items():
-                wj = groups[gkey][1]
-                jtj += n * (wj.T @ wj)
-        out = Linearisation(rr, jtj, jtr)
-        self._last = (key, out)
-        return out
-
-    def _raw_jacobian(self, ln):
-        if self.parameterisation == "log_ei":
-            return ln.jacobian("log_ei", springs=self.n_springs > 0)
-        return ln.jacobian("compliance")
-
-    def fits(self, theta, covariance, alpha):
-        """Data, model and posterior predictive spread per crossing."""
-        lines = self.lines(theta)
-        out = []
-        cache = {}
-        for c in self.crossings:
-            ln = lines[c.positions.tobytes()]
-            gkey = c.positions.tobytes() + c.load_factor.tobytes()
-            if gkey not in cache:
-                pred = ln.predictions * c.load_factor[None, :]
-                j = self._raw_jacobian(ln) * c.load_factor[None, :, None]
-                var = np.sum((j @ covariance) * j, axis=-1)
-                cache[gkey] = (pred, np.sqrt(np.clip(var, 0.0, None)))
-            pred, std = cache[gkey]
-            out.append(CrossingFit(c.label, c.positions, c.values, pred, std, alpha * self.noise.std))
-        return tuple(out)
-
-
-def _prior_matrices(problem, prior):
-    """Roughness S and fixed part F of the prior precision in the problem's parameters."""
-    n, s = problem.n_elements, problem.n_springs
-    rough = np.zeros((problem.n_params, problem.n_params))
-    rough[:n, :n] = prior.structure(n)
-    fixed = prior.precision(n, s, tau=0.0)
-    if problem.parameterisation == "compliance":
-        # Same quadratic form to first order: d log EI = -d v / v_0.
-        scale = 1.0 / problem.theta0
-        rough = rough * np.outer(scale, scale)
-        fixed = fixed * np.outer(scale, scale)
-    return rough, fixed
 
 
 @dataclass(frozen=True, eq=False)
@@ -202,7 +60,9 @@ class _HyperFit:
     flat_side: bool  # that end is the flat one (large tau)
 
 
-def _fit(problem, rough, fixed, prior, hyper, hyperprior, noise_scale, tau, start, max_iter, max_outer, tol):
+def _fit(problem, prior, *, hyper, hyperprior, noise_scale, tau, start, max_iter, max_outer, tol):
+    """The posterior of ``problem`` under ``prior`` by the hyperparameter method ``hyper``."""
+    rough, fixed = prior_matrices(problem, prior)
     tau = prior.tau if tau is None else tau
     if hyper == "integrated":
         hyperprior = (HyperPrior() if hyperprior is None else hyperprior).for_prior(prior)
@@ -241,14 +101,12 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
     parameterisation : {"log_ei", "compliance"}
         ``compliance`` is the linear-Gaussian case of a determinate bridge.
     hyper : {"integrated", "evidence", "fixed", "quasi-optimality", "gcv"}
-        How the noise scale and tau are treated: integrated out under
-        ``hyperprior`` (the posterior is a Gaussian mixture over log tau),
-        or point estimates (evidence maximisation, fixed values,
+        How the noise scale and tau are treated: integrated out under ``hyperprior`` (the posterior is a
+        Gaussian mixture over log tau), or point estimates (evidence maximisation, fixed values,
         quasi-optimality or GCV).
     hyperprior : HyperPrior, optional
-        Prior of tau and the noise scale for ``"integrated"`` (default
-        ``HyperPrior()``: log-normal prior with median smoothness_std and
-        log std 0.5, log-normal noise scale).
+        Prior of tau and the noise scale for ``"integrated"`` (default ``HyperPrior()``: log-normal prior
+        with median smoothness_std and log std 0.5, log-normal noise scale).
     noise_scale, tau : float
         Start values (``fixed``: the values used).  ``tau`` defaults to the prior's.
     screen : bool
@@ -258,67 +116,76 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
     start : array_like, optional
         Start parameters (default: the nominal).
     check_scale : bool or str
-        Refuse data far larger or smaller than the model predicts (a unit
-        slip); a string names the data source in the message.
+        Refuse data far larger or smaller than the model predicts (a unit slip); a string names the data
+        source in the message.
     detect : bool
-        Run the damage detector (:func:`sensorplan.detect_damage`) on the
-        data and let the bands average over local-loss hypotheses
-        (:mod:`sensorplan.inference.damage`; log-EI parameterisation).
+        Run the damage detector (:func:`sensorplan.detect_damage`) on the data and let the bands average
+        over local-loss hypotheses (:mod:`sensorplan.inference.damage`; log-EI parameterisation).
     false_alarm, nuisance : the detector's false-alarm rate and nuisance.
     damage_prior : float
         Prior probability of a local loss somewhere, in the band averaging.
     damage_log_std : float
-        Std of the half-normal prior of a loss's step in log EI (0.5: a
-        39 % loss at one std); the proper prior makes every loss hypothesis
-        pay its Occam factor.
+        Std of the half-normal prior of a loss's step in log EI (0.5: a 39 % loss at one std); the proper
+        prior makes every loss hypothesis pay its Occam factor.
     rng : seed or Generator of the detector's threshold simulation.
 
     Returns
     -------
     PosteriorResult
-        With ``warnings`` (also emitted as SensorplanWarning) when the fit
-        is not to be trusted: noise scale outside [0.5, 2], tau at the end
-        of its range, or systematic residuals.
+        With ``warnings`` (also emitted as SensorplanWarning) when the fit is not to be trusted: noise scale
+        outside [0.5, 2], tau at the end of its range, or systematic residuals.
     """
+    crossings, excluded = _checked_data(case, crossings, hyper=hyper, check_scale=check_scale, screen=screen,
+                                        mesh=mesh)
+    prior = GMRFPrior() if prior is None else prior
+    problem = EIProblem(case, crossings, estimate_springs=estimate_springs and bool(case.bridge.spring_names),
+                        parameterisation=parameterisation, mesh=mesh)
+    fit = _fit(problem, prior, hyper=hyper, hyperprior=hyperprior, noise_scale=noise_scale, tau=tau, start=start,
+               max_iter=max_iter, max_outer=max_outer, tol=tol)
+    mixture, detection, probability = fit.mixture, None, None
+    if detect and parameterisation == "log_ei":
+        inv_case = case if mesh is None else case.with_mesh(mesh)
+        detection = detect_damage(inv_case, crossings, false_alarm=false_alarm, nuisance=nuisance, rng=rng)
+        mixture, probability = _with_damage(mixture, problem, prior, detection, damage_prior, damage_log_std)
+    return _posterior(problem, fit, mixture, hyper=hyper, excluded=excluded, detection=detection,
+                      probability=probability)
+
+
+def _checked_data(case, crossings, *, hyper, check_scale, screen, mesh):
+    """The options and data checked, and the crossings kept by the screening with the labels it excluded."""
     if hyper not in HYPER_METHODS:
         raise ConfigError(f"The 'hyper' parameter must be one of {HYPER_METHODS}. Got {hyper!r} instead.")
     if not isinstance(crossings, Crossings):
         raise DataError("The 'crossings' parameter must be a Crossings object (see read_crossings).")
     if check_scale:
         check_case_data_scale(case, crossings, source=check_scale if isinstance(check_scale, str) else "data")
-    prior = GMRFPrior() if prior is None else prior
     excluded = ()
     if screen and len(crossings) >= 2:
         crossings, excluded, reasons = screen_crossings(crossings)
-        for label, reason in zip(excluded, reasons):
-            warnings.warn(f"crossing '{label}' excluded: {reason}", SensorplanWarning, stacklevel=2)
+        for label, reason in zip(excluded, reasons):  # stacklevel: the caller of invert (through its decorator)
+            warnings.warn(f"crossing '{label}' excluded: {reason}", SensorplanWarning, stacklevel=3)
     if mesh is not None:
         mesh.check_fits(case.bridge)
-    problem = _Problem(case, crossings, estimate_springs=estimate_springs and bool(case.bridge.spring_names),
-                       parameterisation=parameterisation, mesh=mesh)
-    rough, fixed = _prior_matrices(problem, prior)
-    fit = _fit(problem, rough, fixed, prior, hyper, hyperprior, noise_scale, tau, start, max_iter, max_outer, tol)
-    mixture, alpha = fit.mixture, fit.noise_scale
-    detection = probability = None
-    if detect and parameterisation == "log_ei":
-        inv_case = case if mesh is None else case.with_mesh(mesh)
-        detection = detect_damage(inv_case, crossings, false_alarm=false_alarm, nuisance=nuisance, rng=rng)
-        mixture, probability = _with_damage(mixture, problem, prior, detection, damage_prior, damage_log_std)
-    theta, covariance = mixture.mean, mixture.covariance
+    return crossings, excluded
+
+
+def _posterior(problem, fit, mixture, *, hyper, excluded, detection, probability):
+    """The result of :func:`invert`, its convergence and trust warnings emitted."""
+    theta, covariance, alpha = mixture.mean, mixture.covariance, fit.noise_scale
     messages = []
     if not fit.converged:
         messages.append("the MAP or the hyperparameter iteration did not converge")
         warnings.warn("sensorplan invert: the Gauss-Newton / evidence iteration did not converge; "
-                      "results are reported with converged = false.", SensorplanWarning, stacklevel=2)
+                      "results are reported with converged = false.", SensorplanWarning, stacklevel=3)
     fits = problem.fits(theta, covariance, alpha)
     trust = fit_warnings(problem.noise, fits, problem.sensors.names, noise_scale=alpha,
-                         noise_configured=case.noise is not None,
+                         noise_configured=problem.case.noise is not None,
                          tau_at_bound=fit.mass_at_bound > BOUND_MASS, tau_side="flat" if fit.flat_side else "rough")
     for text in trust:
-        warnings.warn(text, SensorplanWarning, stacklevel=2)
+        warnings.warn(text, SensorplanWarning, stacklevel=3)
     return PosteriorResult(
         edges=problem.mesh.edges.copy(), theta=theta, covariance=covariance,
-        parameterisation=parameterisation, ei_nominal=problem.ei_nominal,
+        parameterisation=problem.parameterisation, ei_nominal=problem.ei_nominal,
         spring_names=tuple(problem.spring_names), spring_nominal=problem.spring_nominal,
         sensor_names=problem.sensors.names, sensor_kinds=tuple(problem.sensors.kinds),
         noise_std=alpha * problem.noise.std, noise_scale=alpha,
