@@ -76,12 +76,12 @@ def test_vehicle_lines_summed_from_axle_lines_equal_the_vehicle_solve():
         1.0 / np.diag(problem.fixed))
     summed = problem.predict(theta, jacobian=True)
     state = problem.state_at(theta)
-    problem.drop_caches()
+    problem.clear_cache()
     for c, (y, _) in enumerate(summed):
         direct = problem.lines(state, c)  # one vehicle solve (nothing cached)
         np.testing.assert_allclose(y, direct.predictions * problem.load_factor(c)[None, :],
                                    rtol=1e-12, atol=1e-12 * np.abs(y).max())
-    problem.drop_caches()
+    problem.clear_cache()
     unsummed = problem.predict(theta, jacobian=False)
     for (y, _), (y0, _) in zip(summed, unsummed):
         np.testing.assert_allclose(y, y0, rtol=1e-12, atol=1e-12 * np.abs(y).max())
@@ -180,7 +180,7 @@ def test_linearised_folds_match_refits_on_the_training_rows():
 
     from sensorplan.diagnosis.selection.heldout import fold_rows, heldout, make_folds
     from sensorplan.diagnosis.selection.refit import quick_fit
-    from sensorplan.inference.laplace import solve_map
+    from sensorplan.inference.engine import solve_map
 
     case = small_case()
     data = simulate_crossings(case, 3, noise=True, rng=4)

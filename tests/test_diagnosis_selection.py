@@ -27,7 +27,7 @@ POLICY = SelectionPolicy()  # bf_threshold 3, gain_threshold 3, max_rounds 3
 class _Problem:
     n_elements, blocks, slices, n_data = 1, [], [], 100
 
-    def drop_caches(self):
+    def clear_cache(self):
         pass
 
 

@@ -35,7 +35,7 @@ def assemble(problem, theta, jacobian, factored):
     log_ei = None
     if jacobian:
         items = [(lines, problem.load_factor(c), problem.binned[c]) for c, lines in enumerate(every)]
-        log_ei = (log_ei_factors if factored else log_ei_blocks)(items, problem.cache.layouts)
+        log_ei = (log_ei_factors if factored else log_ei_blocks)(items, problem.cache)
     buffers, views = _buffers(problem, jacobian)
     scaled_blocks, on_bins = [], []
     for c, lines in enumerate(every):

@@ -25,7 +25,7 @@ import numpy as np
 from scipy import linalg, sparse
 
 from ..._cache import value_key
-from ...inference.laplace import data_sensors
+from ...inference.engine import data_sensors
 from ...model.crossings import Crossing, Crossings
 from ...model.forward import influence_lines
 from ...model.noise import NoiseModel

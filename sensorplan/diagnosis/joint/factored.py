@@ -44,10 +44,10 @@ class LogEIFactor:
         self.mapped_key = mapped_key
 
 
-def log_ei_factors(items, layouts):
+def log_ei_factors(items, cache):
     """:class:`LogEIFactor` of every (lines, load factor, binned) item, all binned (see :func:`.lines.log_ei_blocks`)."""
     out = [None] * len(items)
-    for members, lines, mapped, offsets, key in mapped_groups(items, layouts):
+    for members, lines, mapped, offsets, key in mapped_groups(items, cache):
         interpolant = lines.interpolant
         table = (interpolant.kernel_table.reshape(-1, interpolant.n_sensors, interpolant.n_elements)
                  * (-1.0 / lines.ei))
@@ -57,7 +57,7 @@ def log_ei_factors(items, layouts):
     return out
 
 
-def add_factored_terms(terms, jtj, jtr, grams):
+def add_factored_terms(terms, jtj, jtr, cache):
     """Add the log-EI rows and columns of J^T J and J^T r of the factored crossings ``terms``.
 
     With A = diag(scale) (R T) of a crossing (R its weights on the bins,
@@ -66,7 +66,7 @@ def add_factored_terms(terms, jtj, jtr, grams):
     rows.  The crossings of one interpolant share T, and when their
     scales factor into a crossing's times a sensor's (the noise std and
     gains per sensor, amplifications per crossing) R^T R of all of them is
-    one weighted product (kept in ``grams``, a :class:`~sensorplan._cache.Cache`).
+    one weighted product (kept in ``cache``, a :class:`~sensorplan._cache.Cache`).
     """
     n_el = terms[0][0].table.shape[2]
     groups = {}
@@ -104,7 +104,7 @@ def add_factored_terms(terms, jtj, jtr, grams):
         jtr[:n_el] += np.einsum("lse,ls->e", table, dense.T @ residuals)
         flat = table.reshape(n_rows, -1)  # (L, S E)
         if rank_one:  # sum_s sensor_s^2 T_s^T G T_s with one G: two products
-            product = _weighted_gram(members[0][0], weights, grams) @ flat
+            product = _weighted_gram(members[0][0], weights, cache) @ flat
             weighted = (table * (sensor**2)[None, :, None]).reshape(-1, n_el)
             jtj[:n_el, :n_el] += weighted.T @ product.reshape(-1, n_el)
         else:  # scales that do not factor: per sensor, every crossing's R^T R with its own weight
@@ -116,17 +116,12 @@ def add_factored_terms(terms, jtj, jtr, grams):
                 jtj[:n_el, :n_el] += table[:, s, :].T @ (grams[s] @ table[:, s, :])
 
 
-def _weighted_gram(factor, weights, grams):
-    """R^T diag(weights) R of the sparse ``factor.mapped`` (dense), kept in ``grams`` under its key and ``weights``.
-
-    With a crossing's own EI (load-dependent stiffness) every crossing has
-    its own interpolant and R: ``grams`` holds at least as many as there are
-    crossings.
-    """
+def _weighted_gram(factor, weights, cache):
+    """R^T diag(weights) R of the sparse ``factor.mapped`` (dense), kept in ``cache`` under its key and ``weights``."""
     def gram():
         mapped = factor.mapped
         scaled = mapped.copy()  # rows times sqrt(weights), in the sparse structure as it is
         scaled.data *= np.repeat(np.sqrt(weights), np.diff(mapped.indptr))
         return (scaled.T @ scaled).toarray()
 
-    return grams.get((), gram, key=value_key(factor.mapped_key, weights))
+    return cache.get((), gram, key=value_key("gram", factor.mapped_key, weights))

@@ -95,26 +95,27 @@ class CrossingLines:
         return -beam
 
 
-def mapped_groups(items, layouts):
+def mapped_groups(items, cache):
     """The binned items mapped onto their bins, per interpolant and set of maps (see :func:`log_ei_blocks`).
 
     Yields (members, lines, mapped, offsets, key): ``mapped`` (bins of every
     member x table rows), member ``j``'s bins in ``offsets[j]:offsets[j+1]``;
-    ``key``: the values ``mapped`` was built from.  ``layouts`` (a
-    :class:`~sensorplan._cache.Cache`) keeps the bin maps side by side.
+    ``key``: the values ``mapped`` was built from (the maps and the
+    layout).  ``cache`` (a :class:`~sensorplan._cache.Cache`) keeps the bin
+    maps side by side.
     """
     groups = {}
     for k, (lines, _, _) in enumerate(items):
         groups.setdefault(lines.source_key, []).append(k)
-    for source, members in groups.items():
+    for members in groups.values():
         lines = items[members[0]][0]
         weights = lines.maps.lines
-        layout = value_key(weights.shape[0], [(items[k][0].rows.start, items[k][1], items[k][2].map_key)
-                                              for k in members])
-        side_by_side, offsets = layouts.get((), lambda: _side_by_side(items, members, weights.shape[0]), key=layout)
+        layout = value_key("layout", weights.shape[0], [(items[k][0].rows.start, items[k][1], items[k][2].map_key)
+                                                        for k in members])
+        side_by_side, offsets = cache.get((), lambda: _side_by_side(items, members, weights.shape[0]), key=layout)
         # kept with the maps, as long as the loads stay where they are
         mapped = lines.maps.derived.get(("mapped", layout), lambda: side_by_side @ weights)
-        yield members, lines, mapped, offsets, (source, layout)
+        yield members, lines, mapped, offsets, (lines.maps.cache_key, layout)
 
 
 def _side_by_side(items, members, n_rows):
@@ -127,7 +128,7 @@ def _side_by_side(items, members, n_rows):
                                    shape=(offsets[-1], n_rows)), offsets
 
 
-def log_ei_blocks(items, layouts):
+def log_ei_blocks(items, cache):
     """dy/dlog EI times the load factor on the fitted rows (S, rows, E) of every (lines, load factor, binned).
 
     Rows: the readings, or ``binned``'s bins.  A binned crossing's weights
@@ -136,7 +137,7 @@ def log_ei_blocks(items, layouts):
     this equals binning the kernel at the readings.  The binned crossings
     whose lines come from one interpolant and one set of interpolation maps
     are mapped onto their bins in one sparse product (their bin maps side by
-    side, kept in ``layouts``: they depend on the bins and the rows' layout
+    side, kept in ``cache``: they depend on the bins and the rows' layout
     only) and their kernels formed in one product (the mapped weights kept
     with the maps, as long as the loads stay where they are): one sparse
     product per crossing would cost more in overhead than in arithmetic.
@@ -153,7 +154,7 @@ def log_ei_blocks(items, layouts):
             out[k] = lines.jacobian() * lf[None, :, None]
         else:
             binned_items.append(k)
-    for members, lines, mapped, offsets, _ in mapped_groups([items[k] for k in binned_items], layouts):
+    for members, lines, mapped, offsets, _ in mapped_groups([items[k] for k in binned_items], cache):
         kernel = lines.interpolant.kernel(mapped)
         for j, member in enumerate(members):
             k = binned_items[member]

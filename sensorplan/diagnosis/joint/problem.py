@@ -20,12 +20,11 @@ import numpy as np
 
 from ..._cache import value_key
 from ..._errors import ConfigError
-from ...inference.laplace import Linearisation, WhitenedData
+from ...inference.engine import NormalEquations, WhitenedProblem
 from ..effects.base import State
 from ..effects.springs import CaseSprings
 from .assembly import assemble
 from .binning import model_rows
-from .cache import JointCache
 from .factored import add_factored_terms
 from .source import LineSource
 
@@ -34,15 +33,25 @@ __all__ = ["ENTRY", "JointProblem"]
 ENTRY = 0.1  # m over which an axle moved by an effect rolls onto the bridge (half a tyre contact length)
 
 
-class JointProblem(WhitenedData, LineSource):
+class JointProblem(WhitenedProblem, LineSource):
     """The case's model extended by ``effects`` (effect objects), fitted jointly with log EI (rows in ``masks``).
 
+    A :class:`~sensorplan.inference.engine.WhitenedProblem` (the whitened
+    data, the evidence's data count and noise determinant, the cached
+    :meth:`evaluate`, the normal equations): this class gives the
+    parameters, the model and its linearisation (:meth:`linearise`).
     ``blocks``: the configured effects (:class:`~..effects.base.EffectBlock`,
     the case's springs first when they are estimated) and ``slices`` their
-    parameters.
+    parameters.  ``cache`` (the engine's one value-keyed cache) holds the
+    linearisations, the lines at each EI, the interpolation maps, the bin
+    layouts and the grams; :meth:`clear_cache` empties it.
     """
 
     def __init__(self, case, crossings, effects, prior, *, masks=None, estimate_springs=True):
+        # entries of the one cache: an evaluation writes at most (axles + 8) per crossing (lines, slopes, axle
+        # responses, lines at shifted sensors, interpolants, maps, layouts, grams) and a few more; it holds
+        # four evaluations, so that nothing an evaluation wrote is dropped before the evaluation ends
+        self.cache_size = 4 * (len(crossings) * (case.vehicle.n_axles + 8) + 16)
         super().__init__(case, crossings, masks=masks)
         self.prior = prior
         self.n_sensors = self.sensors.n_sensors
@@ -60,8 +69,7 @@ class JointProblem(WhitenedData, LineSource):
         self._set_layout()
         self._set_prior(case, prior)
         self.current_ei = None
-        self.cache = JointCache(budget_rows=3 * sum(x.size for x in self.model_positions),
-                                n_grams=max(8, self.n_crossings))
+        self.ei_key = None  # value key of the current log EI: part of the key of everything computed at it
         self.n_evaluations = 0
 
     def _set_rows(self, crossings):
@@ -158,10 +166,6 @@ class JointProblem(WhitenedData, LineSource):
             b.effect.apply(b, state, theta[sl])
         return state
 
-    def drop_caches(self):
-        """Forget the kept lines, interpolation maps, grams and last evaluation (they are rebuilt on demand)."""
-        self.cache.clear()
-
     def predict(self, theta, *, jacobian=True):
         """Unwhitened predictions and Jacobians per crossing: list of (y (S,K), J (S,K,P) or None)."""
         out = []
@@ -179,7 +183,7 @@ class JointProblem(WhitenedData, LineSource):
 
     def _assemble(self, theta, jacobian, factored):
         """Per crossing (y, Jacobian on its columns, None), or with ``factored`` (y, effects' columns, log-EI factor)."""
-        self.cache.at_ei(theta[:self.n_elements])
+        self.ei_key = value_key(theta[:self.n_elements])
         self.current_ei = np.exp(theta[:self.n_elements])
         self.n_evaluations += 1
         return assemble(self, theta, jacobian, factored)
@@ -197,27 +201,22 @@ class JointProblem(WhitenedData, LineSource):
         """Whether the model can be evaluated at ``theta``."""
         return self.predicted(theta, False) is not None
 
-    def evaluate(self, theta, *, jacobian=True):
+    def linearise(self, theta, *, jacobian=True):
         """Residual sum of squares, J^T J and J^T r of the whitened problem at ``theta`` (None: out of domain).
 
-        A crossing's Jacobian is zero in the columns of the other crossings'
-        own parameters (offsets, drift, shifts, amplification): it is formed,
+        Called by the engine's cached :meth:`evaluate`.  A crossing's
+        Jacobian is zero in the columns of the other crossings' own
+        parameters (offsets, drift, shifts, amplification): it is formed,
         whitened and multiplied on its own columns only (``self.columns``).
         When every crossing is binned the log-EI blocks are never formed:
         their share of J^T J and J^T r comes from the factors (:mod:`.factored`).
         """
-        key = value_key(theta)
-        found, last = self.cache.last.lookup((), key=key)
-        if found and (last.jtj is not None or not jacobian):
-            return last
         factored = jacobian and all(b is not None for b in self.binned)
         preds = self.predicted(theta, jacobian, factored)
         if preds is None:
             return None
         white = self._whitened_predictions(preds)
-        rr = 0.0
-        jtj = np.zeros((self.n_params, self.n_params)) if jacobian else None
-        jtr = np.zeros(self.n_params) if jacobian else None
+        equations = NormalEquations(self.n_params, jacobian=jacobian)
         shared = {}  # crossings with the same rows and Jacobian share J^T J (the base model, output-free effects)
         terms = []  # the factored crossings' (factor, mask, residuals, effects' columns, their columns)
         for c, (y, jac, factor) in enumerate(preds):
@@ -225,14 +224,13 @@ class JointProblem(WhitenedData, LineSource):
             if not m.any():
                 continue
             r = (self.white_data[c] - white[c]).ravel()
-            rr += float(r @ r)
             if jacobian:
-                self._add_normal_equations(c, r, jac, factor, jtj, jtr, shared, terms)
+                self._add_crossing(equations, c, r, jac, factor, shared, terms)
+            else:
+                equations.add_residual(r)
         if terms:
-            add_factored_terms(terms, jtj, jtr, self.cache.grams)
-        out = Linearisation(rr, jtj, jtr)
-        self.cache.last.put((), out, key=key)
-        return out
+            add_factored_terms(terms, equations.jtj, equations.jtr, self.cache)
+        return equations.linearisation()
 
     def _whitened_predictions(self, preds):
         """The whitened predictions of every crossing with rows (those with the same rows whitened together)."""
@@ -249,8 +247,8 @@ class JointProblem(WhitenedData, LineSource):
             white.update(zip(members, stacked))
         return white
 
-    def _add_normal_equations(self, c, r, jac, factor, jtj, jtr, shared, terms):
-        """Add crossing ``c``'s share of J^T J and J^T r (its whitened residuals ``r``) on its own columns."""
+    def _add_crossing(self, equations, c, r, jac, factor, shared, terms):
+        """Add crossing ``c``'s share (its whitened residuals ``r``) to the normal equations, on its own columns."""
         m = self.masks[c]
         x = self.crossings[c].positions[m]
         cols = self.columns[c]
@@ -266,8 +264,8 @@ class JointProblem(WhitenedData, LineSource):
                   else self.noise.whiten(jac[:, m], x)).reshape(r.size, cols.size)
             block = wj.T @ wj
             shared[key] = (cols, jac, wj, block)
-        jtj[np.ix_(cols, cols)] += block
-        jtr[cols] += wj.T @ r
+        equations.add_residual(r, wj, columns=cols)
+        equations.add_gram(block, columns=cols)
         if factor is not None:
             terms.append((factor, m, r, jac, cols))
 

@@ -20,29 +20,32 @@ from .lines import CrossingLines, InterpolationMaps
 __all__ = ["LineSource"]
 
 
-def _axle_key(state, x, axle, r, scale):
-    """Cache key of one axle's unit-load response (independent of the axle loads)."""
-    return value_key("axle", x, axle, r, state.bridge, scale)
-
-
-def _lines_key(state, x, r, scale):
-    return value_key(x, r, state.bridge, state.axle_factors, scale)
-
-
 class LineSource:
     """The lines of every crossing at a model state, for :class:`~.problem.JointProblem` (a mixin).
 
-    Uses the problem's ``case``, ``sensors``, ``n_crossings``,
-    ``model_positions``, ``entry``, ``entry_moves``, ``axle_responses``, the
-    EI of the current evaluation ``current_ei`` and its ``cache`` (a
-    :class:`~.cache.JointCache`).
+    Uses the problem's ``case``, ``sensors``, ``n_crossings``, ``entry``,
+    ``entry_moves``, ``axle_responses``, the EI of the current evaluation
+    ``current_ei`` and its value key ``ei_key``, and the problem's ``cache``
+    (a :class:`~sensorplan._cache.Cache`): everything computed at an EI is
+    keyed by it, the interpolation maps (independent of EI) are not.
     """
+
+    def _lines_key(self, state, x, r, scale):
+        """Cache key of the vehicle's lines at positions ``x`` and sensor positions ``r`` (at the current EI)."""
+        return value_key("lines", self.ei_key, x, r, state.bridge, state.axle_factors, scale)
+
+    def _axle_key(self, state, x, axle, r, scale):
+        """Cache key of one axle's unit-load response (independent of the axle loads)."""
+        return value_key("axle", self.ei_key, x, axle, r, state.bridge, scale)
+
+    def _interpolant_key(self, state, r, scale):
+        return value_key("interpolant", self.ei_key, r, state.bridge, scale)
 
     def interpolant(self, state, scale, sensor_positions=None):
         """The exact piecewise-cubic unit-load lines at the current EI (x exp(scale)), cached per EI and state."""
         r = state.sensor_positions if sensor_positions is None else sensor_positions
-        key = value_key("interpolant", r, state.bridge, scale)
-        return self.cache.lines.get((), lambda: self._new_interpolant(state, scale, r), key=key)
+        key = self._interpolant_key(state, r, scale)
+        return self.cache.get((), lambda: self._new_interpolant(state, scale, r), key=key)
 
     def _new_interpolant(self, state, scale, r):
         # a crossing's own EI factor (load-dependent stiffness) needs no solve without elastic springs
@@ -53,8 +56,8 @@ class LineSource:
         return scaled
 
     def _held(self, key):
-        """The ``lines`` entry under ``key``, or None."""
-        return self.cache.lines.lookup((), key=key)[1]
+        """The cache's entry under ``key``, or None."""
+        return self.cache.lookup((), key=key)[1]
 
     def lines(self, state, c, *, positions=None, sensor_positions=None):
         """The vehicle's influence lines for crossing ``c`` (or at ``positions`` / ``sensor_positions``).
@@ -68,7 +71,7 @@ class LineSource:
         x = state.positions[c] if positions is None else positions
         r = state.sensor_positions if sensor_positions is None else sensor_positions
         scale = float(state.ei_log_scale[c])
-        key = _lines_key(state, x, r, scale)
+        key = self._lines_key(state, x, r, scale)
         held = self._held(key)
         if held is None:
             if positions is None:  # every crossing at these sensor positions at once (sensor-position Jacobian)
@@ -90,10 +93,10 @@ class LineSource:
         for c in range(self.n_crossings):
             scale = float(state.ei_log_scale[c])
             x = state.positions[c]
-            key = _lines_key(state, x, r, scale)
+            key = self._lines_key(state, x, r, scale)
             missing = self._held(key) is None or jacobian and (
                 (self.entry_moves and self._held(("slope", key)) is None)
-                or (self.axle_responses and self._held(_axle_key(state, x, 0, r, scale)) is None))
+                or (self.axle_responses and self._held(self._axle_key(state, x, 0, r, scale)) is None))
             if missing:
                 groups.setdefault(scale, {})[key] = x
         for scale, items in groups.items():
@@ -115,18 +118,18 @@ class LineSource:
         slopes = interpolant.readings(maps.slopes) if jacobian and maps.slopes is not None else None
         axles = [interpolant.readings(w) for w in (maps.axles or ())] if jacobian else []
         ei, stiffness = self.current_ei * np.exp(scale), state.bridge.spring_stiffness()
-        source = (value_key("interpolant", r, state.bridge, scale), maps.cache_key)
+        source = (self._interpolant_key(state, r, scale), maps.cache_key)
         start = 0
         for key, x in items.items():
             sl = slice(start, start + x.size)
             start += x.size
             if new:
-                self.cache.lines.put((), CrossingLines(interpolant, maps, sl, ei, stiffness, predictions[:, sl],
+                self.cache.put((), CrossingLines(interpolant, maps, sl, ei, stiffness, predictions[:, sl],
                                                        reactions[sl], cache_key=key, source_key=source), key=key)
             if slopes is not None:
-                self.cache.lines.put((), slopes[:, sl], key=("slope", key))
+                self.cache.put((), slopes[:, sl], key=("slope", key))
             for a, unit in enumerate(axles):
-                self.cache.lines.put((), unit[:, sl], key=_axle_key(state, x, a, r, scale))
+                self.cache.put((), unit[:, sl], key=self._axle_key(state, x, a, r, scale))
 
     def _maps(self, interpolant, state, every, jacobian):
         """The interpolation maps of the loads at ``every``: lines, and with ``jacobian`` slopes and each axle.
@@ -136,7 +139,8 @@ class LineSource:
         """
         offsets, loads = self._axles(state)
         vertical = state.bridge.vertical_springs
-        key = value_key(interpolant.points, every, loads, bool(np.isinf(vertical[0])), bool(np.isinf(vertical[-1])))
+        key = value_key("maps", interpolant.points, every, loads, bool(np.isinf(vertical[0])),
+                        bool(np.isinf(vertical[-1])))
 
         def build():
             basis = interpolant.basis(every[:, None] - offsets[None, :])  # every axle at once
@@ -144,7 +148,7 @@ class LineSource:
             lines = self._weights(interpolant, state, every, basis, offsets, loads, structure=structure)
             return InterpolationMaps(key, every.size, basis, structure, lines)
 
-        maps = self.cache.maps_for(key, build)
+        maps = self.cache.get((), build, key=key)
         if jacobian and self.entry_moves and maps.slopes is None:
             maps.slopes = self._weights(interpolant, state, every, maps.basis, offsets, loads,
                                         structure=maps.structure, derivative=True)
@@ -181,7 +185,7 @@ class LineSource:
     def line_slopes(self, state, c):
         """d(vehicle lines)/d(load position) for crossing ``c`` (S, K): exact, from the interpolant."""
         x, r, scale = state.positions[c], state.sensor_positions, float(state.ei_log_scale[c])
-        key = _lines_key(state, x, r, scale)
+        key = self._lines_key(state, x, r, scale)
         held = self._held(("slope", key))
         if held is None:
             self._fill(state, r, scale, {key: x}, jacobian=True)
@@ -199,9 +203,9 @@ class LineSource:
     def axle_lines(self, state, c, axle):
         """Response to axle ``axle`` alone (with its current load), cached like :meth:`lines`."""
         x, r, scale = state.positions[c], state.sensor_positions, float(state.ei_log_scale[c])
-        key = _axle_key(state, x, axle, r, scale)
+        key = self._axle_key(state, x, axle, r, scale)
         held = self._held(key)
         if held is None:
-            self._fill(state, r, scale, {_lines_key(state, x, r, scale): x}, jacobian=True)
+            self._fill(state, r, scale, {self._lines_key(state, x, r, scale): x}, jacobian=True)
             held = self._held(key)
         return held * (self.case.vehicle.axle_loads[axle] * state.axle_factors[axle])

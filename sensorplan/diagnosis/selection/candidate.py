@@ -43,7 +43,7 @@ class Candidate:
     def light(self) -> "Candidate":
         """This candidate with its problem's caches dropped (not needed any more, not worth sending back)."""
         if self.fit is not None:
-            self.fit.problem.drop_caches()
+            self.fit.problem.clear_cache()
         return self
 
 

@@ -20,7 +20,7 @@ import numpy as np
 import scipy.linalg
 
 from ..._errors import DataError
-from ...inference.laplace import log_evidence, solve_map
+from ...inference.engine import log_evidence, solve_map
 from .policy import DEFAULT_POLICY
 
 __all__ = ["QuickFit", "quick_fit"]
