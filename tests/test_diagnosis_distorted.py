@@ -43,7 +43,7 @@ def _case(bridge, ei, vehicle, positions, std, correlation_length, step, n_eleme
 def _settled(d, support):
     # the settled support's finding: its value and 95 % interval in N/m
     where = f"support {support} "
-    found = [f for f in d.findings.get("vertical_support_spring", ()) if where in f["where"]]
+    found = [f for f in d.findings.get("vertical_support_spring", ()) if where in f.where]
     assert found, d.findings
     return found[0]
 
@@ -65,7 +65,7 @@ def test_a_settled_bearing_that_distorts_the_base_fit_is_named():
     # selection step through a third pass (the same verdict in about four times the time)
     assert d.effects[0].name == "vertical_support_spring" and d.effects[0].converged
     f = _settled(d, 2)
-    assert f["low"] <= k <= f["high"]
+    assert f.low <= k <= f.high
 
 
 @pytest.mark.slow
@@ -82,7 +82,7 @@ def test_a_flipped_sensor_next_to_a_settled_bearing_needs_both_to_be_named():
         d = sp.diagnose(case, data)
     assert set(d.causes) == {"sensor_gain", "vertical_support_spring"} and not d.unexplained
     f = _settled(d, 0)
-    assert f["low"] <= k <= f["high"]
+    assert f.low <= k <= f.high
     assert d.heldout_ratio_after < 1.2
 
 
@@ -98,9 +98,9 @@ def test_six_moved_sensors_on_precise_data_are_named_after_a_longer_fit():
     moved = sp.SensorLayout(positions + moves, "rotation", case.sensors.names, [2e-7] * 6)
     d = sp.diagnose(case, _data(case, bridge, 8, np.ones(6), seed=1, sensors=moved))
     assert d.causes == ("sensor_position",) and not d.unexplained
-    found = {f["where"].split()[2]: f for f in d.findings["sensor_position"]}
+    found = {f.where.split()[2]: f for f in d.findings["sensor_position"]}
     for name, move in zip(case.sensors.names, moves):
-        assert found[name]["low"] <= move <= found[name]["high"], (name, found[name]["text"])
+        assert found[name].low <= move <= found[name].high, (name, found[name].text)
 
 
 @pytest.mark.parametrize("alpha, starts", [(5.0, 2), (1.5, 1)])

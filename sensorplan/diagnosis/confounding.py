@@ -19,7 +19,7 @@ KEPT_LIMIT = 0.2  # an effect keeping less of its information under unknown EI i
 N_CANDIDATES = 41  # candidate sensor positions along the bridge
 
 
-def confounding(case, crossings, effects, prior, theta_base, alpha, tau, estimate_springs):
+def confounding(case, crossings, effects, *, prior, theta_base, alpha, tau, estimate_springs):
     """Confounding entries of the ``effects`` (objects) that keep < 20 % of their information under unknown EI."""
     out = []
     for effect in effects:
@@ -35,7 +35,8 @@ def confounding(case, crossings, effects, prior, theta_base, alpha, tau, estimat
             continue
         where = None
         if not effect.per_sensor:  # a sensor elsewhere cannot inform the data's own sensors' parameters
-            where = _separating_sensor(case, crossings, effect, prior, theta, info, alpha, tau, kept, estimate_springs)
+            where = _separating_sensor(case, crossings, effect, prior, theta, info, alpha=alpha, tau=tau, kept=kept,
+                                       estimate_springs=estimate_springs)
         out.append(Confounding(effect.name, kept, where))
     return out
 
@@ -67,7 +68,7 @@ def kept_fraction(info, problem, tau, sl):
     return float(np.clip(ratio.min(), 0.0, 1.0))
 
 
-def _separating_sensor(case, crossings, effect, prior, theta, base_info, alpha, tau, kept, estimate_springs):
+def _separating_sensor(case, crossings, effect, prior, theta, base_info, *, alpha, tau, kept, estimate_springs):
     """The candidate position (41 along the bridge, all in one forward evaluation) that raises ``kept`` most."""
     kind = case.sensors.kinds[0]
     binned = getattr(crossings[0], "noise", None)  # binned data (joint/binning.py): the readings' noise model

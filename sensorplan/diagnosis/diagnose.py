@@ -42,7 +42,7 @@ from ..inference.screening import check_case_data_scale
 from ..model.crossings import Crossings
 from ..model.prior import GMRFPrior
 from .confounding import confounding
-from .effects import effect_names, make_effect
+from .effects import CaseSprings, effect_names, make_effect
 from .gap import residual_gap
 from .joint.binning import KEEP, bin_crossings, choose_size
 from .joint.fits import blocks_of, integrated_fit
@@ -168,11 +168,11 @@ def _diagnose(case, crossings, prior, offered, not_offered, policy, *, n_folds, 
     final = _final_fit(data, base, [offered[n] for n in selection.selected], selection.current, prior,
                        estimate_springs=estimate_springs)
     say("confounding with EI")
-    confounded = confounding(data.case, data.crossings, [offered[r.name] for r in results
-                                                          if r.name not in selection.selected],
-                             prior, base.candidate.fit.theta, base.full.noise_scale, base.full.tau, estimate_springs)
-    return _diagnosis(data, base, final, selection, results, confounded, offered, not_offered,
-                      estimate_springs=estimate_springs)
+    others = [offered[r.name] for r in results if r.name not in selection.selected]
+    confounded = confounding(data.case, data.crossings, others, prior=prior, theta_base=base.candidate.fit.theta,
+                             alpha=base.full.noise_scale, tau=base.full.tau, estimate_springs=estimate_springs)
+    return _diagnosis(data, base, final=final, selection=selection, results=results, confounded=confounded,
+                      offered=offered, not_offered=not_offered, estimate_springs=estimate_springs)
 
 
 def _screen_and_select(ctx, names, base, *, policy, folds, say, runner):
@@ -265,16 +265,16 @@ def _final_fit(data, base, effects, current, prior, *, estimate_springs):
     std = np.sqrt(np.clip(np.diag(fit.mixture.covariance), 0, None))
     findings = {b.name: tuple(b.effect.describe(b, problem, theta[sl], std[sl]))
                 for b, sl in zip(problem.blocks, problem.slices)}
-    springs = findings.pop("case_springs", ())
+    springs = findings.pop(CaseSprings.name, ())  # the case's own springs are no cause
     return _Final(problem, fit, theta, bool(valid) and fit.converged, gap, findings, springs,
                   corrected_model(problem, theta, std))
 
 
-def _diagnosis(data, base, final, selection, results, confounded, offered, not_offered, *, estimate_springs):
+def _diagnosis(data, base, *, final, selection, results, confounded, offered, not_offered, estimate_springs):
     """The :class:`GapDiagnosis` of the stages' results."""
     selected, held = selection.selected, selection.current.held
     unexplained = bool(final.gap.significant)
-    text = verdict(selected, unexplained, base.gap.significant, confounded)
+    text = verdict(selected, unexplained=unexplained, significant=base.gap.significant, confounded=confounded)
     # a candidate a cause holds as a special case is not a second finding: the data cannot tell them apart
     includes = {s: inside for s in selected
                 if (inside := tuple(n for n in offered[s].contains if n in offered and n not in selected))}

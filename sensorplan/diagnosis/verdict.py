@@ -52,7 +52,7 @@ def corrected_model(problem, theta, std):
         not_in_case=tuple(b.name for b in problem.blocks if not b.effect.in_case))
 
 
-def verdict(selected, unexplained, significant, confounded):
+def verdict(selected, *, unexplained, significant, confounded):
     """The one-line verdict: causes found, partly explained, unexplained or adequate (and what EI could mimic)."""
     if selected and not unexplained:
         text = "causes found: " + ", ".join(selected)

@@ -4,11 +4,10 @@ The log-EI columns of a binned crossing are R T: R its interpolation
 weights mapped onto its bins (bins x table rows, sparse), T the line
 interpolant's element kernel of the table rows (table rows x sensors x
 elements), each sensor's rows times a scale.  Formed, they are the largest
-array of an evaluation (bins x sensors x elements per crossing: three spans,
-twelve crossings, six tiltmeters, 60 elements: 5 MB, formed, scaled and
-copied at every evaluation with a Jacobian); their share of the normal
+array of an evaluation (bins x sensors x elements per crossing, formed,
+scaled and copied at every evaluation with a Jacobian); their share of the normal
 equations needs only R^T R, R^T r and R^T B (B the effects' columns), all
-of the table's size.  :class:`~.joint.JointProblem` uses this whenever every
+of the table's size.  :class:`~.problem.JointProblem` uses this whenever every
 crossing is binned; the explicit blocks (:func:`.lines.log_ei_blocks`) remain
 for the rows of the held-out folds.
 
