@@ -29,7 +29,7 @@ Owns: the effect protocol, :class:`EffectBlock`, :class:`State`.  May import: nu
 
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 from typing import Any, ClassVar, Protocol
 
 import numpy as np
@@ -67,6 +67,7 @@ class EffectBlock:
     names: tuple
     mean: np.ndarray
     std: np.ndarray
+    _: KW_ONLY
     log_prior_constant: float = 0.0
     detail: Any = None
 
