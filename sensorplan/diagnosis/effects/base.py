@@ -29,7 +29,7 @@ Owns: the effect protocol, :class:`EffectBlock`, :class:`State`.  May import: nu
 
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from dataclasses import KW_ONLY, dataclass
+from dataclasses import KW_ONLY, dataclass, field
 from typing import Any, ClassVar, Protocol
 
 import numpy as np
@@ -42,7 +42,9 @@ class State:
     """The model state one parameter vector sets (the structural effects change it in place, in order).
 
     ``positions``: the load positions of every crossing [m];
-    ``ei_log_scale``: a log EI factor per crossing.
+    ``ei_log_scale``: a log EI factor per crossing.  ``keys``: the joint
+    model's cache keys of each crossing at this state, formed once the
+    effects have set it (:class:`~sensorplan.diagnosis.joint.source.LineSource`).
     """
 
     bridge: Any
@@ -50,6 +52,7 @@ class State:
     positions: list
     axle_factors: np.ndarray
     ei_log_scale: np.ndarray
+    keys: dict = field(default_factory=dict, repr=False, compare=False)
 
 
 @dataclass(frozen=True, eq=False)

@@ -123,4 +123,4 @@ def _weighted_gram(factor, weights, cache):
         scaled.data *= np.repeat(np.sqrt(weights), np.diff(mapped.indptr))
         return (scaled.T @ scaled).toarray()
 
-    return cache.get((), gram, key=value_key("gram", factor.mapped_key, weights))
+    return cache.get((), gram, key=("gram", factor.mapped_key, value_key(weights)))

@@ -64,7 +64,8 @@ class CrossingLines:
     @property
     def weights(self):
         """The crossing's rows of the interpolation map (sliced when first asked for, then kept with the maps)."""
-        return self.maps.derived.get(("rows", self.rows.start, self.rows.stop), lambda: self.maps.lines[self.rows])
+        return self.maps.derived.get((), lambda: self.maps.lines[self.rows],
+                                     key=("rows", self.rows.start, self.rows.stop))
 
     @cached_property
     def kernel(self):
@@ -110,11 +111,11 @@ def mapped_groups(items, cache):
     for members in groups.values():
         lines = items[members[0]][0]
         weights = lines.maps.lines
-        layout = value_key("layout", weights.shape[0], [(items[k][0].rows.start, items[k][1], items[k][2].map_key)
-                                                        for k in members])
+        layout = ("layout", weights.shape[0],
+                  tuple((items[k][0].rows.start, value_key(items[k][1]), items[k][2].map_key) for k in members))
         side_by_side, offsets = cache.get((), lambda: _side_by_side(items, members, weights.shape[0]), key=layout)
         # kept with the maps, as long as the loads stay where they are
-        mapped = lines.maps.derived.get(("mapped", layout), lambda: side_by_side @ weights)
+        mapped = lines.maps.derived.get((), lambda: side_by_side @ weights, key=("mapped", layout))
         yield members, lines, mapped, offsets, (lines.maps.cache_key, layout)
 
 
@@ -145,7 +146,7 @@ def log_ei_blocks(items, cache):
     """
     out, binned_items, first = [None] * len(items), [], {}
     for k, (lines, lf, binned) in enumerate(items):
-        key = value_key(lines.cache_key, lf, None if binned is None else binned.map_key)
+        key = lines.cache_key, value_key(lf), None if binned is None else binned.map_key
         if key in first:
             out[k] = first[key]
             continue

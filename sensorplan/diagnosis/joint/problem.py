@@ -68,6 +68,12 @@ class JointProblem(WhitenedProblem, LineSource):
         self.log_prior_constant = float(sum(b.log_prior_constant for b in self.blocks))
         self._set_layout()
         self._set_prior(case, prior)
+        # the crossings whose fitted rows are the same (whitened together; their Jacobians may share J^T J)
+        self.row_keys = [value_key(c.positions[m], m) for c, m in zip(crossings, self.masks)]
+        self.row_groups = {}
+        for c, m in enumerate(self.masks):
+            if m.any():
+                self.row_groups.setdefault(self.row_keys[c], []).append(c)
         self.current_ei = None
         self.ei_key = None  # value key of the current log EI: part of the key of everything computed at it
         self.n_evaluations = 0
@@ -234,13 +240,8 @@ class JointProblem(WhitenedProblem, LineSource):
 
     def _whitened_predictions(self, preds):
         """The whitened predictions of every crossing with rows (those with the same rows whitened together)."""
-        groups = {}
-        for c in range(len(preds)):
-            m = self.masks[c]
-            if m.any():
-                groups.setdefault(value_key(self.crossings[c].positions[m], m), []).append(c)
         white = {}
-        for members in groups.values():
+        for members in self.row_groups.values():
             m = self.masks[members[0]]
             stacked = self.noise.whiten(np.stack([preds[c][0][:, m] for c in members]),
                                         self.crossings[members[0]].positions[m], sensor_axis=1)
@@ -254,7 +255,7 @@ class JointProblem(WhitenedProblem, LineSource):
         cols = self.columns[c]
         if factor is not None:
             cols = cols[self.n_elements:]
-        key = value_key(x, m)
+        key = self.row_keys[c]
         hit = shared.get(key)
         if hit is not None and np.array_equal(hit[0], cols) and np.array_equal(hit[1], jac):
             wj, block = hit[2], hit[3]

@@ -30,16 +30,42 @@ class LineSource:
     keyed by it, the interpolation maps (independent of EI) are not.
     """
 
-    def _lines_key(self, state, x, r, scale):
-        """Cache key of the vehicle's lines at positions ``x`` and sensor positions ``r`` (at the current EI)."""
-        return value_key("lines", self.ei_key, x, r, state.bridge, state.axle_factors, scale)
+    # keys are tuples of value keys: the current EI's is formed once per evaluation, and a crossing's parts at
+    # the state's own sensor positions once per state (state.keys), not walked again at every look-up
+    def _parts(self, state, x, r, scale, kind):
+        """Value key of what crossing lines at positions ``x`` and sensors ``r`` depend on besides EI and the bridge.
 
-    def _axle_key(self, state, x, axle, r, scale):
-        """Cache key of one axle's unit-load response (independent of the axle loads)."""
-        return value_key("axle", self.ei_key, x, axle, r, state.bridge, scale)
+        ``kind`` "lines": with the axle factors; "axle": without (a unit load).
+        """
+        if kind == "lines":
+            return value_key(x, r, state.axle_factors, scale)
+        return value_key(x, r, scale)
+
+    def _crossing_parts(self, state, c, kind):
+        """:meth:`_parts` of crossing ``c`` at the state's own positions and sensors (formed once per state)."""
+        parts = state.keys.get((kind, c))
+        if parts is None:
+            parts = state.keys[kind, c] = self._parts(state, state.positions[c], state.sensor_positions,
+                                                      float(state.ei_log_scale[c]), kind)
+        return parts
+
+    def _lines_key(self, state, c, r=None, x=None):
+        """Cache key of crossing ``c``'s lines (or at positions ``x``, sensors ``r``) at the current EI."""
+        if r is None and x is None:
+            parts = self._crossing_parts(state, c, "lines")
+        else:
+            parts = self._parts(state, state.positions[c] if x is None else x,
+                                state.sensor_positions if r is None else r, float(state.ei_log_scale[c]), "lines")
+        return "lines", self.ei_key, parts, state.bridge
+
+    def _axle_key(self, state, c, axle, r=None):
+        """Cache key of one axle's unit-load response in crossing ``c`` (independent of the axle loads)."""
+        parts = (self._crossing_parts(state, c, "axle") if r is None else
+                 self._parts(state, state.positions[c], r, float(state.ei_log_scale[c]), "axle"))
+        return "axle", self.ei_key, parts, axle, state.bridge
 
     def _interpolant_key(self, state, r, scale):
-        return value_key("interpolant", self.ei_key, r, state.bridge, scale)
+        return "interpolant", self.ei_key, value_key(r, scale), state.bridge
 
     def interpolant(self, state, scale, sensor_positions=None):
         """The exact piecewise-cubic unit-load lines at the current EI (x exp(scale)), cached per EI and state."""
@@ -70,14 +96,13 @@ class LineSource:
         """
         x = state.positions[c] if positions is None else positions
         r = state.sensor_positions if sensor_positions is None else sensor_positions
-        scale = float(state.ei_log_scale[c])
-        key = self._lines_key(state, x, r, scale)
+        key = self._lines_key(state, c, sensor_positions, positions)
         held = self._held(key)
         if held is None:
             if positions is None:  # every crossing at these sensor positions at once (sensor-position Jacobian)
-                self.prefetch(state, sensor_positions=r)
+                self.prefetch(state, sensor_positions=sensor_positions)
             else:
-                self._fill(state, r, scale, {key: x})
+                self._fill(state, r, float(state.ei_log_scale[c]), {key: (c, x)})
             held = self._held(key)
         return held
 
@@ -92,24 +117,24 @@ class LineSource:
         groups = {}
         for c in range(self.n_crossings):
             scale = float(state.ei_log_scale[c])
-            x = state.positions[c]
-            key = self._lines_key(state, x, r, scale)
+            key = self._lines_key(state, c, sensor_positions)
             missing = self._held(key) is None or jacobian and (
                 (self.entry_moves and self._held(("slope", key)) is None)
-                or (self.axle_responses and self._held(self._axle_key(state, x, 0, r, scale)) is None))
+                or (self.axle_responses and self._held(self._axle_key(state, c, 0, sensor_positions)) is None))
             if missing:
-                groups.setdefault(scale, {})[key] = x
+                groups.setdefault(scale, {})[key] = (c, state.positions[c])
         for scale, items in groups.items():
-            self._fill(state, r, scale, items, jacobian)
+            self._fill(state, r, scale, items, jacobian, sensor_positions=sensor_positions)
 
-    def _fill(self, state, r, scale, items, jacobian=False):
-        """Cache the lines of every {key: positions} in ``items`` (one sparse product).
+    def _fill(self, state, r, scale, items, jacobian=False, *, sensor_positions=None):
+        """Cache the lines of every {key: (crossing, positions)} in ``items`` (one sparse product).
 
         With ``jacobian``, also their slopes in the load position (when an
         effect moves the loads) and each axle's own response (axle loads).
+        ``sensor_positions``: None when ``r`` are the state's own.
         """
         interpolant = self.interpolant(state, scale, r)
-        every = np.concatenate(list(items.values()))
+        every = np.concatenate([x for _, x in items.values()])
         maps = self._maps(interpolant, state, every, jacobian)
         # lines already read at these positions (the trial point a Jacobian is now asked at) are kept
         new = any(self._held(key) is None for key in items)
@@ -120,7 +145,7 @@ class LineSource:
         ei, stiffness = self.current_ei * np.exp(scale), state.bridge.spring_stiffness()
         source = (self._interpolant_key(state, r, scale), maps.cache_key)
         start = 0
-        for key, x in items.items():
+        for key, (c, x) in items.items():
             sl = slice(start, start + x.size)
             start += x.size
             if new:
@@ -129,7 +154,7 @@ class LineSource:
             if slopes is not None:
                 self.cache.put((), slopes[:, sl], key=("slope", key))
             for a, unit in enumerate(axles):
-                self.cache.put((), unit[:, sl], key=self._axle_key(state, x, a, r, scale))
+                self.cache.put((), unit[:, sl], key=self._axle_key(state, c, a, sensor_positions))
 
     def _maps(self, interpolant, state, every, jacobian):
         """The interpolation maps of the loads at ``every``: lines, and with ``jacobian`` slopes and each axle.
@@ -184,11 +209,11 @@ class LineSource:
 
     def line_slopes(self, state, c):
         """d(vehicle lines)/d(load position) for crossing ``c`` (S, K): exact, from the interpolant."""
-        x, r, scale = state.positions[c], state.sensor_positions, float(state.ei_log_scale[c])
-        key = self._lines_key(state, x, r, scale)
+        key = self._lines_key(state, c)
         held = self._held(("slope", key))
         if held is None:
-            self._fill(state, r, scale, {key: x}, jacobian=True)
+            self._fill(state, state.sensor_positions, float(state.ei_log_scale[c]), {key: (c, state.positions[c])},
+                       jacobian=True)
             held = self._held(("slope", key))
         return held
 
@@ -202,10 +227,10 @@ class LineSource:
 
     def axle_lines(self, state, c, axle):
         """Response to axle ``axle`` alone (with its current load), cached like :meth:`lines`."""
-        x, r, scale = state.positions[c], state.sensor_positions, float(state.ei_log_scale[c])
-        key = self._axle_key(state, x, axle, r, scale)
+        key = self._axle_key(state, c, axle)
         held = self._held(key)
         if held is None:
-            self._fill(state, r, scale, {self._lines_key(state, x, r, scale): x}, jacobian=True)
+            self._fill(state, state.sensor_positions, float(state.ei_log_scale[c]),
+                       {self._lines_key(state, c): (c, state.positions[c])}, jacobian=True)
             held = self._held(key)
         return held * (self.case.vehicle.axle_loads[axle] * state.axle_factors[axle])
