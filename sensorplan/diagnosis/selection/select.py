@@ -54,7 +54,6 @@ class Selection:
     selected: tuple
     alternatives: dict
     current: Candidate
-    ctx: object  # the context at the selected model's noise scale
 
 
 def select(ctx, names, screened, base, *, policy: SelectionPolicy, folds, say, runner=None):
@@ -78,7 +77,7 @@ def select(ctx, names, screened, base, *, policy: SelectionPolicy, folds, say, r
                   and (state.screened[n].fit.converged or state.screened[n].fit.abandoned)
                   and state.screened[n].fit.log_evidence - base.fit.log_evidence >= policy.bf_threshold]
         state = swap(state, strong, policy=policy, say=say)
-    return Selection(state.selected, state.alternatives, state.current, state.ctx)
+    return Selection(state.selected, state.alternatives, state.current)
 
 
 def _candidates(state, step, remaining, eligible, *, policy, say, runner):
