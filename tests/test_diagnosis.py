@@ -17,7 +17,7 @@ import pytest
 import sensorplan as sp
 from sensorplan import GMRFPrior, diagnose, example_case, simulate_crossings
 from sensorplan.diagnosis.effects import EFFECTS, make_effect
-from sensorplan.diagnosis.joint import JointProblem
+from sensorplan.diagnosis.joint.problem import JointProblem
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies" / "diagnosis"))
 from effects_data import generate  # noqa: E402
@@ -47,7 +47,7 @@ def test_effect_jacobian_equals_finite_differences(name):
     data = sp.Crossings(data.sensor_names, tuple(replace(c, load_factor=c.load_factor * f)
                                                  for c, f in zip(data.crossings, (0.7, 1.3))))
     problem = JointProblem(case, data, [make_effect(name)], GMRFPrior())
-    assert ("case_springs" in [e.name for e in problem.effects]) == (name != "support_rotational_spring"
+    assert ("case_springs" in [b.name for b in problem.blocks]) == (name != "support_rotational_spring"
                                                                       and not variant)
     rng = np.random.default_rng(1)
     theta = problem.theta0 + 0.05 * rng.standard_normal(problem.n_params) * np.sqrt(
@@ -75,15 +75,13 @@ def test_vehicle_lines_summed_from_axle_lines_equal_the_vehicle_solve():
     theta = problem.theta0 + 0.1 * np.random.default_rng(2).standard_normal(problem.n_params) * np.sqrt(
         1.0 / np.diag(problem.fixed))
     summed = problem.predict(theta, jacobian=True)
-    state = problem.initial_state()
-    for e, sl in zip(problem.effects, problem.slices):
-        e.apply(state, theta[sl])
-    problem._cache.clear()
+    state = problem.state_at(theta)
+    problem.clear_cache()
     for c, (y, _) in enumerate(summed):
         direct = problem.lines(state, c)  # one vehicle solve (nothing cached)
         np.testing.assert_allclose(y, direct.predictions * problem.load_factor(c)[None, :],
                                    rtol=1e-12, atol=1e-12 * np.abs(y).max())
-    problem._cache.clear()
+    problem.clear_cache()
     unsummed = problem.predict(theta, jacobian=False)
     for (y, _), (y0, _) in zip(summed, unsummed):
         np.testing.assert_allclose(y, y0, rtol=1e-12, atol=1e-12 * np.abs(y).max())
@@ -177,19 +175,19 @@ def test_diagnosis_json_holds_the_computed_values(case):
 def test_linearised_folds_match_refits_on_the_training_rows():
     # reference: brute force, the base model refitted on each fold's training rows (masked problem,
     # Levenberg-Marquardt to convergence), and the Gaussian predictive density of the held-out whitened
-    # rows evaluated with scipy.stats (not the Woodbury form of refit.heldout)
+    # rows evaluated with scipy.stats (not the Woodbury form of selection.heldout.heldout)
     from scipy import stats
 
-    from sensorplan.diagnosis.diagnose import _folds
-    from sensorplan.diagnosis.refit import fold_rows, heldout, quick_fit
-    from sensorplan.inference.laplace import solve_map
+    from sensorplan.diagnosis.selection.heldout import fold_rows, heldout, make_folds
+    from sensorplan.diagnosis.selection.refit import quick_fit
+    from sensorplan.inference.engine import solve_map
 
     case = small_case()
     data = simulate_crossings(case, 3, noise=True, rng=4)
     prior = GMRFPrior()
     problem = JointProblem(case, data, [], prior)
     fit = quick_fit(problem, problem.theta0, 1.0, 1.0)
-    folds = _folds(data, 4)
+    folds = make_folds(data, 4)
     r, jac, cross, load, _ = problem.rows(fit.theta)
     masks = fold_rows(data, folds, cross, load)
     scores = heldout(fit, masks).log_density
@@ -226,10 +224,10 @@ def test_sign_flipped_sensor_is_named_quickly():
     with pytest.warns(sp.SensorplanWarning, match="PE2.*anti-correlated"):
         d = diagnose(case, flipped)
     assert d.causes[0] == "sensor_gain"
-    texts = [f["text"] for f in d.findings["sensor_gain"]]
+    texts = [f.text for f in d.findings["sensor_gain"]]
     assert len(texts) == 1 and "PE2" in texts[0] and "wrong way round" in texts[0]
     gain = d.findings["sensor_gain"][0]
-    assert gain["low"] < -1.0 < gain["high"]
+    assert gain.low < -1.0 < gain.high
 
 
 @pytest.mark.slow
@@ -272,7 +270,7 @@ def test_moved_loads_roll_onto_an_elastic_end_bearing_continuously():
     # from nothing to the bearing's response as it crosses x = 0: the lines jumped when a position offset
     # moved an axle over the end, and the fits crawled along that jump.  With a position effect the entry
     # is a ramp over ENTRY: the predictions change by O(step) across the end.
-    from sensorplan.diagnosis.joint import ENTRY
+    from sensorplan.diagnosis.joint.problem import ENTRY
 
     case = small_case()
     data = simulate_crossings(case, 1, noise=False, rng=0)
@@ -312,12 +310,13 @@ def test_moved_loads_roll_onto_an_elastic_end_bearing_continuously():
     # integral ENTRY, against the trapezoidal rule on a fine grid; a ramp wholly outside gives 1.5 ENTRY)
     from scipy.integrate import trapezoid
 
+    from sensorplan.diagnosis.joint.entry import entry_ramp
+
     u = np.linspace(-ENTRY, ENTRY, 4001)
-    state = problem.initial_state()
-    for effect, block in zip(problem.effects, problem.slices):
-        if effect.structural:
-            effect.apply(state, problem.theta0[block])  # elastic ends (the spring effect's prior means)
-    g, _ = problem._ramp(state, u[None, :])
+    state = problem.state_at(problem.theta0)  # elastic ends (the spring effect's prior means)
+    vertical = state.bridge.vertical_springs
+    assert np.isfinite(vertical[0]) and np.isfinite(vertical[-1])
+    g, _ = entry_ramp(u[None, :], state.bridge.length, ENTRY, (True, True))
     assert g[0, 2000] == pytest.approx(0.5)
     assert trapezoid(g[0], u) == pytest.approx(ENTRY, rel=1e-6)
     # inside the ramp the Jacobian (shift, springs, EI) still equals finite differences of the predictions,
@@ -355,8 +354,8 @@ def test_gains_act_on_the_response_and_drift_is_added_whatever_the_order():
     (y1, _), (y2, _) = first.predict(thetas[0])[0], second.predict(thetas[1])[0]
     np.testing.assert_allclose(y1, y2, rtol=1e-12, atol=1e-18)
     # and the drift is not scaled: reading = gain * (response of the nominal model) + drift
-    effect, sl = first.block("sensor_gain")
-    gain = effect.sign * np.exp(thetas[0][sl])
+    block, sl = first.block("sensor_gain")
+    gain = block.detail * np.exp(thetas[0][sl])
     base = JointProblem(case, data, [], GMRFPrior())
     response = base.predict(base.theta0, jacobian=False)[0][0]
     x = data.crossings[0].positions
@@ -368,14 +367,14 @@ def test_gains_act_on_the_response_and_drift_is_added_whatever_the_order():
 
 def test_noise_rescale_reaches_the_evidence_maximum_in_the_noise_scale():
     # reference: the Laplace log evidence maximised over the noise scale directly (bounded scalar search,
-    # a converged refit at each trial scale), not MacKay's fixed point that _rescale iterates.  The data
+    # a converged refit at each trial scale), not MacKay's fixed point that DiagnosisContext.rescaled iterates.  The data
     # carry twice the case's noise and a settled bearing the model lacks, and the search starts at 8x:
     # one fixed-point step from there stops short of the maximum
     from scipy.optimize import minimize_scalar
 
-    from sensorplan.diagnosis.diagnose import _Context
-    from sensorplan.diagnosis.refit import quick_fit
-    from sensorplan.diagnosis.selection import _rescale
+    from sensorplan.diagnosis.selection.candidate import Candidate
+    from sensorplan.diagnosis.selection.context import DiagnosisContext
+    from sensorplan.diagnosis.selection.refit import quick_fit
 
     case = small_case()
     truth = replace(case, noise=sp.NoiseModel(2.0 * case.noise.std, case.noise.correlation_length))
@@ -388,8 +387,11 @@ def test_noise_rescale_reaches_the_evidence_maximum_in_the_noise_scale():
     tau = 1.0
     start = quick_fit(problem, problem.theta0, 8.0 * 2.0, tau, max_iter=200)
     assert start.converged
-    ctx = _Context(case, data, prior, True, 16.0, tau, None, [], None)
-    fit, _ = _rescale(ctx, start)
+    ctx = DiagnosisContext(case, data, prior=prior, effects={}, estimate_springs=True, noise_scale=16.0, tau=tau,
+                           blocks={}, test_masks=[], predictions=[])
+    ctx, rescaled = ctx.rescaled(Candidate(start))
+    assert rescaled is None  # without folds the refit is not scored: the selection keeps its fit, at the new scale
+    fit = quick_fit(problem, start.theta, ctx.noise_scale, tau, max_iter=200)
 
     def minus_evidence(log_alpha):
         f = quick_fit(problem, fit.theta, math.exp(log_alpha), tau, max_iter=200)
@@ -398,8 +400,7 @@ def test_noise_rescale_reaches_the_evidence_maximum_in_the_noise_scale():
 
     best = minimize_scalar(minus_evidence, bounds=(math.log(0.5), math.log(16.0)), method="bounded",
                            options={"xatol": 1e-4})
-    assert fit.noise_scale == ctx.alpha
-    assert ctx.alpha == pytest.approx(math.exp(best.x), rel=0.005)  # one fixed-point step: 2 % off
+    assert ctx.noise_scale == pytest.approx(math.exp(best.x), rel=0.005)  # one fixed-point step: 2 % off
     assert fit.log_evidence == pytest.approx(-best.fun, abs=0.5)
 
 

@@ -1,4 +1,4 @@
-"""Dense records fitted in whitened bins (sensorplan/diagnosis/binning.py).
+"""Dense records fitted in whitened bins (sensorplan/diagnosis/joint/binning.py).
 
 References: the dense noise covariance exp(-|x_i - x_j| / l) (no whitening
 code), the unbinned model at the readings, finite differences, and the same
@@ -15,10 +15,10 @@ from scipy import linalg
 
 import sensorplan as sp
 from sensorplan import GMRFPrior, example_case, simulate_crossings
-from sensorplan.diagnosis import binning
-from sensorplan.diagnosis.binning import BinnedCrossing, bin_crossings, choose_size
+from sensorplan.diagnosis.joint import binning
+from sensorplan.diagnosis.joint.binning import BinnedCrossing, bin_crossings, choose_size
 from sensorplan.diagnosis.effects import make_effect
-from sensorplan.diagnosis.joint import JointProblem
+from sensorplan.diagnosis.joint.problem import JointProblem
 from sensorplan.model.forward import influence_lines
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies" / "diagnosis"))
@@ -196,13 +196,13 @@ def test_dense_diagnosis_names_the_cause_and_reports_the_readings():
     rng = np.random.SeedSequence(11)
     data = generate(case, "vertical_support_spring", rng, 8)
     d = sp.diagnose(case, data)
-    assert d.binning["size"] > 1 and d.binning["rows"] == sum(c.n_loads for c in data) - sum(
-        c.n_loads % d.binning["size"] for c in data)
+    assert d.binning.size > 1 and d.binning.rows == sum(c.n_loads for c in data) - sum(
+        c.n_loads % d.binning.size for c in data)
     assert d.causes == ("vertical_support_spring",)
-    assert f"{d.binning['size']} consecutive readings" in d.summary()
+    assert f"{d.binning.size} consecutive readings" in d.summary()
     for name, s in d.shrinkage.items():
         std = case.noise.std[case.sensors.names.index(name)]
-        assert s["rms_after"] == pytest.approx(std, rel=0.1)  # the readings' own noise, not the bins'
+        assert s.rms_after == pytest.approx(std, rel=0.1)  # the readings' own noise, not the bins'
     assert d.gap.significant and not d.gap_after.significant
     assert d.heldout_ratio_after == pytest.approx(1.0, abs=0.2)
 
@@ -216,12 +216,12 @@ def test_binned_diagnosis_agrees_with_the_row_by_row_one(monkeypatch):
     binned = sp.diagnose(case, data)
     monkeypatch.setattr("sensorplan.diagnosis.diagnose.choose_size", lambda *args: 1)
     rows = sp.diagnose(case, data)
-    assert binned.binning["size"] > 1 and not rows.binning
+    assert binned.binning.size > 1 and not rows.binning
     assert binned.causes == rows.causes == ("thermal_drift",)
     assert binned.heldout_ratio_after == pytest.approx(rows.heldout_ratio_after, rel=0.05)
     assert binned.heldout_ratio_before == pytest.approx(rows.heldout_ratio_before, rel=0.1)
     for name in case.sensors.names:
-        assert binned.shrinkage[name]["rms_after"] == pytest.approx(rows.shrinkage[name]["rms_after"], rel=0.02)
+        assert binned.shrinkage[name].rms_after == pytest.approx(rows.shrinkage[name].rms_after, rel=0.02)
     np.testing.assert_allclose(binned.ei_final, rows.ei_final, rtol=0.05)
 
 
@@ -237,7 +237,7 @@ def test_a_fit_crawling_in_a_flat_direction_counts_as_converged():
     data = generate(case, "vertical_support_spring",
                     validation.seed_sequence("three-span", "vertical_support_spring", 0), validation.N_CROSSINGS)
     d = sp.diagnose(case, data)
-    assert d.binning["size"] > 1
+    assert d.binning.size > 1
     entry = {e.name: e for e in d.effects}["vertical_support_spring"]
     assert entry.converged and entry.heldout_rms_after is not None
 

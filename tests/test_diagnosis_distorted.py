@@ -43,7 +43,7 @@ def _case(bridge, ei, vehicle, positions, std, correlation_length, step, n_eleme
 def _settled(d, support):
     # the settled support's finding: its value and 95 % interval in N/m
     where = f"support {support} "
-    found = [f for f in d.findings.get("vertical_support_spring", ()) if where in f["where"]]
+    found = [f for f in d.findings.get("vertical_support_spring", ()) if where in f.where]
     assert found, d.findings
     return found[0]
 
@@ -65,7 +65,7 @@ def test_a_settled_bearing_that_distorts_the_base_fit_is_named():
     # selection step through a third pass (the same verdict in about four times the time)
     assert d.effects[0].name == "vertical_support_spring" and d.effects[0].converged
     f = _settled(d, 2)
-    assert f["low"] <= k <= f["high"]
+    assert f.low <= k <= f.high
 
 
 @pytest.mark.slow
@@ -82,7 +82,7 @@ def test_a_flipped_sensor_next_to_a_settled_bearing_needs_both_to_be_named():
         d = sp.diagnose(case, data)
     assert set(d.causes) == {"sensor_gain", "vertical_support_spring"} and not d.unexplained
     f = _settled(d, 0)
-    assert f["low"] <= k <= f["high"]
+    assert f.low <= k <= f.high
     assert d.heldout_ratio_after < 1.2
 
 
@@ -98,23 +98,24 @@ def test_six_moved_sensors_on_precise_data_are_named_after_a_longer_fit():
     moved = sp.SensorLayout(positions + moves, "rotation", case.sensors.names, [2e-7] * 6)
     d = sp.diagnose(case, _data(case, bridge, 8, np.ones(6), seed=1, sensors=moved))
     assert d.causes == ("sensor_position",) and not d.unexplained
-    found = {f["where"].split()[2]: f for f in d.findings["sensor_position"]}
+    found = {f.where.split()[2]: f for f in d.findings["sensor_position"]}
     for name, move in zip(case.sensors.names, moves):
-        assert found[name]["low"] <= move <= found[name]["high"], (name, found[name]["text"])
+        assert found[name].low <= move <= found[name].high, (name, found[name].text)
 
 
 @pytest.mark.parametrize("alpha, starts", [(5.0, 2), (1.5, 1)])
 def test_the_nominal_start_follows_the_noise_scale_of_the_model_a_fit_starts_from(monkeypatch, alpha, starts):
     # A support-spring fit that does not converge is fitted again from the nominal EI only while the model it
-    # starts from is grossly distorted (noise scale above DISTORTED).  After picks that explain most of the gap the
-    # noise scale is re-estimated below it and the second start is skipped: it cost two fits of every spring
-    # candidate in every later step (thermal drift + a settled bearing on a random bridge: 20 s -> 9.5 s of CPU,
-    # same verdict).  The fits are replaced by a stub that never converges; what is counted is the starts.
+    # starts from is grossly distorted (noise scale above the policy's ``distorted``).  After picks that explain
+    # most of the gap the noise scale is re-estimated below it and the second start is skipped.  The fits are
+    # replaced by a stub that never converges; what is counted is the starts.
     from types import SimpleNamespace
 
-    from sensorplan.diagnosis import diagnose as dg
+    from sensorplan.diagnosis.effects import make_effect
+    from sensorplan.diagnosis.selection import context
+    from sensorplan.diagnosis.selection.policy import DEFAULT_POLICY
 
-    assert 1.5 < dg.DISTORTED < 5.0
+    assert 1.5 < DEFAULT_POLICY.distorted < 5.0
     case = sp.example_case("openlab-like")
     case = case.with_mesh(sp.Mesh.uniform(case.bridge, 8))
     data = sp.simulate_crossings(case, 2, noise=True, rng=0)
@@ -124,9 +125,11 @@ def test_the_nominal_start_follows_the_noise_scale_of_the_model_a_fit_starts_fro
         calls.append(theta.copy())
         return SimpleNamespace(converged=False, abandoned=False, log_evidence=0.0, problem=problem, theta=theta)
 
-    monkeypatch.setattr(dg, "quick_fit", stub)
+    monkeypatch.setattr(context, "quick_fit", stub)
     blocks = {"log_ei": np.log(np.broadcast_to(case.ei, (case.mesh.n_elements,))) + 0.5}  # a distorted base EI
-    ctx = dg._Context(case, data, sp.GMRFPrior(), True, alpha, 1.0, blocks, [], None)
+    ctx = context.DiagnosisContext(case, data, prior=sp.GMRFPrior(), effects={"vertical_support_spring": make_effect(
+        "vertical_support_spring")}, estimate_springs=True, noise_scale=alpha, tau=1.0, blocks=blocks, test_masks=[],
+        predictions=[])
     ctx.fit(["vertical_support_spring"])
     assert len(calls) == starts
     if starts == 2:  # the second start: the nominal EI

@@ -1,8 +1,9 @@
 """Stepwise selection of the diagnosis (forward, noise rescale, backward test, swap) on a table of models.
 
 The fits are stand-ins with a log evidence and per-fold held-out log
-densities chosen by hand, so that each rule of :mod:`sensorplan.diagnosis.selection`
-is exercised alone; the numbers are not from data.
+densities chosen by hand, so that each rule of :mod:`sensorplan.diagnosis.selection.select`
+is exercised alone; the numbers are not from data.  The stand-in contexts
+implement the written protocol :class:`~sensorplan.diagnosis.selection.candidate.SelectionContext`.
 """
 
 from dataclasses import replace
@@ -12,18 +13,21 @@ import pytest
 
 import sensorplan as sp
 from sensorplan import diagnose, example_case, simulate_crossings
-from sensorplan.diagnosis.refit import Heldout, QuickFit
-from sensorplan.diagnosis.selection import fit_models, select
+from sensorplan.diagnosis.selection.candidate import Candidate
+from sensorplan.diagnosis.selection.heldout import Heldout
+from sensorplan.diagnosis.selection.passes import fit_models
+from sensorplan.diagnosis.selection.policy import SelectionPolicy
+from sensorplan.diagnosis.selection.refit import QuickFit
+from sensorplan.diagnosis.selection.select import select
 from sensorplan.diagnosis.summary import summary_lines
+
+POLICY = SelectionPolicy()  # bf_threshold 3, gain_threshold 3, max_rounds 3
 
 
 class _Problem:
-    n_elements, effects, slices, n_data = 1, [], [], 100
+    n_elements, blocks, slices, n_data = 1, [], [], 100
 
-    def evaluate(self, theta, jacobian=True):
-        return None  # no noise rescale in these tables
-
-    def drop_caches(self):
+    def clear_cache(self):
         pass
 
 
@@ -39,7 +43,9 @@ def _held(total, ratio=1.0):
 
 
 class _Table:
-    """ctx.fit stand-in: (fit, held-out) of every model (frozenset of effect names)."""
+    """A SelectionContext: the candidate (fit, held-out score) of every model (frozenset of effect names)."""
+
+    noise_scale = 1.0
 
     def __init__(self, models):
         self.models = models
@@ -48,17 +54,18 @@ class _Table:
     def fit(self, names, blocks=None, *, initial=True, max_iter=40, floor=None, budget=False):
         self.calls.append(tuple(names))
         evidence, *held = self.models[frozenset(names)]
-        return _Fit(evidence), _held(*held)
+        return Candidate(_Fit(evidence), _held(*held))
+
+    def rescaled(self, candidate):
+        return self, None  # no noise rescale in these tables
 
 
 def _run(models, names=("O", "G", "S")):
     ctx = _Table(models)
     screened = {n: ctx.fit([n]) for n in names}
-    base = _Fit(models[frozenset()][0])
-    selected, alternatives, current, _ = select(ctx, list(names), screened, base, _held(*models[frozenset()][1:]),
-                                                bf_threshold=3.0, gain_threshold=3.0, max_rounds=3, folds=True,
-                                                say=lambda text: None)
-    return selected, alternatives, current, ctx
+    base = Candidate(_Fit(models[frozenset()][0]), _held(*models[frozenset()][1:]))
+    selection = select(ctx, list(names), screened, base, policy=POLICY, folds=True, say=lambda text: None)
+    return list(selection.selected), selection.alternatives, selection.current.fit, ctx
 
 
 def test_forward_selection_stops_when_nothing_is_gained():
@@ -124,7 +131,9 @@ def test_summary_without_a_significant_gap_does_not_list_confounded_effects():
 
 
 class _Slow:
-    """ctx stand-in whose first pass leaves some fits unconverged (QuickFit with a ceiling)."""
+    """A SelectionContext whose first pass leaves some fits unconverged (QuickFit with a ceiling)."""
+
+    noise_scale = 1.0
 
     def __init__(self, first, final):
         self.first, self.final, self.resumed = first, final, []
@@ -135,12 +144,15 @@ class _Slow:
 
     def fit(self, names, blocks=None, *, initial=True, max_iter=40, floor=None, budget=False):
         evidence, converged, ceiling = self.first[names[-1]]
-        return self._fit(evidence, converged, ceiling), _held(evidence) if converged else None
+        return Candidate(self._fit(evidence, converged, ceiling), _held(evidence) if converged else None)
 
-    def resume(self, fit, *, max_iter=40, floor=None):
-        name = next(n for n, v in self.first.items() if v[0] == fit.log_evidence)
+    def resume(self, candidate, *, max_iter=40, floor=None):
+        name = next(n for n, v in self.first.items() if v[0] == candidate.fit.log_evidence)
         self.resumed.append((name, floor))
-        return self._fit(self.final[name], True, self.final[name]), _held(self.final[name])
+        return Candidate(self._fit(self.final[name], True, self.final[name]), _held(self.final[name]))
+
+    def rescaled(self, candidate):
+        return self, None
 
 
 def test_two_passes_continue_only_fits_that_can_still_matter():
@@ -149,19 +161,19 @@ def test_two_passes_continue_only_fits_that_can_still_matter():
     # D is below the level the decision needs (base 40 + 3 = 43 > ceiling 42): abandoned too
     ctx = _Slow({"A": (100, True, 100), "B": (90, False, 120), "C": (50, False, 60), "D": (30, False, 42)},
                 {"B": 110})
-    out = fit_models(ctx, {n: ([n], None) for n in "ABCD"}, 43.0, bf_threshold=3.0, runner=None,
+    out = fit_models(ctx, {n: ([n], None) for n in "ABCD"}, 43.0, policy=POLICY, runner=None,
                      say=lambda text: None, label="")
     assert ctx.resumed == [("B", 97.0)]  # continued with the floor: best first-pass evidence - 3
-    assert out["B"][0].converged and out["B"][0].log_evidence == 110
+    assert out["B"].fit.converged and out["B"].fit.log_evidence == 110
     for name in "CD":
-        assert out[name][0].abandoned and not out[name][0].converged and out[name][1] is None
-    assert not out["A"][0].abandoned
+        assert out[name].fit.abandoned and not out[name].fit.converged and out[name].held is None
+    assert not out["A"].fit.abandoned
 
 
 def _drift_on_a_flipped_sensor():
     """A JointProblem with thermal drift on data whose second tiltmeter reads with the wrong sign (it misses the flip)."""
     from sensorplan.diagnosis.effects import make_effect
-    from sensorplan.diagnosis.joint import JointProblem
+    from sensorplan.diagnosis.joint.problem import JointProblem
     from sensorplan.model.prior import GMRFPrior
 
     case = example_case("openlab-like")
@@ -173,7 +185,7 @@ def _drift_on_a_flipped_sensor():
 
 
 def test_a_fit_gives_up_below_its_floor_and_converges_without_one():
-    from sensorplan.diagnosis.refit import quick_fit
+    from sensorplan.diagnosis.selection.refit import quick_fit
 
     problem = _drift_on_a_flipped_sensor()
     free = quick_fit(problem, problem.theta0.copy(), 30.0, 1.0)
@@ -186,7 +198,7 @@ def test_a_fit_gives_up_below_its_floor_and_converges_without_one():
 def test_a_fit_that_must_converge_within_its_budget_gives_up_at_the_pace_of_its_last_steps():
     # a swap test counts only if it converges within its steps: once twice its recent gains in every step left
     # cannot reach the floor it gives up; reference: the same fit without the budget rule (quick_fit itself)
-    from sensorplan.diagnosis.refit import quick_fit
+    from sensorplan.diagnosis.selection.refit import quick_fit
 
     problem = _drift_on_a_flipped_sensor()  # converges slowly at a noise scale of 3 (in 12 steps)
     steps = 10
@@ -205,8 +217,8 @@ def test_a_fit_that_must_converge_within_its_budget_gives_up_at_the_pace_of_its_
 
 def test_a_flipped_sign_is_a_discrete_choice_with_its_prior():
     from sensorplan.diagnosis.effects import make_effect
-    from sensorplan.diagnosis.effects_more import FLIP_PROBABILITY
-    from sensorplan.diagnosis.joint import JointProblem
+    from sensorplan.diagnosis.effects.sensors import FLIP_PROBABILITY
+    from sensorplan.diagnosis.joint.problem import JointProblem
     from sensorplan.model.prior import GMRFPrior
 
     case = example_case("openlab-like")
@@ -215,8 +227,8 @@ def test_a_flipped_sign_is_a_discrete_choice_with_its_prior():
                                                     for c in data.crossings))
     for crossings, signs in ((data, [1.0, 1.0]), (flipped, [1.0, -1.0])):
         problem = JointProblem(case, crossings, [make_effect("sensor_gain")], GMRFPrior())
-        effect, _ = problem.block("sensor_gain")
-        assert effect.sign.tolist() == signs
+        block, _ = problem.block("sensor_gain")
+        assert block.detail.tolist() == signs
         flips = signs.count(-1.0)
         expected = flips * np.log(FLIP_PROBABILITY) + (2 - flips) * np.log(1 - FLIP_PROBABILITY)
         assert problem.log_prior_constant == pytest.approx(expected)
@@ -229,7 +241,7 @@ def test_a_flipped_sign_is_a_discrete_choice_with_its_prior():
     ([0.5, 0.5, 0.5, 0.5], False),  # total 2: below the threshold
 ])
 def test_heldout_gain_may_sit_in_one_fold_but_not_at_the_others_expense(gains, significant):
-    from sensorplan.diagnosis.refit import gain_is_significant
+    from sensorplan.diagnosis.selection.heldout import gain_is_significant
 
     current = Heldout(np.zeros(4), 1.0, np.ones(1), 1.0)
     new = Heldout(np.array(gains), 1.0, np.ones(1), 1.0)
@@ -308,11 +320,11 @@ def test_a_selection_step_lets_later_candidates_give_up_below_an_eligible_one():
     # the step's level 43); without the tests (or in worker processes) every candidate gets the level
     first = {"A": (100, True, 100), "B": (90, True, 90), "C": (50, True, 50)}
     ctx = _Floors(first)
-    fit_models(ctx, {n: ([n], None) for n in "ABC"}, 43.0, bf_threshold=3.0, runner=None, say=lambda text: None,
-               label="", strict=True, eligible=lambda name, fit, held: name == "A")
+    fit_models(ctx, {n: ([n], None) for n in "ABC"}, 43.0, policy=POLICY, runner=None, say=lambda text: None,
+               label="", strict=True, eligible=lambda name, candidate: name == "A")
     assert ctx.floors == {"A": 43.0, "B": 97.0, "C": 97.0}
     ctx = _Floors(first)
-    fit_models(ctx, {n: ([n], None) for n in "ABC"}, 43.0, bf_threshold=3.0, runner=None, say=lambda text: None,
+    fit_models(ctx, {n: ([n], None) for n in "ABC"}, 43.0, policy=POLICY, runner=None, say=lambda text: None,
                label="", strict=True)
     assert ctx.floors == {"A": 43.0, "B": 43.0, "C": 43.0}
 
@@ -321,27 +333,28 @@ class _Honours(_Slow):
     """_Slow whose first-pass fits give up (abandoned) when their ceiling is below the floor they are given."""
 
     def fit(self, names, blocks=None, *, initial=True, max_iter=40, floor=None, budget=False):
-        fit, held = super().fit(names, blocks)
-        if floor is not None and fit.ceiling < floor:
-            return replace(fit, converged=False, abandoned=True), None
-        return fit, held
+        candidate = super().fit(names, blocks)
+        if floor is not None and candidate.fit.ceiling < floor:
+            return Candidate(replace(candidate.fit, converged=False, abandoned=True), None)
+        return candidate
 
 
 def test_candidates_given_up_below_a_leader_that_fails_the_tests_are_continued():
     # A leads (100, not converged, then converged) but fails the step's tests; B, given up against A's floor 97,
     # converges at 50 once continued from the step's level 43; C cannot reach 43 and stays given up
     ctx = _Honours({"A": (100, False, 101), "B": (50, True, 50), "C": (30, True, 30)}, {"A": 100, "B": 50})
-    out = fit_models(ctx, {n: ([n], None) for n in "ABC"}, 43.0, bf_threshold=3.0, runner=None,
+    out = fit_models(ctx, {n: ([n], None) for n in "ABC"}, 43.0, policy=POLICY, runner=None,
                      say=lambda text: None, label="", strict=True,
-                     eligible=lambda name, fit, held: name != "A" and fit.converged)
+                     eligible=lambda name, candidate: name != "A" and candidate.fit.converged)
     assert ("B", 43.0) in ctx.resumed and all(r[0] != "C" for r in ctx.resumed)
-    assert out["B"][0].converged and out["B"][0].log_evidence == 50
-    assert out["C"][0].abandoned and not out["C"][0].converged
+    assert out["B"].fit.converged and out["B"].fit.log_evidence == 50
+    assert out["C"].fit.abandoned and not out["C"].fit.converged
     # with A passing the tests B is not continued: it could be neither the pick nor its alternative
     ctx = _Honours({"A": (100, True, 100), "B": (50, True, 50), "C": (30, True, 30)}, {})
-    out = fit_models(ctx, {n: ([n], None) for n in "ABC"}, 43.0, bf_threshold=3.0, runner=None,
-                     say=lambda text: None, label="", strict=True, eligible=lambda name, fit, held: fit.converged)
-    assert ctx.resumed == [] and out["B"][0].abandoned
+    out = fit_models(ctx, {n: ([n], None) for n in "ABC"}, 43.0, policy=POLICY, runner=None,
+                     say=lambda text: None, label="", strict=True,
+                     eligible=lambda name, candidate: candidate.fit.converged)
+    assert ctx.resumed == [] and out["B"].fit.abandoned
 
 
 class _Crawl(_Slow):
@@ -351,29 +364,30 @@ class _Crawl(_Slow):
         super().__init__(first, {})
         self.passes = passes
 
-    def resume(self, fit, *, max_iter=40, floor=None):
-        name = next(n for n, p in self.passes.items() if fit.log_evidence in [self.first[n][0]] + [q[0] for q in p])
+    def resume(self, candidate, *, max_iter=40, floor=None):
+        evidence = candidate.fit.log_evidence
+        name = next(n for n, p in self.passes.items() if evidence in [self.first[n][0]] + [q[0] for q in p])
         k = sum(1 for r in self.resumed if r[0] == name)
         self.resumed.append((name, max_iter))
         evidence, converged, ceiling = self.passes[name][k]
-        return self._fit(evidence, converged, ceiling), _held(evidence) if converged else None
+        return Candidate(self._fit(evidence, converged, ceiling), _held(evidence) if converged else None)
 
 
 def test_a_leader_still_crawling_after_two_passes_gets_a_third():
     # S (sensor positions on precise data) leads everything converged by far but crawls through the second pass
     ctx = _Crawl({"A": (100, True, 100), "S": (200, False, 400)}, {"S": [(330, False, 360), (334, True, 334)]})
-    out = fit_models(ctx, {n: ([n], None) for n in "AS"}, 3.0, bf_threshold=3.0, runner=None,
+    out = fit_models(ctx, {n: ([n], None) for n in "AS"}, 3.0, policy=POLICY, runner=None,
                      say=lambda text: None, label="")
     assert [r[0] for r in ctx.resumed] == ["S", "S"] and ctx.resumed[1][1] > ctx.resumed[0][1]
-    assert out["S"][0].converged and out["S"][0].log_evidence == 334
+    assert out["S"].fit.converged and out["S"].fit.log_evidence == 334
 
 
 def test_no_third_pass_for_a_crawling_fit_that_does_not_lead():
     # S is still crawling but no better than A, which converged: it cannot decide the step alone
     ctx = _Crawl({"A": (100, True, 100), "S": (90, False, 120)}, {"S": [(101, False, 110), (150, True, 150)]})
-    out = fit_models(ctx, {n: ([n], None) for n in "AS"}, 3.0, bf_threshold=3.0, runner=None,
+    out = fit_models(ctx, {n: ([n], None) for n in "AS"}, 3.0, policy=POLICY, runner=None,
                      say=lambda text: None, label="")
-    assert [r[0] for r in ctx.resumed] == ["S"] and not out["S"][0].converged
+    assert [r[0] for r in ctx.resumed] == ["S"] and not out["S"].fit.converged
 
 
 class _Revived(_Table):
@@ -383,10 +397,11 @@ class _Revived(_Table):
         super().__init__(models)
         self.final, self.resumed = final, []
 
-    def resume(self, fit, *, max_iter=40, floor=None):
+    def resume(self, candidate, *, max_iter=40, floor=None):
         self.resumed.append(floor)
         evidence, total = self.final
-        return QuickFit(_Problem(), np.zeros(1), np.eye(1), float(evidence), True, 15, 1.0, 1.0), _held(total)
+        return Candidate(QuickFit(_Problem(), np.zeros(1), np.eye(1), float(evidence), True, 15, 1.0, 1.0),
+                         _held(total))
 
 
 def test_the_screening_continues_candidates_given_up_below_a_leader_that_fails_the_tests():
@@ -396,13 +411,13 @@ def test_the_screening_continues_candidates_given_up_below_a_leader_that_fails_t
     models = {frozenset(): (0, 0), frozenset("A"): (100, -100), frozenset("AB"): (101, 81)}
     ctx = _Revived(models, (55, 80))
     given_up = QuickFit(_Problem(), np.zeros(1), np.eye(1), 50.0, False, 15, 1.0, 1.0, ceiling=60.0, abandoned=True)
-    screened = {"A": ctx.fit(["A"]), "B": (given_up, None)}
-    selected, _, current, _ = select(ctx, ["A", "B"], screened, _Fit(0), _held(0), bf_threshold=3.0,
-                                     gain_threshold=3.0, max_rounds=3, folds=True, say=lambda text: None)
-    assert ctx.resumed == [3.0] and selected == ["B"] and current.log_evidence == 55
+    screened = {"A": ctx.fit(["A"]), "B": Candidate(given_up, None)}
+    selection = select(ctx, ["A", "B"], screened, Candidate(_Fit(0), _held(0)), policy=POLICY, folds=True,
+                       say=lambda text: None)
+    assert ctx.resumed == [3.0] and selection.selected == ("B",) and selection.current.fit.log_evidence == 55
     # a candidate whose ceiling cannot reach the level is not continued
-    screened = {"A": ctx.fit(["A"]), "B": (replace(given_up, ceiling=2.0), None)}
+    screened = {"A": ctx.fit(["A"]), "B": Candidate(replace(given_up, ceiling=2.0), None)}
     ctx.resumed = []
-    selected, *_ = select(ctx, ["A", "B"], screened, _Fit(0), _held(0), bf_threshold=3.0, gain_threshold=3.0,
-                          max_rounds=3, folds=True, say=lambda text: None)
-    assert ctx.resumed == [] and selected == []
+    selection = select(ctx, ["A", "B"], screened, Candidate(_Fit(0), _held(0)), policy=POLICY, folds=True,
+                       say=lambda text: None)
+    assert ctx.resumed == [] and selection.selected == ()

@@ -122,12 +122,12 @@ def test_seven_steps_name_load_dependent_stiffness_and_nothing_impossible(seven_
     assert d.causes == (study.LOAD_DEPENDENT,)
     finding = d.findings[study.LOAD_DEPENDENT][0]
     # EI falls with the load: the secant flexibility LWA_4 / F grows from step to step (derived table)
-    assert finding["unit"] == "%" and finding["high"] < 0
+    assert finding.unit == "%" and finding.high < 0
     lwa4 = [p.deflection[3] / p.force for p in plateaus_from_table(study.pe21)]
     assert lwa4[-1] > 1.3 * lwa4[0]
     # the residual of the largest reading shrinks by a factor of several
     s = d.shrinkage["LWA_4"]
-    assert s["rms_after"] < 0.3 * s["rms_before"]
+    assert s.rms_after < 0.3 * s.rms_before
 
 
 @pytest.mark.slow

@@ -10,36 +10,34 @@ import numpy as np
 from ..model.crossings import Crossings
 from ..model.noise import NoiseModel
 from ..model.sensors import SensorLayout
-from .effects import make_effect
-from .joint import JointProblem
+from .joint.problem import JointProblem
 from .results import Confounding
 
-__all__ = []
+__all__ = ["confounding", "kept_fraction"]
 
-SEPARABLE = ("support_rotational_spring", "vertical_support_spring", "position_offset", "axle_loads",
-             "dynamic_amplification", "load_dependent_stiffness")
-KEPT_LIMIT = 0.2
-N_CANDIDATES = 41
+KEPT_LIMIT = 0.2  # an effect keeping less of its information under unknown EI is confounded with EI
+N_CANDIDATES = 41  # candidate sensor positions along the bridge
 
 
-def confounding(case, crossings, names, prior, theta_base, alpha, tau, estimate_springs):
-    """Confounding entries of the effects ``names`` that keep < 20 % of their information under unknown EI."""
+def confounding(case, crossings, effects, *, prior, theta_base, alpha, tau, estimate_springs):
+    """Confounding entries of the ``effects`` (objects) that keep < 20 % of their information under unknown EI."""
     out = []
-    for name in names:
-        problem = JointProblem(case, crossings, [make_effect(name)], prior, estimate_springs=estimate_springs)
+    for effect in effects:
+        problem = JointProblem(case, crossings, [effect], prior, estimate_springs=estimate_springs)
         theta = _at_base(problem, theta_base)
         lin = problem.evaluate(theta)
         if lin is None:
             continue
-        _, sl = problem.block(name)
+        _, sl = problem.block(effect.name)
         info = lin.jtj / alpha**2
         kept = kept_fraction(info, problem, tau, sl)
         if kept >= KEPT_LIMIT:
             continue
         where = None
-        if name in SEPARABLE:
-            where = _separating_sensor(case, crossings, name, prior, theta, info, alpha, tau, kept, estimate_springs)
-        out.append(Confounding(name, kept, where))
+        if not effect.per_sensor:  # a sensor elsewhere cannot inform the data's own sensors' parameters
+            where = _separating_sensor(case, crossings, effect, prior, theta, info, alpha=alpha, tau=tau, kept=kept,
+                                       estimate_springs=estimate_springs)
+        out.append(Confounding(effect.name, kept, where))
     return out
 
 
@@ -70,10 +68,10 @@ def kept_fraction(info, problem, tau, sl):
     return float(np.clip(ratio.min(), 0.0, 1.0))
 
 
-def _separating_sensor(case, crossings, name, prior, theta, base_info, alpha, tau, kept, estimate_springs):
+def _separating_sensor(case, crossings, effect, prior, theta, base_info, *, alpha, tau, kept, estimate_springs):
     """The candidate position (41 along the bridge, all in one forward evaluation) that raises ``kept`` most."""
     kind = case.sensors.kinds[0]
-    binned = getattr(crossings[0], "noise", None)  # binned data (binning.py): the readings' noise model
+    binned = getattr(crossings[0], "noise", None)  # binned data (joint/binning.py): the readings' noise model
     noise = binned if binned is not None else case.noise
     std = float(np.median(noise.std)) if noise is not None else 1e-6
     xs = np.linspace(0.0, case.bridge.length, N_CANDIDATES)
@@ -89,11 +87,11 @@ def _separating_sensor(case, crossings, name, prior, theta, base_info, alpha, ta
         dummy = Crossings(names, tuple(replace(c, values=np.zeros((xs.size, c.n_loads)), noise=cand_noise,
                                                raw_values=np.zeros((xs.size, c.raw_positions.size)))
                                        for c in crossings))
-    cand = JointProblem(cand_case, dummy, [make_effect(name)], prior, estimate_springs=estimate_springs)
-    base = JointProblem(case, crossings, [make_effect(name)], prior, estimate_springs=estimate_springs)
+    cand = JointProblem(cand_case, dummy, [effect], prior, estimate_springs=estimate_springs)
+    base = JointProblem(case, crossings, [effect], prior, estimate_springs=estimate_springs)
     if cand.n_params != base.n_params:
         return None
-    _, sl = base.block(name)
+    _, sl = base.block(effect.name)
     rows = cand.rows(theta)
     jac, sensor = rows[1], rows[4]
     best, best_kept = None, kept

@@ -17,13 +17,13 @@ def corrected_case(case, diagnosis):
 
     Effects on the readings (offsets, drift, gains, amplification) and on the
     load positions or load levels are properties of the data, not of the
-    case; they are listed in ``diagnosis.corrected_model["not_in_case"]``.
+    case; they are listed in ``diagnosis.corrected_model.not_in_case``.
     """
     m = diagnosis.corrected_model
-    if not m:
+    if m is None:
         return case
-    bridge = Bridge(case.bridge.spans, tuple(m["rotational_springs"]), tuple(m["vertical_springs"]))
+    bridge = Bridge(case.bridge.spans, tuple(m.rotational_springs), tuple(m.vertical_springs))
     s = case.sensors
-    sensors = SensorLayout(m["sensor_positions"], s.kinds, s.names, s.noise_std)
-    vehicle = Vehicle(case.vehicle.axle_offsets, tuple(m["axle_loads"]))
+    sensors = SensorLayout(list(m.sensor_positions), s.kinds, s.names, s.noise_std)
+    vehicle = Vehicle(case.vehicle.axle_offsets, tuple(m.axle_loads))
     return replace(case, bridge=bridge, sensors=sensors, vehicle=vehicle)

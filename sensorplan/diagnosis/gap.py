@@ -8,13 +8,13 @@ import math
 import numpy as np
 from scipy import special
 
-from .results import Gap, SensorGap
+from .results import Gap, ResidualMap, SensorGap
 
 __all__ = ["residual_gap"]
 
 
 def residual_gap(problem, theta, alpha):
-    """Residual split into noise and systematic parts, per sensor, with structure tests."""
+    """(:class:`Gap`, :class:`ResidualMap`): the residual split into noise and systematic parts, per sensor."""
     residuals = problem.residuals(theta)
     crossings = problem.crossings
     names = problem.sensor_names
@@ -47,7 +47,8 @@ def residual_gap(problem, theta, alpha):
         p_values += [p_sys, p_lb]
         p_structure.append(p_lb)
         rms = math.sqrt(float(np.mean(np.concatenate([r[i] for r in residuals]) ** 2)))
-        by_sensor[name] = SensorGap(rms, math.sqrt(sys_var), math.sqrt(noise_var), p_sys, p_lb)
+        by_sensor[name] = SensorGap(rms, systematic_rms=math.sqrt(sys_var), noise_rms=math.sqrt(noise_var),
+                                    p_systematic=p_sys, p_ljung_box=p_lb)
         means.append(mean / math.sqrt(max(noise_var, 1e-300)))
     all_res = np.concatenate([r.ravel() for r in residuals])
     sys_rms = math.sqrt(np.mean([v.systematic_rms ** 2 for v in by_sensor.values()]))
@@ -67,8 +68,10 @@ def residual_gap(problem, theta, alpha):
     # mean but not in the correlation.
     p_lb_min = min(1.0, min(p_structure) * len(p_structure))  # Bonferroni over sensors
     significant = (p_min < 1e-3 and sys_rms > 0.1 * noise_rms) or p_lb_min < 1e-3
-    return Gap(float(np.sqrt(np.mean(all_res**2))), float(sys_rms), float(noise_rms), by_sensor, tuple(sorted(worst)),
-               float(p_min), bool(significant)), (grid, np.stack(means))
+    gap = Gap(float(np.sqrt(np.mean(all_res**2))), systematic_rms=float(sys_rms), noise_rms=float(noise_rms),
+              by_sensor=by_sensor, worst_positions_m=tuple(sorted(worst)), p_value=float(p_min),
+              significant=bool(significant))
+    return gap, ResidualMap(grid, np.stack(means))
 
 
 def _ljung_box(problem, residuals, i, alpha, lags=10):

@@ -1,13 +1,43 @@
-"""Result types of the gap diagnosis: Gap, SensorGap, EffectFit, Confounding, GapDiagnosis.
+"""Result types of the gap diagnosis: the gap, each effect's fit, findings, the corrected model, the diagnosis.
+
+Every result is a frozen dataclass; ``to_dict()`` gives its JSON form
+(the CLI's ``--json``).
 
 Owns: the diagnosis's results and their JSON form.  May import: the foundations.
 """
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import KW_ONLY, asdict, dataclass, field
 
 import numpy as np
 
-__all__ = ["Confounding", "EffectFit", "Gap", "GapDiagnosis", "SensorGap"]
+__all__ = ["Binning", "Confounding", "CorrectedModel", "EffectFit", "Finding", "Gap", "GapDiagnosis", "ResidualMap",
+           "SensorGap", "SensorShrinkage"]
+
+
+@dataclass(frozen=True)
+class Finding:
+    """An effect in engineering terms: where, the value and its 95 % interval in ``unit``, and the sentence.
+
+    ``case_value``, ``differs``: for the case's own springs, the configured
+    value and whether the interval excludes it (None otherwise).
+    """
+
+    where: str
+    value: float
+    low: float
+    high: float
+    unit: str
+    text: str
+    case_value: float | None = None
+    differs: bool | None = None
+
+    def to_dict(self):
+        out = {"where": self.where, "value": self.value, "low": self.low, "high": self.high, "unit": self.unit,
+               "text": self.text}
+        if self.case_value is not None:
+            out["case_value"] = self.case_value
+            out["differs"] = self.differs
+        return out
 
 
 @dataclass(frozen=True)
@@ -15,6 +45,7 @@ class SensorGap:
     """One sensor's residual split into noise and systematic parts (in the sensor's unit), with tests."""
 
     rms_residual: float
+    _: KW_ONLY
     systematic_rms: float
     noise_rms: float
     p_systematic: float
@@ -42,6 +73,7 @@ class Gap:
     """
 
     rms_residual: float
+    _: KW_ONLY
     systematic_rms: float
     noise_rms: float
     by_sensor: dict
@@ -80,11 +112,12 @@ class EffectFit:
         The refit was stopped before converging because it could not come
         near the best candidate's evidence (its Bayes factor is what it had
         reached; not converged).
-    findings : tuple of dict
+    findings : tuple of Finding
         The effect in engineering terms (where, value, 95 % interval, unit).
     """
 
     name: str
+    _: KW_ONLY
     log_bayes_factor: float
     heldout_score_gain: float | None
     rms_after: float
@@ -93,13 +126,13 @@ class EffectFit:
     ei_shift: tuple
     max_ei_shift: float
     converged: bool = True
-    findings: tuple = ()  # dicts: where, value, low, high (95 %), unit, text
+    findings: tuple = ()
     abandoned: bool = False
 
     def to_dict(self):
         out = asdict(self)
         out["ei_shift"] = list(self.ei_shift)
-        out["findings"] = [dict(f) for f in self.findings]
+        out["findings"] = [f.to_dict() for f in self.findings]
         return out
 
 
@@ -116,35 +149,108 @@ class Confounding:
 
 
 @dataclass(frozen=True, eq=False)
-class GapDiagnosis:
-    """Result of :func:`diagnose` (JSON keys as in the CLI)."""
+class ResidualMap:
+    """The mean residual over the crossings per sensor, in noise standard deviations, on a grid of load positions.
 
-    gap: "Gap"
-    effects: tuple  # EffectFit, best log Bayes factor first
+    ``grid_m`` (G,) [m]; ``normalised_mean_residual`` (S, G).
+    """
+
+    grid_m: np.ndarray
+    normalised_mean_residual: np.ndarray
+
+
+@dataclass(frozen=True)
+class SensorShrinkage:
+    """One sensor's residual rms before and after the selected effects, in fit and held out [rad or m]."""
+
+    kind: str
+    rms_before: float
+    rms_after: float
+    heldout_rms_before: float | None
+    heldout_rms_after: float | None
+
+    def to_dict(self):
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class Binning:
+    """How a dense record was fitted: bins of ``size`` readings (``width_m`` [m]), ``rows`` readings in ``bins``
+    bins, each keeping at least ``keep`` of the information on EI."""
+
+    size: int
+    width_m: float
+    rows: int
+    bins: int
+    keep: float
+
+    def to_dict(self):
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class CorrectedModel:
+    """The model state of the selected model's final MAP (SI): what a corrected case holds, and what it cannot.
+
+    ``not_in_case``: the selected effects that are properties of the data
+    (offsets, drift, gains, amplification, load positions or levels).
+    """
+
+    rotational_springs: tuple
+    vertical_springs: tuple
+    sensor_positions: tuple
+    axle_loads: tuple
+    not_in_case: tuple
+
+    def to_dict(self):
+        return {"rotational_springs": list(self.rotational_springs), "vertical_springs": list(self.vertical_springs),
+                "sensor_positions": list(self.sensor_positions), "axle_loads": list(self.axle_loads),
+                "not_in_case": list(self.not_in_case)}
+
+
+@dataclass(frozen=True, eq=False)
+class GapDiagnosis:
+    """Result of :func:`~sensorplan.diagnosis.diagnose.diagnose` (JSON keys as in the CLI).
+
+    ``effects``: one :class:`EffectFit` per candidate, best log Bayes factor
+    first; ``causes``: the selected effects in order of selection; per
+    cause its ``findings`` (of the final refit), ``alternatives`` (effects
+    explaining the gap about as well) and ``includes`` (candidates it holds
+    as a special case); ``not_offered``: effect -> why it cannot act on
+    these data; ``shrinkage``: sensor -> :class:`SensorShrinkage`;
+    ``springs``: findings of the case's elastic springs (estimated as
+    invert does); ``binning``: how a dense record was fitted (None: row by
+    row); ``heldout_ratio_before``/``after``: held-out rms / configured
+    noise; ``corrected_model``: None when not formed.
+    """
+
+    gap: Gap
+    _: KW_ONLY
+    effects: tuple
     causes: tuple
     unexplained: bool
-    confounded: tuple  # Confounding
+    confounded: tuple
     verdict: str
-    gap_after: "Gap"
+    gap_after: Gap
     ei_edges: np.ndarray
     ei_base: np.ndarray
     ei_final: np.ndarray
-    residual_map: dict = field(default_factory=dict)
+    residual_map: ResidualMap | None = None
     ei_base_band: tuple = ()  # (low, high) 95 % per element [N m^2]
     ei_final_band: tuple = ()  # of the selected model refitted with its hyperparameters
-    findings: dict = field(default_factory=dict)  # selected effect -> findings of the final refit
-    alternatives: dict = field(default_factory=dict)  # selected effect -> effects explaining the gap about as well
-    not_offered: dict = field(default_factory=dict)  # effect -> why it cannot act on these data
-    shrinkage: dict = field(default_factory=dict)  # sensor -> kind and residual rms before/after [rad or m]
-    springs: tuple = ()  # findings of the case's elastic springs (estimated as invert does)
+    findings: dict = field(default_factory=dict)
+    alternatives: dict = field(default_factory=dict)
+    not_offered: dict = field(default_factory=dict)
+    shrinkage: dict = field(default_factory=dict)
+    springs: tuple = ()
     springs_estimated: bool = False
     noise_scale: float = float("nan")
     converged: bool = True
-    heldout_ratio_before: float | None = None  # held-out rms / configured noise
+    heldout_ratio_before: float | None = None
     heldout_ratio_after: float | None = None
-    corrected_model: dict = field(default_factory=dict)  # final MAP state (SI), for a corrected case
-    binning: dict = field(default_factory=dict)  # dense records: size, width_m, rows, bins of the fitted bin means
-    includes: dict = field(default_factory=dict)  # cause -> candidate effects it holds as a special case
+    corrected_model: CorrectedModel | None = None
+    binning: Binning | None = None
+    includes: dict = field(default_factory=dict)
 
     def summary(self):
         from .summary import summary_lines
@@ -165,19 +271,17 @@ class GapDiagnosis:
             "ei_final": self.ei_final.tolist(),
             "ei_base_band": [np.asarray(b).tolist() for b in self.ei_base_band],
             "ei_final_band": [np.asarray(b).tolist() for b in self.ei_final_band],
-            "findings": {k: [dict(f) for f in v] for k, v in self.findings.items()},
+            "findings": {k: [f.to_dict() for f in v] for k, v in self.findings.items()},
             "alternatives": {k: list(v) for k, v in self.alternatives.items()},
             "not_offered": dict(self.not_offered),
-            "shrinkage": {k: dict(v) for k, v in self.shrinkage.items()},
+            "shrinkage": {k: v.to_dict() for k, v in self.shrinkage.items()},
             "springs_estimated": self.springs_estimated,
-            "springs": [dict(f) for f in self.springs],
+            "springs": [f.to_dict() for f in self.springs],
             "noise_scale": self.noise_scale,
             "converged": self.converged,
             "heldout_ratio_before": self.heldout_ratio_before,
             "heldout_ratio_after": self.heldout_ratio_after,
-            "corrected_model": dict(self.corrected_model),
-            "binning": dict(self.binning),
+            "corrected_model": {} if self.corrected_model is None else self.corrected_model.to_dict(),
+            "binning": {} if self.binning is None else self.binning.to_dict(),
             "includes": {k: list(v) for k, v in self.includes.items()},
         }
-
-

@@ -5,9 +5,9 @@ Owns: the diagnosis's printed form.  May import: the foundations.
 
 import numpy as np
 
-from .describe import in_unit
+from .units import in_unit
 
-__all__ = []
+__all__ = ["summary_lines"]
 
 
 def summary_lines(d):
@@ -15,19 +15,19 @@ def summary_lines(d):
     lines = [f"Sim-to-real gap: {'significant' if g.significant else 'not significant'} (p = {g.p_value:.2g})"]
     for name, s in d.shrinkage.items():
         v = g.by_sensor[name]
-        lines.append(f"  {name}: residual rms {in_unit(v.rms_residual, s['kind'])}, systematic "
-                     f"{in_unit(v.systematic_rms, s['kind'])}, noise {in_unit(v.noise_rms, s['kind'])}")
+        lines.append(f"  {name}: residual rms {in_unit(v.rms_residual, s.kind)}, systematic "
+                     f"{in_unit(v.systematic_rms, s.kind)}, noise {in_unit(v.noise_rms, s.kind)}")
     if g.worst_positions_m:
         lines.append("  gap concentrates at load positions [m]: " + ", ".join(f"{x:.2f}" for x in g.worst_positions_m))
     if d.springs_estimated:
         lines.append("  springs: the case's elastic springs are estimated with EI (as invert does by default)")
-        lines += [f"    {f['text']}" for f in d.springs]
+        lines += [f"    {f.text}" for f in d.springs]
     else:
         lines.append("  springs: held at the case's values (none elastic, or estimate_springs=False)")
     if d.binning:
         b = d.binning
-        lines.append(f"  fitted in bins of {b['size']} consecutive readings ({b['width_m']:.2f} m; {b['rows']} "
-                     f"readings in {b['bins']} whitened bins): the bins keep >= {100 * b['keep']:.0f} % of the "
+        lines.append(f"  fitted in bins of {b.size} consecutive readings ({b.width_m:.2f} m; {b.rows} "
+                     f"readings in {b.bins} whitened bins): the bins keep >= {100 * b.keep:.0f} % of the "
                      "information on EI")
     for name, reason in d.not_offered.items():
         lines.append(f"  not offered: {name} ({reason})")
@@ -40,7 +40,7 @@ def summary_lines(d):
         lines.append(f"  {e.name:26s} {bf:>8s} {gain:>14s} {100 * e.max_ei_shift:12.1f}%{flag}")
     for k, name in enumerate(d.causes):
         lines.append(f"  cause {k + 1}: {name}")
-        lines += [f"    {f['text']}" for f in d.findings.get(name, ())] or ["    (no single parameter stands out)"]
+        lines += [f"    {f.text}" for f in d.findings.get(name, ())] or ["    (no single parameter stands out)"]
         if d.alternatives.get(name):
             lines.append("    explains the gap about as well: " + ", ".join(d.alternatives[name]))
         if d.includes.get(name):
@@ -50,9 +50,9 @@ def summary_lines(d):
         lines.append("  residual rms per sensor, before -> after the selected effects (held out in brackets):")
         for name, s in d.shrinkage.items():
             held = ""
-            if s["heldout_rms_before"] is not None and s["heldout_rms_after"] is not None:
-                held = f" ({in_unit(s['heldout_rms_before'], s['kind'])} -> {in_unit(s['heldout_rms_after'], s['kind'])})"
-            lines.append(f"    {name}: {in_unit(s['rms_before'], s['kind'])} -> {in_unit(s['rms_after'], s['kind'])}{held}")
+            if s.heldout_rms_before is not None and s.heldout_rms_after is not None:
+                held = f" ({in_unit(s.heldout_rms_before, s.kind)} -> {in_unit(s.heldout_rms_after, s.kind)})"
+            lines.append(f"    {name}: {in_unit(s.rms_before, s.kind)} -> {in_unit(s.rms_after, s.kind)}{held}")
         if d.ei_final_band:
             lo, hi = (np.asarray(b) for b in d.ei_final_band)
             lines.append(f"  EI after correction: {np.min(d.ei_final):.3g} to {np.max(d.ei_final):.3g} N·m², "

@@ -12,8 +12,8 @@ __all__ = ["plot_residual_map", "plot_shrinkage", "plot_ei_before_after"]
 def plot_residual_map(diagnosis, *, ax=None, sensor_names=None):
     """Mean residual over crossings, in noise standard deviations, per sensor and load position."""
     ax = axes_or_new(ax, figsize=(8, 3.2))
-    grid = diagnosis.residual_map["grid_m"]
-    values = diagnosis.residual_map["normalised_mean_residual"]
+    grid = diagnosis.residual_map.grid_m
+    values = diagnosis.residual_map.normalised_mean_residual
     names = list(diagnosis.gap.by_sensor) if sensor_names is None else sensor_names
     lim = max(3.0, float(np.max(np.abs(values))))
     extent = (grid[0], grid[-1] if grid[-1] > grid[0] else grid[0] + 1.0, len(names) - 0.5, -0.5)

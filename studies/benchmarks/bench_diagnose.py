@@ -299,7 +299,7 @@ CASES = {"small": (small_case, 12), "three": (three_case, 6)}
 # effect; position offsets with a settled bearing are the slowest datasets measured.  "pairs6": the same with
 # six tiltmeters evenly from 0.1 L to 0.9 L (the top of the 2-6 sensor range).  "dense6": pairs6 recorded
 # every 0.05 m (a data logger at 100 Hz under a vehicle at 5 m/s: 899 readings per sensor and crossing, five
-# times the others), which diagnose fits in whitened bins (sensorplan/diagnosis/binning.py)
+# times the others), which diagnose fits in whitened bins (sensorplan/diagnosis/joint/binning.py)
 PAIRS = ("pairs", "pairs6", "dense6")
 DENSE_STEP = 0.05  # m
 

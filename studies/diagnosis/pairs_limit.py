@@ -69,8 +69,8 @@ from effects_data import generate  # noqa: E402
 from restraint_limit import penalised_misfit  # noqa: E402
 from validation import make_case  # noqa: E402
 
-from sensorplan.diagnosis.joint import JointProblem  # noqa: E402
-from sensorplan.diagnosis.refit import integrated_fit  # noqa: E402
+from sensorplan.diagnosis.joint.problem import JointProblem  # noqa: E402
+from sensorplan.diagnosis.joint.fits import integrated_fit  # noqa: E402
 from sensorplan.model.prior import GMRFPrior  # noqa: E402
 
 Z = {0.05: 1.645, 0.005: 2.576}  # one-sided normal quantiles; 0.005 ~ the diagnosis's log Bayes factor of 3

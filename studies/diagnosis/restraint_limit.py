@@ -58,8 +58,9 @@ import pairs  # noqa: E402
 from effects_data import _fine, generate  # noqa: E402
 
 from sensorplan.diagnosis.effects import make_effect  # noqa: E402
-from sensorplan.diagnosis.joint import JointProblem  # noqa: E402
-from sensorplan.diagnosis.refit import integrated_fit, quick_fit  # noqa: E402
+from sensorplan.diagnosis.joint.problem import JointProblem  # noqa: E402
+from sensorplan.diagnosis.joint.fits import integrated_fit  # noqa: E402
+from sensorplan.diagnosis.selection.refit import quick_fit  # noqa: E402
 from sensorplan.model.prior import GMRFPrior  # noqa: E402
 from sensorplan.model.simulate import simulate_crossings  # noqa: E402
 

@@ -254,7 +254,7 @@ def run_one(job):
                 "error": f"{type(exc).__name__}: {exc}", "cpu": time.process_time() - t0}
     causes = tuple(d.causes)
     conf = {c.name for c in d.confounded}
-    springs_differ = any(f.get("differs") for f in d.springs)
+    springs_differ = any(f.differs for f in d.springs)
     lib = [e for e in effects if e in EFFECT_NAMES]
     if kind == "single" and lib:
         e = lib[0]

@@ -207,8 +207,8 @@ def run_one(bridge, effect, seed):
         "min_heldout_rms": min((e.heldout_rms_after for e in d.effects
                                 if e.heldout_rms_after is not None), default=math.nan),
         "verdict": d.verdict,
-        "springs_differ": any(f.get("differs") for f in d.springs),
-        "findings": " | ".join(f["text"] for fs in d.findings.values() for f in fs),
+        "springs_differ": any(f.differs for f in d.springs),
+        "findings": " | ".join(f.text for fs in d.findings.values() for f in fs),
         "alternatives": ";".join(f"{k}~{'/'.join(v)}" for k, v in d.alternatives.items() if v),
         "heldout_ratio_after": d.heldout_ratio_after,
         "log_bfs": ";".join(f"{e.name}={e.log_bayes_factor:.2f}" for e in d.effects),

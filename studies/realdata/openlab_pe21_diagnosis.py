@@ -43,7 +43,7 @@ import sensorplan as sp
 from sensorplan import Case, Crossing, Crossings, NoiseModel
 from sensorplan.diagnosis.diagnose import diagnose
 from sensorplan.diagnosis.effects import make_effect
-from sensorplan.diagnosis.joint import JointProblem
+from sensorplan.diagnosis.joint.problem import JointProblem
 from sensorplan.inference.laplace import fit_problem
 
 
@@ -118,8 +118,8 @@ def effect(diagnosis, name):
 
 def effect_prior(case, crossings, name, prior=PRIOR):
     """Prior mean and std of an effect's parameters as diagnose configures them."""
-    e = JointProblem(case, crossings, [make_effect(name)], prior, estimate_springs=False).effects[0]
-    return e.mean.copy(), e.std.copy()
+    block = JointProblem(case, crossings, [make_effect(name)], prior, estimate_springs=False).blocks[0]
+    return block.mean.copy(), block.std.copy()
 
 
 def _fit(case, crossings, prior=PRIOR):
@@ -190,7 +190,7 @@ def supports(case, crossings, diagnosis, prior=PRIOR):
 
 def base_heldout_rms(diagnosis):
     """Held-out rms of the base model [m], as diagnose computes it for the effects (whole steps held out)."""
-    held = [s["heldout_rms_before"] for s in diagnosis.shrinkage.values()]
+    held = [s.heldout_rms_before for s in diagnosis.shrinkage.values()]
     return float(np.sqrt(np.mean(np.square(held)))) if None not in held else math.nan
 
 

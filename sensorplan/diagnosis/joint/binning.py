@@ -24,12 +24,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import linalg, sparse
 
-from ..inference.laplace import data_sensors
-from ..model.crossings import Crossing, Crossings
-from ..model.forward import influence_lines
-from ..model.noise import NoiseModel
+from ..._cache import value_key
+from ...inference.engine import data_sensors
+from ...model.crossings import Crossing, Crossings
+from ...model.forward import influence_lines
+from ...model.noise import NoiseModel
 
-__all__ = []
+__all__ = ["KEEP", "BinnedCrossing", "bin_crossings", "bin_sum", "choose_size", "model_rows"]
 
 KEEP = 0.95  # least fraction of the posterior precision of log EI a bin keeps in any direction
 MIN_ROWS = 160  # crossings with fewer rows are fitted row by row (fast enough; nothing to gain)
@@ -56,8 +57,8 @@ class BinnedCrossing(Crossing):
             object.__setattr__(self, "bin_map", _bin_map(self.noise, self.raw_positions, self.size))
             object.__setattr__(self, "_factor_map", None)  # formed on first use (map_with)
             # crossings with equal keys have equal maps (a model mapped for one serves the others)
-            object.__setattr__(self, "map_key", (self.raw_positions.tobytes(), self.size, self.noise.std.tobytes(),
-                                                 self.noise.correlation_length))
+            object.__setattr__(self, "map_key", value_key(self.raw_positions, self.size, self.noise.std,
+                                                          self.noise.correlation_length))
 
     def map_with(self, load_factor):
         """The sparse map readings -> bins applied after scaling the readings by ``load_factor``."""
@@ -128,7 +129,7 @@ def choose_size(case, crossings, prior):
     sensors, noise = data_sensors(case, crossings.sensor_names)
     groups = {}  # crossings with the same positions and load factors have the same information
     for c in crossings:
-        groups.setdefault(c.positions.tobytes() + c.load_factor.tobytes(), [c, 0])[1] += 1
+        groups.setdefault(value_key(c.positions, c.load_factor), [c, 0])[1] += 1
     whites = []  # the whitened log-EI Jacobian of each group, and its count
     for c, count in groups.values():
         lines = influence_lines(case.bridge, case.mesh, case.ei, sensors, case.vehicle, c.positions)

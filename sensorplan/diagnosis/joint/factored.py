@@ -4,11 +4,10 @@ The log-EI columns of a binned crossing are R T: R its interpolation
 weights mapped onto its bins (bins x table rows, sparse), T the line
 interpolant's element kernel of the table rows (table rows x sensors x
 elements), each sensor's rows times a scale.  Formed, they are the largest
-array of an evaluation (bins x sensors x elements per crossing: three spans,
-twelve crossings, six tiltmeters, 60 elements: 5 MB, formed, scaled and
-copied at every evaluation with a Jacobian); their share of the normal
+array of an evaluation (bins x sensors x elements per crossing, formed,
+scaled and copied at every evaluation with a Jacobian); their share of the normal
 equations needs only R^T R, R^T r and R^T B (B the effects' columns), all
-of the table's size.  :class:`~.joint.JointProblem` uses this whenever every
+of the table's size.  :class:`~.problem.JointProblem` uses this whenever every
 crossing is binned; the explicit blocks (:func:`.lines.log_ei_blocks`) remain
 for the rows of the held-out folds.
 
@@ -17,9 +16,10 @@ Owns: the factored log-EI normal equations.  May import: the diagnosis's lines.
 
 import numpy as np
 
+from ..._cache import value_key
 from .lines import mapped_groups
 
-__all__ = []
+__all__ = ["LogEIFactor", "add_factored_terms", "log_ei_factors"]
 
 
 class LogEIFactor:
@@ -34,26 +34,29 @@ class LogEIFactor:
     is ``scale[s] * (mapped[rows] @ table[:, s, :])``; its share of J^T J
     is table_s^T (R^T R) table_s summed over the sensors with their squared
     scales: products of the table's size instead of bins x elements
-    (:meth:`~.joint.JointProblem.evaluate`).
+    (:meth:`~.problem.JointProblem.evaluate`).  ``mapped_key``: the values
+    ``mapped`` was built from (crossings with one key share it).
     """
 
-    def __init__(self, mapped, rows, table, scale):
+    def __init__(self, mapped, rows, table, scale, *, mapped_key):
         self.mapped, self.rows, self.table, self.scale = mapped, rows, table, scale
+        self.mapped_key = mapped_key
 
 
-def log_ei_factors(items, kept):
-    """:class:`LogEIFactor` of every (lines, load factor, binned) item, all binned (see :func:`log_ei_blocks`)."""
+def log_ei_factors(items, cache):
+    """:class:`LogEIFactor` of every (lines, load factor, binned) item, all binned (see :func:`.lines.log_ei_blocks`)."""
     out = [None] * len(items)
-    for members, lines, mapped, offsets in mapped_groups(items, kept):
+    for members, lines, mapped, offsets, key in mapped_groups(items, cache):
         interpolant = lines.interpolant
         table = (interpolant.kernel_table.reshape(-1, interpolant.n_sensors, interpolant.n_elements)
                  * (-1.0 / lines.ei))
         for j, k in enumerate(members):
-            out[k] = LogEIFactor(mapped, slice(offsets[j], offsets[j + 1]), table, 1.0 / items[k][2].noise.std)
+            out[k] = LogEIFactor(mapped, slice(offsets[j], offsets[j + 1]), table, 1.0 / items[k][2].noise.std,
+                                 mapped_key=key)
     return out
 
 
-def add_factored_terms(terms, jtj, jtr, kept):
+def add_factored_terms(terms, jtj, jtr, cache):
     """Add the log-EI rows and columns of J^T J and J^T r of the factored crossings ``terms``.
 
     With A = diag(scale) (R T) of a crossing (R its weights on the bins,
@@ -62,12 +65,12 @@ def add_factored_terms(terms, jtj, jtr, kept):
     rows.  The crossings of one interpolant share T, and when their
     scales factor into a crossing's times a sensor's (the noise std and
     gains per sensor, amplifications per crossing) R^T R of all of them is
-    one weighted product (kept while the weights and loads stay).
+    one weighted product (kept in ``cache``, a :class:`~sensorplan._cache.Cache`).
     """
     n_el = terms[0][0].table.shape[2]
     groups = {}
     for term in terms:
-        groups.setdefault(id(term[0].mapped), []).append(term)
+        groups.setdefault(term[0].mapped_key, []).append(term)
     for members in groups.values():
         mapped, table = members[0][0].mapped, members[0][0].table
         n_rows, n_sensors = table.shape[:2]
@@ -100,7 +103,7 @@ def add_factored_terms(terms, jtj, jtr, kept):
         jtr[:n_el] += np.einsum("lse,ls->e", table, dense.T @ residuals)
         flat = table.reshape(n_rows, -1)  # (L, S E)
         if rank_one:  # sum_s sensor_s^2 T_s^T G T_s with one G: two products
-            product = _weighted_gram(mapped, weights, kept, len(groups)) @ flat
+            product = _weighted_gram(members[0][0], weights, cache) @ flat
             weighted = (table * (sensor**2)[None, :, None]).reshape(-1, n_el)
             jtj[:n_el, :n_el] += weighted.T @ product.reshape(-1, n_el)
         else:  # scales that do not factor: per sensor, every crossing's R^T R with its own weight
@@ -112,23 +115,12 @@ def add_factored_terms(terms, jtj, jtr, kept):
                 jtj[:n_el, :n_el] += table[:, s, :].T @ (grams[s] @ table[:, s, :])
 
 
-def _weighted_gram(mapped, weights, kept, n_groups):
-    """R^T diag(weights) R of the sparse ``mapped`` (dense), kept while R and the weights stay the same.
+def _weighted_gram(factor, weights, cache):
+    """R^T diag(weights) R of the sparse ``factor.mapped`` (dense), kept in ``cache`` under its key and ``weights``."""
+    def gram():
+        mapped = factor.mapped
+        scaled = mapped.copy()  # rows times sqrt(weights), in the sparse structure as it is
+        scaled.data *= np.repeat(np.sqrt(weights), np.diff(mapped.indptr))
+        return (scaled.T @ scaled).toarray()
 
-    ``kept`` holds at least the ``n_groups`` of an evaluation: with a
-    crossing's own EI (load-dependent stiffness) every crossing has its own
-    interpolant and R, and twelve of them cycled through eight places missed
-    every time (2134 of 2338 grams formed again on one dataset).
-    """
-    key = id(mapped)
-    hit = kept.get(key)
-    if hit is not None and hit[0] is mapped and np.array_equal(hit[1], weights):
-        kept.move_to_end(key)
-        return hit[2]
-    scaled = mapped.copy()  # rows times sqrt(weights), in the sparse structure as it is
-    scaled.data *= np.repeat(np.sqrt(weights), np.diff(mapped.indptr))
-    gram = (scaled.T @ scaled).toarray()
-    kept[key] = (mapped, weights, gram)  # the reference keeps the id unique while kept
-    while len(kept) > max(8, n_groups):
-        kept.popitem(last=False)
-    return gram
+    return cache.get((), gram, key=("gram", factor.mapped_key, value_key(weights)))

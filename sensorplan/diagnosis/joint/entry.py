@@ -1,24 +1,22 @@
 """Axles rolling onto an elastic end bearing over a short ramp (when an effect moves the loads).
 
 Over an elastic end bearing a point load jumps from zero to the bearing's
-response as it steps on; with the load positions as parameters a fit then
-sits on that jump (line searches fail, Levenberg-Marquardt crawls: 20-30
-evaluations per tau node of a settled end bearing with position offsets).
-The response of an axle at u (its position on the bridge) is scaled by
-g(u), a smooth step s^2 (3 - 2 s) from 0 at ``entry``/2 outside the end to
-1 at ``entry``/2 inside (a tyre's contact patch rolling on); outside the
-bridge the response is the one at the end.  Centred on the end, the ramp
-crosses the jump where a point load does: a ramp that lay wholly outside
-moved the jump out by half its width, which a fit of shifts and axle loads
-then tried to absorb (a single span with a settled end bearing named axle
-loads as a third cause).  Rigid ends carry no jump and no ramp.
+response as it steps on; with the load positions as parameters a fit would
+then sit on that jump (line searches fail, Levenberg-Marquardt crawls).  The
+response of an axle at u (its position on the bridge) is scaled by g(u), a
+smooth step s^2 (3 - 2 s) from 0 at ``entry``/2 outside the end to 1 at
+``entry``/2 inside (a tyre's contact patch rolling on); outside the bridge
+the response is the one at the end.  Centred on the end, the ramp crosses
+the jump where a point load does (a ramp wholly outside would move the jump
+out by half its width, for shifts and axle loads to absorb).  Rigid ends
+carry no jump and no ramp.
 
 Owns: the ramp.  May import: numpy.
 """
 
 import numpy as np
 
-__all__ = []
+__all__ = ["entry_ramp"]
 
 
 def _smooth_step(s):
