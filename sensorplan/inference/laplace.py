@@ -15,12 +15,9 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
-# WhitenedData, Linearisation, data_sensors: the names under which the diagnosis (diagnosis/joint.py,
-# binning.py, refit.py) imports the engine until it is ported onto inference.engine
-from .engine import LOG_NOISE_FLOOR, Linearisation, data_sensors, log_evidence, solve_map
-from .engine import WhitenedProblem as WhitenedData
+from .engine import LOG_NOISE_FLOOR, log_evidence, solve_map
 
-__all__ = ["Fit", "fit_problem", "Linearisation", "WhitenedData", "data_sensors", "log_evidence", "solve_map"]
+__all__ = ["Fit", "fit_problem"]
 
 
 def _linearised_data(lin, theta):
