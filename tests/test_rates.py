@@ -119,3 +119,13 @@ def test_empty_verification_panel_says_why():
         "no detections: no layout detected any of the local losses\n(every scan statistic above is below its "
         "threshold)"]
     assert len(plot_verification(_result([1, 0], [0] * 5, localisation=0.3))[1].texts) == 0
+
+
+def test_a_ranking_note_on_identical_detections_says_so_not_plus_minus_zero():
+    result = _result([1, 1], [0] * 5, names=("recommended", "random"))
+    first, second = result.layouts
+    closer = LayoutScore.from_records(second.layout_m, [dataclasses.replace(r, localisation_error_m=0.1)
+                                                        if r.kind == "local" else r for r in second.records],
+                                      detection_limit=0.4)  # ranks first by a smaller localisation error
+    text = rank_layouts(dataclasses.replace(result, layouts=(first, closer))).summary()
+    assert "detection rate the same, loss by loss" in text and "0.000 ± 0.000" not in text

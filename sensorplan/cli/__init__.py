@@ -5,8 +5,10 @@ its ``summary()`` and writes its files through :class:`OutputFiles` (all
 or nothing).  Each command is a module here with ``NAME``, ``HELP``,
 ``EPILOG``, ``add_arguments(parser)`` and ``run(args, out, files)``.
 Exit codes: 0 success, 1 user error or usage error (one line on stderr
-naming the option or the field and the fix).  Tracebacks are shown only
-with ``--debug``.
+naming the option or the field and the fix; an unknown option with the
+closest known one, abbreviations refused).  Tracebacks are shown only with
+``--debug``.  A command's output folder keeps the files of its last run
+only (:mod:`sensorplan.io.manifest`).
 
 Owns: argument parsing, console output, exit codes.
 May import: every other layer (it is the top one).

@@ -92,8 +92,7 @@ class VerificationRanking:
         if not better:
             lines.append(f"  the {crit} layout ({self.reference}) verifies best.")
         for e in better:
-            diff = ("" if e.detection_rate_diff is None else
-                    f"; detection rate {e.detection_rate_diff:+.3f} ± {_f(e.detection_rate_diff_se)} (paired s.e.)")
+            diff = "" if e.detection_rate_diff is None else f"; detection rate {_paired_text(e)}"
             diff += f"; detection limit {_f(e.detection_limit)} vs {_f(ref.detection_limit)}"
             lines.append(f"  NOTE: baseline {e.name} verifies better than the {crit} layout "
                          f"(better on {', '.join(e.better_on) or 'ties broken in its favour'}{diff}): "
@@ -103,6 +102,14 @@ class VerificationRanking:
     def to_dict(self):
         return {"verification_ranking": [e.to_dict() for e in self.entries],
                 "baseline_verifies_better": list(self.verifies_better)}
+
+
+def _paired_text(entry):
+    """The paired difference of detection rates to the reference: "+0.250 ± 0.144 (paired s.e.)", or that
+    both layouts detected the same losses (a difference of 0 with a paired s.e. of 0 says no more)."""
+    if not entry.detection_rate_diff_se and entry.detection_rate_diff == 0.0:
+        return "the same, loss by loss"
+    return f"{entry.detection_rate_diff:+.3f} ± {_f(entry.detection_rate_diff_se)} (paired s.e.)"
 
 
 def _f(value, fmt=".3f"):
