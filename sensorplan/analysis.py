@@ -57,7 +57,7 @@ class Analysis:
 def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None = None, criterion: str = "D",
             spacing: float | None = None, n_scenarios: int = 6, n_crossings: int = 10, seed: int = 0,
             progress: "Callable[[str], None] | None" = None, design_options: dict | None = None,
-            detect: bool = True) -> Analysis:
+            detect: bool = True, progress_units: "Callable[[int, int], None] | None" = None) -> Analysis:
     """Run the analyses of a report: informativeness, layout, verification, identification, gap.
 
     Parameters
@@ -73,13 +73,16 @@ def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None 
         Candidate spacing [m] (default: about length / 60).
     n_scenarios, n_crossings, seed : verification settings.
     progress : callable, optional
-        Called with a short message after each stage.
+        Called with a short message when each stage starts.
     design_options : dict, optional
         Keyword arguments of :func:`sensorplan.design.recommend.recommend`
         (``grid``, ``constraints``, ``kind``, ``noise_std``, ...); a ``grid``
         here overrides ``spacing``.
     detect : bool
         Add the detectability map of the recommended layout.
+    progress_units : callable, optional
+        Called with (done, total) after each repeated unit of a stage (the
+        verification's scenario inversions).
 
     Returns
     -------
@@ -87,30 +90,35 @@ def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None 
     """
     from .design.recommend import CandidateGrid, recommend
 
+    say = progress if progress is not None else (lambda text: None)
     count = case.sensors.n_sensors if count is None else int(count)
     spacing = spacing if spacing is not None else max(0.25, round(case.bridge.length / 60.0 * 4) / 4)
     candidates = _candidate_informativeness(case)
     options = {"grid": CandidateGrid(spacing=spacing), "rng": seed, **(design_options or {})}
+    say(f"recommending a {criterion}-optimal layout of {count} sensor(s)")
     design = recommend(case, count, criterion, **options)
-    if progress:
-        progress("layout recommended")
-    verification = _verify_design(case, design, n_scenarios=n_scenarios, n_crossings=n_crossings, seed=seed)
-    if progress:
-        progress("layouts verified")
+    say(f"verifying the recommended layout and {sum(b.feasible for b in design.baselines)} baseline(s) by "
+        f"inversion of synthetic damage ({n_scenarios} locations, {n_crossings} crossings each)")
+    verification = _verify_design(case, design, n_scenarios=n_scenarios, n_crossings=n_crossings, seed=seed,
+                                  progress=progress_units)
     detect_map = None
     if detect:
+        say("mapping what the layout detects along the bridge")
         detect_map = _installed_detectability(case, design, n_crossings=n_crossings)
-        if progress:
-            progress("detectability mapped")
-    posterior = diagnosis = None
-    if data is not None:
-        from .diagnosis.diagnose import diagnose
-        from .inference.inversion import invert
-
-        posterior = invert(case, data)
-        diagnosis = diagnose(case, data)
+    posterior, diagnosis = _measured(case, data, say) if data is not None else (None, None)
     return Analysis(case, candidates, design, verification, posterior=posterior, diagnosis=diagnosis,
                     detectability=detect_map, exclude=tuple(getattr(options["grid"], "exclude", ())))
+
+
+def _measured(case, data, say):
+    """The EI identified from measured ``data`` and the diagnosis of their gap to the model."""
+    from .diagnosis.diagnose import diagnose
+    from .inference.inversion import invert
+
+    say(f"identifying EI from the {len(data)} measured crossing(s)")
+    posterior = invert(case, data)
+    say("diagnosing the gap between the model and the data")
+    return posterior, diagnose(case, data)
 
 
 def _candidate_informativeness(case):
@@ -124,7 +132,7 @@ def _candidate_informativeness(case):
         parameterisation="ei")
 
 
-def _verify_design(case, design, *, n_scenarios, n_crossings, seed):
+def _verify_design(case, design, *, n_scenarios, n_crossings, seed, progress=None):
     """The recommended layout and the feasible baselines verified on the same scenarios."""
     from .design.candidates import sensor_layout
     from .verification.verify import verify_layouts
@@ -137,7 +145,7 @@ def _verify_design(case, design, *, n_scenarios, n_crossings, seed):
     return verify_layouts(case, [layout_of(design.layout_m, design.layout_kind)]
                           + [layout_of(b.layout_m, b.layout_kind) for b in feasible],
                           names=["recommended"] + [b.name for b in feasible], n_locations=n_scenarios,
-                          n_crossings=n_crossings, seed=seed)
+                          n_crossings=n_crossings, seed=seed, progress=progress)
 
 
 def _installed_detectability(case, design, *, n_crossings):

@@ -213,13 +213,18 @@ def test_recommend_bad_zone_is_a_usage_error(tmp_path, capsys):
     assert "start:stop" in capsys.readouterr().err
 
 
+_RATE = re.compile(r"(\d\.\d\d) \((\d+)/(\d+); (\d\.\d\d)-(\d\.\d\d)\)")
+_PM = re.compile(r"(\d+\.\d{3})(?:±(\d+\.\d{3}))?(?![\d/)])")
+
+
 def _summary_rows(printed, labels):
-    """The metric columns (mean, se pairs) of the verification table, one row per label."""
+    """The cells of the verification table's rows, one row per label: (mean[, se]) cells, rates, the limit,
+    the non-converged count."""
     rows = {}
     for line in printed.splitlines():
         for label in labels:
             if line.startswith(f"  {label} ") and "±" in line:
-                rows[label] = numbers(line[2 + len(label):])
+                rows[label] = line[2 + len(label):]
     return rows
 
 
@@ -234,26 +239,32 @@ def test_verify_writes_comparison(example, tmp_path, capsys):
     assert len(d["layouts"]) == 2 and d["layouts"][1]["layout_m"] == [1.0, 2.0]
     assert d["layouts"][0]["layout_m"] == list(case.sensors.positions)
     assert (d["seed"], d["n_crossings"], d["severity"], d["damage_length_m"]) == (3, 10, 0.25, 2.0)
-    metrics = ("rmse", "localisation_error_m", "detection_rate", "false_alarm_rate", "coverage95", "band_width")
     for entry in d["layouts"]:
         assert entry["n_scenarios"] == 2 + case.bridge.n_spans + 5  # local, span softenings, controls
         for key in ("detection_rate", "false_alarm_rate", "coverage95", "control_coverage95"):
             assert 0.0 <= entry[key] <= 1.0
-    # the printed table shows the numbers written to the JSON
+    # the printed table shows the numbers written to the JSON: rates with their counts and Wilson intervals,
+    # "no detections" for the localisation error when nothing was detected, never nan
     printed = capsys.readouterr().out
+    assert "nan" not in printed
     labels = [first.replace(",", ", "), "1, 2"]
     rows = _summary_rows(printed, labels)
     for label, entry in zip(labels, d["layouts"]):
-        values = list(rows[label])
-        # columns: three (mean, se) pairs, the detection limit, three pairs, the non-converged share
-        limit, not_converged = values.pop(6), values.pop()
-        shown = np.array(values).reshape(-1, 2)
-        np.testing.assert_allclose(shown[:, 0], [np.nan if entry[m] is None else entry[m] for m in metrics],
-                                   atol=5e-4)
-        np.testing.assert_allclose(shown[:, 1], [np.nan if entry[m + "_se"] is None else entry[m + "_se"]
-                                                 for m in metrics], atol=5e-4)
-        assert limit == pytest.approx(entry["detection_limit"], abs=5e-4)
-        assert not_converged == pytest.approx(entry["non_converged"], abs=5e-4)
+        row = rows[label]
+        for match, key in zip(_RATE.findall(row), ("detection_rate", "false_alarm_rate")):
+            mean, count, n, lo, hi = match
+            assert float(mean) == pytest.approx(entry[key], abs=5e-3)
+            assert (int(count), int(n)) == (entry[key + "_count"], entry[key + "_n"])
+            np.testing.assert_allclose([float(lo), float(hi)], entry[key + "_ci95"], atol=5e-3)
+        pms = [(float(m), float(se) if se else None) for m, se in _PM.findall(_RATE.sub("", row))]
+        keys = ["rmse"] + ([] if entry["localisation_error_m"] is None else ["localisation_error_m"])
+        keys += ["detection_limit", "coverage95", "band_width"]
+        assert len(pms) == len(keys) and (entry["localisation_error_m"] is not None or "no detections" in row)
+        for (mean, se), key in zip(pms, keys):
+            assert mean == pytest.approx(entry[key], abs=5e-4)
+            if key != "detection_limit" and se is not None:
+                assert se == pytest.approx(entry[key + "_se"], abs=5e-4)
+        assert row.rstrip().endswith(f"{entry['non_converged_count']}/{entry['non_converged_n']}")
     assert (tmp_path / "verification.png").exists()
     assert "Verification:" in printed
 

@@ -130,16 +130,25 @@ def test_report_shows_the_computed_results(built_report):
         if b.feasible:
             assert numbers(cells[0])[0] == pytest.approx(b.value, rel=1e-5)
             np.testing.assert_allclose(numbers(cells[1]), b.layout_m, atol=0.005)
-    # verification: one row per verified layout (recommended first), mean ± se per metric
+    # verification: one row per verified layout (recommended first), mean ± se per metric, the rates with their
+    # counts and Wilson 95 % intervals, "no detections" instead of a localisation error of nan
     names = ["recommended"] + [b.name for b in design.baselines if b.feasible]
     assert len(verification.layouts) == len(names)
     metrics = ("rmse", "localisation_error_m", "detection_rate", "false_alarm_rate", "coverage95", "band_width")
     verification_rows = [r for r in parsed.rows if r and r[0] in names and "±" in "".join(r)]
     assert [r[0] for r in verification_rows] == names
+    rate = re.compile(r"^(\d\.\d\d) \((\d+)/(\d+); 95 % (\d\.\d\d)-(\d\.\d\d)\)$")
     for row, score in zip(verification_rows, verification.layouts):
-        shown = np.array([numbers(cell) for cell in row[1:]])
-        np.testing.assert_allclose(shown[:, 0], [score.metrics[m].mean for m in metrics], atol=5e-4)
-        np.testing.assert_allclose(shown[:, 1], [score.metrics[m].se for m in metrics], atol=5e-4)
+        for cell, key in zip(row[1:], metrics):
+            m = score.metrics[key]
+            if m.is_rate:
+                mean, count, n, lo, hi = rate.match(cell).groups()
+                assert (float(mean), int(count), int(n)) == (pytest.approx(m.mean, abs=5e-3), m.count, m.n)
+                np.testing.assert_allclose([float(lo), float(hi)], m.ci95, atol=5e-3)
+            elif m.n == 0:
+                assert cell == "no detections"
+            else:
+                np.testing.assert_allclose(numbers(cell), [m.mean, m.se], atol=5e-4)
     # the ranking by verification: every verified layout once, by detection rate (then detection limit),
     # and a plain note for each baseline ranked above the recommended layout
     rank_rows = [r for r in parsed.rows if len(r) == 7 and r[0].isdigit()]
@@ -171,7 +180,15 @@ def test_report_on_every_example(example, tmp_path, capsys):
     assert parsed.h2[0] == "Conclusion" and parsed.h2[-1] == "Provenance"
     assert "Recommended layout and certificate" in parsed.h2 and "What the layout will detect" in parsed.h2
     # the layout printed on the console is the one in the report
-    printed = capsys.readouterr().out
+    captured = capsys.readouterr()
+    printed = captured.out
+    # a progress line per stage on stderr, and the verification's count of scenario inversions
+    stages = [line.split(": ", 1)[1] for line in captured.err.splitlines()]
+    assert stages[0].startswith("recommending a D-optimal layout of 2 sensor(s)")
+    assert stages[1].startswith("verifying the recommended layout and ")
+    assert any(re.match(r"(\d+)/\1 done in ", s) for s in stages)
+    assert stages[-2:] == ["mapping what the layout detects along the bridge",
+                           "drawing the figures and writing the report"]
     line = next(x for x in printed.splitlines() if x.startswith("  positions [m]: "))
     assert numbers(_row(parsed, "positions [m]")[0]) == numbers(line)
 

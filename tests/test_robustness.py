@@ -19,6 +19,7 @@ import contextlib
 import csv
 import io
 import math
+import re
 import tomllib
 import warnings
 from importlib import resources
@@ -61,8 +62,11 @@ def run(argv, capsys):
 
 
 def assert_one_line_error(rc, err, command, fields=()):
+    """One error line on stderr (after the progress lines of the stages that ran, if any)."""
     assert "Traceback" not in err, err
     lines = err.splitlines()
+    progress = [line for line in lines[:-1] if re.match(rf"sensorplan {command}: (?!error:|warning:)", line)]
+    lines = lines[len(progress):]
     assert len(lines) == 1, f"expected exactly one stderr line, got {err!r}"
     assert lines[0].startswith((f"sensorplan {command}: error:", "sensorplan: error:")), lines[0]
     for field in fields:

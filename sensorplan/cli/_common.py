@@ -14,6 +14,29 @@ from .._errors import ConfigError, SensorplanError
 __all__ = []
 
 
+def show_default(value):
+    """An option's default as its help and the user guide write it: 0.25, 2 (not 2.0), a,b for a list."""
+    if isinstance(value, float):
+        return f"{value:g}"
+    if isinstance(value, (list, tuple)):
+        return ",".join(show_default(v) for v in value)
+    return str(value)
+
+
+def document_defaults(actions):
+    """Append "(default X)" to the help of every option with a default that its help does not state.
+
+    An option whose default is None or False (not given, a flag) states its
+    meaning in its own words ("default: the case's sensors") or nothing.
+    """
+    for action in actions:
+        default = action.default
+        if (not action.option_strings or action.help in (None, argparse.SUPPRESS) or default is None
+                or isinstance(default, bool) or default == argparse.SUPPRESS or "default" in action.help):
+            continue
+        action.help = f"{action.help} (default {show_default(default)})".replace("%", "%%")
+
+
 def input_file(text):
     """An argparse type: the path of an existing file to read (a folder or a missing file is named)."""
     path = Path(text)
@@ -57,6 +80,20 @@ def load_case(args):
     if args.command != "simulate" and getattr(args, "elements", None) is None:
         check_elements(case, args.command)
     return case
+
+
+def read_data(path, case, command):
+    """The crossings of ``path`` for ``case``; when the file lacks some of the case's sensors, one line on
+    stderr says which it inverts and which it leaves out (a partial file is valid, the user should know)."""
+    from ..io.csvio import read_crossings
+
+    data = read_crossings(path, case.sensors)
+    missing = [name for name in case.sensors.names if name not in data.sensor_names]
+    if missing:
+        print(f"sensorplan {command}: warning: {path} has no column for sensor(s) {', '.join(missing)} of the "
+              f"case: using {', '.join(data.sensor_names)}, leaving out {', '.join(missing)}.",
+              file=sys.stderr, flush=True)
+    return data
 
 
 def check_elements(case, command):
@@ -261,18 +298,6 @@ def check_signal(case, noise, n_crossings):
                           f"position sees the vehicle above the noise (best signal-to-noise {snr:.2g}, below "
                           f"{MIN_SNR:g}): every layout would be certified by the prior alone; lower --noise-std or "
                           "raise --crossings.")
-
-
-def progress(args, label, unit="scenarios"):
-    """A progress callback (done, total) printing to stderr, or None with --quiet."""
-    if args.quiet:
-        return None
-
-    def report(done, total):
-        if total >= 20 and (done == total or done % max(1, total // 10) == 0):
-            print(f"sensorplan {label}: {done}/{total} {unit}", file=sys.stderr, flush=True)
-
-    return report
 
 
 def safe_name(name):

@@ -12,6 +12,7 @@ from ._common import (
 SPEED = real(0.0, 200.0, what="a speed in m/s", low_open=True)
 
 NAME = "crossings"
+OUT_IS_FILE = True  # --out is the CSV file, not a folder
 HELP = "find the crossings in a logger record and write them as a crossings CSV"
 EPILOG = """example:
   sensorplan crossings --config bridge.toml --timeseries logger.csv --out out/crossings.csv

@@ -16,6 +16,7 @@ from ._common import (
     stage_figure,
     stage_json,
 )
+from ._progress import Progress
 
 NAME = "detectability"
 HELP = "detection power and minimum detectable EI loss along the bridge"
@@ -56,6 +57,10 @@ def run(args, out, files):
         check_layouts(case, [args.layout], "--layout")
     check_step(case, args.step, "--step")
     check_length(case, args.length, "--length")
+    sensors = "the case's sensors" if args.layout is None else f"{len(args.layout)} sensor(s)"
+    Progress("detectability", quiet=args.quiet).stage(
+        f"mapping the detection power of {sensors} for a {100 * args.severity:g} % loss over {args.length:g} m, "
+        f"zone centres every {args.step:g} m")
     result = detectability(case, layout=args.layout, kind=args.kind, severity=args.severity, length=args.length,
                            false_alarm=args.false_alarm, n_crossings=args.crossings, nuisance=args.nuisance,
                            step=args.step)

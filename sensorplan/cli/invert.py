@@ -12,9 +12,11 @@ from ._common import (
     input_file,
     integer,
     load_case,
+    read_data,
     stage_figure,
     stage_json,
 )
+from ._progress import Progress
 
 NAME = "invert"
 HELP = "Bayesian identification of EI(x) from crossings (CSV)"
@@ -44,11 +46,11 @@ def run(args, out, files):
     from .. import plotting
     from .._errors import SensorplanError, SensorplanWarning
     from ..inference.inversion import invert
-    from ..io.csvio import read_crossings
+    from ..inference.screening import check_case_data_scale
     from ..model.structure import Mesh
 
     case = load_case(args)
-    data = read_crossings(args.data, case.sensors)
+    data = read_data(args.data, case, "invert")
     if args.elements is not None:
         if args.elements < case.bridge.n_spans:
             raise SensorplanError(f"--elements {args.elements} is fewer than the {case.bridge.n_spans} spans; give "
@@ -56,10 +58,14 @@ def run(args, out, files):
         case = case.with_mesh(Mesh.uniform(case.bridge, args.elements))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SensorplanWarning)
+        check_case_data_scale(case, data, source=str(args.data))  # a unit slip is refused before the stage line
+        Progress("invert", quiet=args.quiet).stage(
+            f"identifying EI on {case.n_elements} elements from {len(data)} crossing(s) of {data.n_sensors} "
+            "sensor(s), then calibrating the damage detector")
         result = invert(case, data, check_scale=str(args.data), false_alarm=args.false_alarm,
                         nuisance=args.nuisance, rng=args.seed)
-    for w in caught:
-        print(f"sensorplan invert: warning: {w.message}", file=sys.stderr)
+    for message in dict.fromkeys(str(w.message) for w in caught):  # the data checks ran twice: each warning once
+        print(f"sensorplan invert: warning: {message}", file=sys.stderr)
     figures = [stage_figure(files, plotting.plot_ei_posterior(result, supports=case.bridge.support_positions),
                             args.out / "ei_posterior.png")]
     for name, file_name in zip(result.sensor_names, file_names(result.sensor_names)):

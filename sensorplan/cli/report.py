@@ -1,9 +1,9 @@
 """``sensorplan report``: one self-contained HTML report and the design inputs (design.json)."""
 
-import sys
 from pathlib import Path
 
-from ._common import check_grid, input_file, load_case, option_names, stage_json
+from ._common import check_grid, input_file, load_case, option_names, read_data, stage_json
+from ._progress import Progress
 from .recommend import add_arguments as add_recommend_arguments
 from .recommend import design_options, recommend_argv
 
@@ -18,10 +18,24 @@ OUT/design.json (the inputs of the design: rerun `sensorplan recommend` with its
 """
 
 
+# options of recommend that the report takes but does not use (it always verifies, in this process)
+_COMPATIBILITY = {"verify": "accepted for compatibility with recommend; the report always verifies",
+                  "workers": "accepted for compatibility with recommend; the report verifies in one process",
+                  "scheduler": "accepted for compatibility with recommend; the report verifies in one process",
+                  "scheduler_timeout": "accepted for compatibility with recommend"}
+
+
 def add_arguments(p):
     add_recommend_arguments(p)
     p.set_defaults(scenarios=6)
     p.add_argument("--data", type=input_file, help="measured crossings CSV (adds identified EI and the gap diagnosis)")
+    for action in p.option_actions:
+        if action.dest in _COMPATIBILITY:
+            action.help = _COMPATIBILITY[action.dest]
+        elif action.dest == "seed":
+            action.help = "random seed of the random baseline and of the verification's noise"
+        elif action.dest == "verify_crossings":
+            action.help = "crossings simulated per verification scenario, and in the detectability map"
 
 
 def _inputs(args):
@@ -37,22 +51,21 @@ def _inputs(args):
 def run(args, out, files):
     from ..analysis import analyse
     from ..inference.screening import check_case_data_scale, check_not_noise_free
-    from ..io.csvio import read_crossings
     from ..report import provenance, render_report
 
     case = load_case(args)
     with option_names():
         check_grid(case, args)
         design = design_options(args, case)
-    data = read_crossings(args.data, case.sensors) if args.data is not None else None
+    data = read_data(args.data, case, "report") if args.data is not None else None
     if data is not None:
         check_case_data_scale(case, data, source=str(args.data))
         check_not_noise_free(case, data, source=str(args.data), what="diagnose in the report")
-    progress = None if args.quiet else (lambda msg: print(f"sensorplan report: {msg}", file=sys.stderr, flush=True))
+    progress = Progress("report", quiet=args.quiet)
     with option_names():
         analysis = analyse(case, data=data, count=args.count, criterion=args.criterion, n_scenarios=args.scenarios,
-                           n_crossings=args.verify_crossings, seed=args.seed, progress=progress,
-                           design_options=design)
+                           n_crossings=args.verify_crossings, seed=args.seed, progress=progress.stage,
+                           progress_units=progress.count, design_options=design)
     argv = recommend_argv(args)
     options = {k: (str(v) if isinstance(v, Path) else v) for k, v in sorted(vars(args).items())
                if k not in ("handler", "quiet", "debug")}
@@ -60,6 +73,7 @@ def run(args, out, files):
                                                  *(["--data", str(args.data)] if args.data else []),
                                                  "--scenarios", str(args.scenarios), "--out", str(args.out)],
                         example=args.example)
+    progress.stage("drawing the figures and writing the report")
     report = render_report(analysis, provenance=record)
     path = files.write_text(args.out / "report.html", report.html)
     json_path = stage_json(files, args.json or args.out / "design.json",

@@ -11,6 +11,7 @@ from ._common import (
 )
 
 NAME = "simulate"
+OUT_IS_FILE = True  # --out is the CSV file, not a folder
 HELP = "write predicted or noisy synthetic crossings (CSV)"
 EPILOG = """example:
   sensorplan simulate --example openlab-like --crossings 5 --noise --seed 1 --out crossings.csv

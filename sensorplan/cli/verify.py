@@ -16,7 +16,6 @@ from ._common import (
     check_length,
     integer,
     load_case,
-    progress,
     real,
     stage_figure,
     stage_json,
@@ -29,6 +28,7 @@ from ._kinds import (
     kinds_and_noise,
     parse_sensors,
 )
+from ._progress import Progress
 
 NAME = "verify"
 HELP = "verify layouts by Bayesian inversion of synthetic damage"
@@ -44,7 +44,7 @@ def add_verify_arguments(p, *, with_flag):
         p.add_argument("--verify", action="store_true",
                        help="verify the layout and the baselines by inversion of synthetic damage")
     p.add_argument("--scenarios", type=integer(1, MAX_SCENARIOS), default=8,
-                   help="damage locations scanned (default 8)")
+                   help="damage locations scanned (default %(default)s)")
     p.add_argument("--workers", type=integer(1, MAX_WORKERS), default=1, help="worker processes (default 1)")
     p.add_argument("--scheduler", type=SCHEDULER, metavar="ADDRESS",
                    help="run the scenarios on a Dask cluster: a scheduler address such as tcp://127.0.0.1:8786, "
@@ -120,13 +120,16 @@ def run_verifications(args, case, layouts, names, files, *, json_path):
     options = dict(length=_given(args, "length", 2.0), false_alarm=_given(args, "false_alarm", 0.05),
                    nuisance=_given(args, "nuisance", "smooth"))
     check_length(case, options["length"], "--length")
-    results = []
+    results, progress = [], Progress(args.command, quiet=args.quiet)
     with executor_for(args.workers, args.scheduler, timeout=args.scheduler_timeout, name="--scheduler") as runner:
         for sev in severities:
+            progress.stage(f"verifying {len(layouts)} layout(s) by inversion of synthetic damage ({100 * sev:g} % "
+                           f"loss over {options['length']:g} m at {args.scenarios} locations, span softenings, "
+                           f"undamaged controls; {args.verify_crossings} crossings each)",
+                           unit="scenario inversions")
             results.append(verify_layouts(case, layouts, names=names, n_locations=args.scenarios,
                                           n_crossings=args.verify_crossings, seed=args.seed, executor=runner,
-                                          severity=sev, **options,
-                                          progress=progress(args, args.command)))
+                                          severity=sev, **options, progress=progress.count))
     if len(results) == 1:
         payload = results[0].to_dict()
         paths = [args.out / "verification.png"]

@@ -15,6 +15,7 @@ import tempfile
 from pathlib import Path
 
 from .._errors import ConfigError
+from .manifest import prune_previous_run
 
 __all__ = ["OutputFiles", "atomic_write_text"]
 
@@ -37,7 +38,10 @@ class OutputFiles:
 
     ``stage(path)`` returns a temporary path to write instead of ``path``;
     leaving the ``with`` block normally moves every staged file into place,
-    an exception discards them all.
+    an exception discards them all.  With an output ``folder``, a commit
+    also removes the files the previous run wrote there and this one did not
+    rewrite (:func:`~sensorplan.io.manifest.prune_previous_run`; never the
+    ``keep`` paths, the run's inputs); their names are in ``removed``.
 
     >>> import tempfile, pathlib
     >>> folder = pathlib.Path(tempfile.mkdtemp())
@@ -55,8 +59,11 @@ class OutputFiles:
     False
     """
 
-    def __init__(self):
+    def __init__(self, *, folder=None, keep=()):
         self._staged = []  # (temporary, final)
+        self.folder = folder
+        self.keep = tuple(keep)
+        self.removed = ()  # files of the previous run removed by the commit (relative to folder)
 
     def __enter__(self):
         return self
@@ -132,6 +139,8 @@ class OutputFiles:
         for backup, _ in backups:
             backup.unlink()
         self._staged = []
+        if self.folder is not None:
+            self.removed = prune_previous_run(self.folder, moved, keep=self.keep)
 
 
 def atomic_write_text(path, text):

@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["new_figure", "axes_or_new", "mark_bridge", "eng_unit", "save_figure"]
+__all__ = ["new_figure", "axes_or_new", "mark_bridge", "eng_unit", "empty_note", "integer_ticks",
+           "legend_outside", "save_figure"]
 
 
 def new_figure(figsize, nrows=1, ncols=1, **kwargs):
@@ -38,6 +39,25 @@ def mark_bridge(ax, supports, sensors=None, *, labels=True):
         ax.plot(sensors.positions, np.full(sensors.n_sensors, y0), "^", color="k",
                 markersize=7, clip_on=False, zorder=5, label="sensors" if labels else None)
     return ax
+
+
+def empty_note(ax, text):
+    """Say in the middle of ``ax`` why it shows no data (instead of leaving an empty frame)."""
+    ax.text(0.5, 0.5, text, transform=ax.transAxes, ha="center", va="center", fontsize=9, color="0.35",
+            bbox=dict(boxstyle="round", facecolor="white", edgecolor="0.8"))
+    return ax
+
+
+def integer_ticks(axis):
+    """Ticks at whole numbers only on ``axis`` (a count of sensors has no 2.5)."""
+    from matplotlib.ticker import MaxNLocator
+
+    axis.set_major_locator(MaxNLocator(integer=True))
+
+
+def legend_outside(ax, **kwargs):
+    """A legend right of ``ax``, off the data (for many curves that would cover it inside)."""
+    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, **kwargs)
 
 
 def eng_unit(kind):

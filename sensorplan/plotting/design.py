@@ -4,7 +4,7 @@ number of sensors, what it detects along the bridge and how it verified on synth
 
 import numpy as np
 
-from .common import axes_or_new, mark_bridge, new_figure
+from .common import axes_or_new, empty_note, integer_ticks, mark_bridge, new_figure
 
 __all__ = ["plot_layout", "plot_posterior_std", "plot_criterion_curve", "plot_detectability", "plot_verification"]
 
@@ -38,7 +38,7 @@ def plot_layout(design, *, ax=None, exclude=()):
         previous = x
         ax.annotate(f"{x:.2f} m", (x, 0.0), xytext=(0, -32 if low else -22), textcoords="offset points",
                     ha="center", fontsize=8, color="C3")
-    ax.set_ylim(-0.45, 0.7)
+    ax.set_ylim(-0.45, 0.9)  # relaxed weights reach 0.55; the legend sits above them
     ax.set_yticks([])
     ax.set_xlim(x0 - 0.02 * (x1 - x0), x1 + 0.02 * (x1 - x0))
     ax.set_xlabel("position along the bridge x [m]")
@@ -51,16 +51,20 @@ def plot_posterior_std(design, *, ax=None, baseline=None):
     """Posterior standard deviation of log EI (about the relative std of EI) along the bridge."""
     ax = axes_or_new(ax)
     baseline = design.best_baseline() if baseline is None else baseline
+    # baseline=None: a step line, not an outline closed down to 0 at the bridge ends (which read as an
+    # uncertainty of 0 at the end supports)
     ax.stairs(100 * design.posterior_std["recommended"], design.edges, linewidth=1.8, color="C3",
-              label="recommended layout")
+              label="recommended layout", baseline=None)
     if baseline in design.posterior_std:
         ax.stairs(100 * design.posterior_std[baseline], design.edges, linewidth=1.3, color="C0",
-                  linestyle="--", label=f"best baseline ({baseline})")
+                  linestyle="--", label=f"best baseline ({baseline})", baseline=None)
+    ax.set_ylim(bottom=0.0)
     mark_bridge(ax, design.supports_m)
+    ax.set_xlim(design.edges[0], design.edges[-1])
     ax.set_xlabel("position along the bridge x [m]")
     ax.set_ylabel("posterior std of EI [%]")
     ax.set_title("What the layout leaves uncertain (prior + data, at nominal EI)")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="best")
     return ax
 
 
@@ -75,10 +79,11 @@ def plot_criterion_curve(design, *, ax=None):
         if c.failed:
             ax.axvline(c.count, color="C3", alpha=0.3, linewidth=6, label=f"R = {c.count} infeasible")
     ax.axvline(design.count, color="0.6", linestyle=":")
+    integer_ticks(ax.xaxis)
     ax.set_xlabel("number of sensors R")
     ax.set_ylabel(f"{design.criterion} criterion")
     ax.set_title("Criterion versus number of sensors")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="best")
     return ax
 
 
@@ -110,24 +115,36 @@ def plot_detectability(result, *, axes=None):
 
 
 def plot_verification(verification, *, axes=None, supports=None):
-    """Scan statistic (relative to its threshold) and localisation error versus damage location, per layout."""
+    """Scan statistic (relative to its threshold) and localisation error versus damage location, per layout.
+
+    A panel with nothing to show says why in its middle (no local-loss
+    scenario; no loss detected, so no localisation error).
+    """
     if axes is None:
         _, axes = new_figure((8, 5.6), 2, 1, sharex=True)
     names = verification.names or [s.label for s in verification.layouts]
+    detected = 0
     for name, score in zip(names, verification.layouts):
         local = [r for r in score.records if r.kind == "local"]
         x = [r.centre_m for r in local]
+        errors = [np.nan if r.localisation_error_m is None else r.localisation_error_m for r in local]
+        detected += int(np.sum(np.isfinite(errors))) if errors else 0
         axes[0].plot(x, [r.statistic / r.threshold for r in local], "o-", markersize=4, label=name)
-        axes[1].plot(x, [np.nan if r.localisation_error_m is None else r.localisation_error_m for r in local], "o-",
-                     markersize=4, label=name)
+        axes[1].plot(x, errors, "o-", markersize=4, label=name)
     axes[0].axhline(1.0, color="k", linestyle="--", linewidth=0.8)
     axes[0].set_ylabel("scan statistic / threshold\n(> 1: detected)")
     axes[0].set_title(f"Verification: {100 * verification.severity:.0f} % EI loss over "
                       f"{verification.length:g} m, {verification.n_crossings} crossings")
     axes[1].set_ylabel("localisation error [m]\n(detected losses)")
     axes[1].set_xlabel("centre of the damage [m]")
+    if not any(s.kind == "local" for s in verification.scenarios):
+        for ax in axes:
+            empty_note(ax, "no local-loss scenario verified").set_yticks([])
+    elif detected == 0:
+        empty_note(axes[1], "no detections: no layout detected any of the local losses\n"
+                            "(every scan statistic above is below its threshold)").set_yticks([])
     for ax in axes:
         if supports is not None:
             mark_bridge(ax, supports)
-    axes[0].legend(fontsize=7)
+    axes[0].legend(fontsize=7, loc="best", ncol=2 if len(names) > 3 else 1)
     return axes

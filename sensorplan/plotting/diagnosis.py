@@ -4,7 +4,7 @@ effect shrinks the gap, and the identified EI before and after modelling it.
 
 import numpy as np
 
-from .common import axes_or_new, mark_bridge
+from .common import axes_or_new, empty_note, legend_outside, mark_bridge
 
 __all__ = ["plot_residual_map", "plot_shrinkage", "plot_ei_before_after"]
 
@@ -27,20 +27,29 @@ def plot_residual_map(diagnosis, *, ax=None, sensor_names=None):
 
 
 def plot_shrinkage(diagnosis, *, ax=None):
-    """Residual rms after adding each effect (fitted and held out) against the base model."""
+    """Residual rms after adding each effect (fitted and held out) against the base model.
+
+    In units of the noise rms (1 is the noise floor): the residuals of tilt
+    and deflection sensors share no physical unit, their ratio to the noise
+    does.  In SI (rad or m) when the noise rms is 0.
+    """
     ax = axes_or_new(ax, figsize=(8, 3.6))
+    noise = diagnosis.gap.noise_rms
+    scale, unit = (1.0 / noise, "noise rms") if noise > 0 else (1.0, "rad or m")
     names = [e.name for e in diagnosis.effects]
-    fitted = [e.rms_after for e in diagnosis.effects]
-    held = [np.nan if e.heldout_rms_after is None else e.heldout_rms_after for e in diagnosis.effects]
+    fitted = [scale * e.rms_after for e in diagnosis.effects]
+    held = [np.nan if e.heldout_rms_after is None else scale * e.heldout_rms_after for e in diagnosis.effects]
     x = np.arange(len(names))
     ax.bar(x - 0.2, fitted, width=0.4, label="fitted")
     ax.bar(x + 0.2, held, width=0.4, label="held out")
-    ax.axhline(diagnosis.gap.rms_residual, color="k", linestyle="--", linewidth=1, label="base model")
-    ax.axhline(diagnosis.gap.noise_rms, color="C2", linestyle=":", linewidth=1.2, label="noise floor")
+    ax.axhline(scale * diagnosis.gap.rms_residual, color="k", linestyle="--", linewidth=1, label="base model")
+    ax.axhline(scale * noise, color="C2", linestyle=":", linewidth=1.2, label="noise floor")
     ax.set_xticks(x, [n.replace("_", "\n") for n in names], fontsize=7)
-    ax.set_ylabel("residual rms")
+    ax.set_ylabel(f"residual rms [{unit}]")
     ax.set_title("How far the gap shrinks with each candidate effect")
-    ax.legend(fontsize=7)
+    legend_outside(ax, fontsize=7)
+    if not names:
+        empty_note(ax, "no candidate effect was fitted")
     return ax
 
 
@@ -58,5 +67,5 @@ def plot_ei_before_after(diagnosis, *, ax=None, supports=None):
     ax.set_xlabel("position along the bridge x [m]")
     ax.set_ylabel("EI [N m^2]")
     ax.set_title("Identified EI before and after modelling the gap")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="best")
     return ax

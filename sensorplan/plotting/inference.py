@@ -37,19 +37,22 @@ def plot_ei_posterior(result, *, ax=None, supports=None, truth=None):
                  "Identified flexural rigidity: " + ("local loss DETECTED" if damage.detected else
                                                      f"no local loss detected (false-alarm rate "
                                                      f"{damage.false_alarm_rate:g})"))
-    ax.legend(fontsize=7, ncol=3)
+    ax.legend(fontsize=7, ncol=2, loc="best")
     return ax
 
 
 def plot_fit(result, sensor, *, ax=None, level=0.95, kind=None):
     """Measured readings of one sensor against the fitted model and its predictive band.
 
-    With the sensor's ``kind`` the readings are shown in µrad (tilt) or mm (deflection), else in SI.
+    Readings are shown in µrad (tilt) or mm (deflection), by the sensor's ``kind`` (default: the kind the
+    result records for it), else in SI.
     """
     ax = axes_or_new(ax)
-    scale, unit = eng_unit(kind) if kind is not None else (1.0, "rad or m")
     i = result.sensor_names.index(sensor) if isinstance(sensor, str) else int(sensor)
     name = result.sensor_names[i]
+    kinds = getattr(result, "sensor_kinds", ())
+    kind = kind if kind is not None or not kinds else kinds[i]
+    scale, unit = eng_unit(kind) if kind is not None else (1.0, "rad or m")
     for k, fit in enumerate(result.fits):
         ax.plot(fit.positions, scale * fit.data[i], ".", color="0.5", markersize=2,
                 label="data" if k == 0 else None)
@@ -61,5 +64,5 @@ def plot_fit(result, sensor, *, ax=None, level=0.95, kind=None):
     ax.set_xlabel("reference-axle position [m]")
     ax.set_ylabel(f"{name} reading [{unit}]")
     ax.set_title(f"Data vs model: {name}")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="best")
     return ax

@@ -4,7 +4,7 @@ each sensor, and the identifiability spectrum with its eigenvectors.
 
 import numpy as np
 
-from .common import axes_or_new, eng_unit, mark_bridge
+from .common import axes_or_new, eng_unit, integer_ticks, legend_outside, mark_bridge
 
 __all__ = ["plot_influence_lines", "plot_informativeness", "plot_spectrum", "plot_eigenvectors"]
 
@@ -29,7 +29,7 @@ def plot_influence_lines(lines, *, ax=None, supports=None):
     ax.set_xlabel("reference-axle position [m]")
     ax.set_title("Influence lines at nominal EI")
     handles = [h for a in axes.values() for h in a.get_legend_handles_labels()[0]]
-    ax.legend(handles, [h.get_label() for h in handles], fontsize=8)
+    ax.legend(handles, [h.get_label() for h in handles], fontsize=8, loc="best")
     return ax
 
 
@@ -59,7 +59,7 @@ def plot_informativeness(blocks, *, ax=None, supports=None, log=False, ei=None):
     if supports is not None:
         mark_bridge(ax, supports, blocks.sensors, labels=False)
     if blocks.n_sensors <= 12:
-        ax.legend(fontsize=7, ncol=min(blocks.n_sensors, 6))
+        legend_outside(ax, fontsize=7, title="sensor", title_fontsize=7)
     return ax
 
 
@@ -73,7 +73,8 @@ def plot_spectrum(ident, *, ax=None):
     ax.set_xlabel("eigenvalue index")
     ax.set_ylabel("eigenvalue of total information")
     ax.set_title("Identifiability spectrum")
-    ax.legend(fontsize=8)
+    integer_ticks(ax.xaxis)
+    ax.legend(fontsize=8, loc="best")
     return ax
 
 
@@ -83,15 +84,16 @@ def plot_eigenvectors(ident, *, ax=None, count=2, supports=None):
     n = ident.n_elements
     edges = ident.edges if ident.edges is not None else np.arange(n + 1.0)
     for i in range(min(count, ident.eigenvalues.size)):
-        ax.stairs(ident.eigenvectors[:n, i], edges, label=f"well informed #{i + 1}", linewidth=1.4)
+        ax.stairs(ident.eigenvectors[:n, i], edges, label=f"well informed #{i + 1}", linewidth=1.4, baseline=None)
     for i in range(min(count, ident.eigenvalues.size)):
         ax.stairs(ident.eigenvectors[:n, -1 - i], edges, label=f"poorly informed #{i + 1}",
-                  linestyle="--", linewidth=1.2)
+                  linestyle="--", linewidth=1.2, baseline=None)
     ax.axhline(0.0, color="0.3", linewidth=0.6)
     ax.set_xlabel("position along the bridge x [m]")
     ax.set_ylabel("eigenvector component")
     ax.set_title("Best- and worst-informed directions of EI")
+    ax.set_xlim(edges[0], edges[-1])
     if supports is not None:
         mark_bridge(ax, supports)
-    ax.legend(fontsize=7, ncol=2)
+    ax.legend(fontsize=7, ncol=2, loc="best")
     return ax

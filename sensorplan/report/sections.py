@@ -110,15 +110,18 @@ def verification_section(analysis):
     vrows = []
     for name, score in zip(names, verification.layouts):
         m = score.metrics
-        vrows.append((name, *(f"{m[k].mean:.3f} ± {m[k].se:.3f}" for k in
-                              ("rmse", "localisation_error_m", "detection_rate", "false_alarm_rate",
-                               "coverage95", "band_width"))))
+        vrows.append((name, m["rmse"].text(), m["localisation_error_m"].text(empty="no detections"),
+                      m["detection_rate"].text(), m["false_alarm_rate"].text(), m["coverage95"].text(),
+                      m["band_width"].text()))
+    caveats = verification.false_alarm_caveats()
     axes = plotting.plot_verification(verification, supports=analysis.case.bridge.support_positions)
     return ("Verification by inversion of synthetic damage",
             f"<p>{html.escape(verification.summary().splitlines()[0])}</p>"
             + table_html(["layout", "relative RMSE", "localisation error [m]", "detection rate",
                           "false-alarm rate", "95 % coverage", "band width"], vrows)
-            + '<p class="note">mean ± Monte-Carlo standard error.</p>'
+            + '<p class="note">Detection and false-alarm rates: the share of the scenarios, with the count and '
+              "its Wilson 95 % interval; other columns: mean ± Monte-Carlo standard error over the scenarios.</p>"
+            + "".join(f'<p class="note warn">Caveat: {html.escape(c)}.</p>' for c in caveats)
             + _ranking(verification, analysis.design, names)
             + figure_html(axes[0], "Detection and localisation per damage location",
                           "each line is one layout: higher detection probability and lower localisation "
@@ -189,7 +192,7 @@ def _ranking(verification, design, names):
         return ""
     values = {"recommended": design.value} | {b.name: b.value for b in design.baselines}
     ranking = rank_layouts(replace(verification, names=tuple(names)), criterion=design.criterion, values=values)
-    rows = [(str(e.rank), e.name, fmt(e.detection_rate, 3), fmt(e.detection_limit, 3),
+    rows = [(str(e.rank), e.name, e.detection_text(), fmt(e.detection_limit, 3),
              fmt(e.localisation_error_m, 2), fmt(e.coverage95, 3), fmt(e.criterion, 6)) for e in ranking.entries]
     notes = [line.strip() for line in ranking.summary().splitlines()[len(ranking.entries) + 1:]]
     return ("<h3>Ranking by verification</h3>"

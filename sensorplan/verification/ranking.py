@@ -42,6 +42,18 @@ class RankedLayout:
     better_on: tuple = ()  # metrics on which it beats the reference
     detection_rate_diff: float | None = None  # minus the reference's, paired over the same scenarios
     detection_rate_diff_se: float | None = None
+    detection_rate_count: int | None = None  # detected local losses out of detection_rate_n
+    detection_rate_n: int = 0
+    detection_rate_ci95: tuple | None = None  # Wilson 95 % interval of the detection rate
+
+    def detection_text(self):
+        """The detection rate as "0.50 (3/6; 95 % 0.19-0.81)": with its count and Wilson 95 % interval."""
+        if self.detection_rate is None:
+            return "no scenarios"
+        if self.detection_rate_ci95 is None:  # a metric built without its counts
+            return f"{self.detection_rate:.2f}"
+        lo, hi = self.detection_rate_ci95
+        return f"{self.detection_rate:.2f} ({self.detection_rate_count}/{self.detection_rate_n}; 95 % {lo:.2f}-{hi:.2f})"
 
     def to_dict(self):
         return {"name": self.name, "rank": self.rank, "detection_rate": self.detection_rate,
@@ -49,7 +61,9 @@ class RankedLayout:
                 "localisation_error_m": self.localisation_error_m, "coverage95": self.coverage95,
                 "criterion": self.criterion, "better_than_reference_on": list(self.better_on),
                 "detection_rate_diff": self.detection_rate_diff,
-                "detection_rate_diff_se": self.detection_rate_diff_se}
+                "detection_rate_diff_se": self.detection_rate_diff_se,
+                "detection_rate_count": self.detection_rate_count, "detection_rate_n": self.detection_rate_n,
+                "detection_rate_ci95": None if self.detection_rate_ci95 is None else list(self.detection_rate_ci95)}
 
 
 @dataclass(frozen=True)
@@ -70,8 +84,7 @@ class VerificationRanking:
         crit = f"{self.criterion}-optimal" if self.criterion else "reference"
         lines = [f"Ranking by verification ({_ORDER}):"]
         for e in self.entries:
-            det = "n/a" if e.detection_rate is None else f"{e.detection_rate:.3f}±{_f(e.detection_rate_se)}"
-            lines.append(f"  {e.rank:2d}. {e.name[:26]:26s} detection {det:>11s}  limit {_f(e.detection_limit):>5s}"
+            lines.append(f"  {e.rank:2d}. {e.name[:26]:26s} detection {e.detection_text():>26s}  limit {_f(e.detection_limit):>5s}"
                          f"  loc. err {_f(e.localisation_error_m, '.2f'):>5s} m  coverage95 {_f(e.coverage95):>5s}"
                          + ("" if e.criterion is None else f"  criterion {e.criterion:.6g}"))
         better = [e for e in self.entries if e.name in self.verifies_better]
@@ -79,8 +92,7 @@ class VerificationRanking:
         if not better:
             lines.append(f"  the {crit} layout ({self.reference}) verifies best.")
         for e in better:
-            diff = ("" if e.detection_rate_diff is None else
-                    f"; detection rate {e.detection_rate_diff:+.3f} ± {_f(e.detection_rate_diff_se)} (paired s.e.)")
+            diff = "" if e.detection_rate_diff is None else f"; detection rate {_paired_text(e)}"
             diff += f"; detection limit {_f(e.detection_limit)} vs {_f(ref.detection_limit)}"
             lines.append(f"  NOTE: baseline {e.name} verifies better than the {crit} layout "
                          f"(better on {', '.join(e.better_on) or 'ties broken in its favour'}{diff}): "
@@ -90,6 +102,14 @@ class VerificationRanking:
     def to_dict(self):
         return {"verification_ranking": [e.to_dict() for e in self.entries],
                 "baseline_verifies_better": list(self.verifies_better)}
+
+
+def _paired_text(entry):
+    """The paired difference of detection rates to the reference: "+0.250 ± 0.144 (paired s.e.)", or that
+    both layouts detected the same losses (a difference of 0 with a paired s.e. of 0 says no more)."""
+    if not entry.detection_rate_diff_se and entry.detection_rate_diff == 0.0:
+        return "the same, loss by loss"
+    return f"{entry.detection_rate_diff:+.3f} ± {_f(entry.detection_rate_diff_se)} (paired s.e.)"
 
 
 def _f(value, fmt=".3f"):
@@ -153,5 +173,6 @@ def rank_layouts(verification, *, reference="recommended", criterion=None, value
             detection_limit=s.detection_limit, localisation_error_m=_mean(s.metrics["localisation_error_m"]),
             coverage95=_mean(s.metrics["coverage95"]), criterion=None if values is None else values.get(name),
             better_on=() if name == reference else _better_on(s, ref), detection_rate_diff=diff,
-            detection_rate_diff_se=se))
+            detection_rate_diff_se=se, detection_rate_count=det.count, detection_rate_n=det.n,
+            detection_rate_ci95=det.ci95 if det.n else None))
     return VerificationRanking(tuple(entries), reference, criterion)

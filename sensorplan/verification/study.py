@@ -40,8 +40,10 @@ class StudyRow:
     one its value and efficiency refer to); ``layout`` is "recommended" or the
     baseline's name.  ``efficiency`` is the certified efficiency against the
     relaxation bound.  Metrics are means over the scenarios with their
-    Monte-Carlo standard errors (``*_se``); ``detection_limit`` is the
-    layout's known-location power (:func:`sensorplan.verification.verify.detection_limit`).
+    Monte-Carlo standard errors (``*_se``); the two rates also with their
+    counts and Wilson 95 % intervals (``*_low``, ``*_high``);
+    ``detection_limit`` is the layout's known-location power
+    (:func:`sensorplan.verification.verify.detection_limit`).
     """
 
     case: str
@@ -61,6 +63,15 @@ class StudyRow:
     false_alarm_rate: float
     false_alarm_rate_se: float
     n_scenarios: int
+    # the rates' Wilson 95 % intervals (verification.results.wilson_interval) and what they count
+    detection_rate_low: float = math.nan
+    detection_rate_high: float = math.nan
+    n_detected: int = 0  # of n_local local losses
+    n_local: int = 0
+    false_alarm_rate_low: float = math.nan
+    false_alarm_rate_high: float = math.nan
+    n_false_alarms: int = 0  # of n_controls undamaged controls
+    n_controls: int = 0
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,17 +121,18 @@ class DesignStudy:
         lines = [f"Design study: {len(self.verifications)} case(s), {len(self.rows)} rows; local losses of "
                  f"{100 * self.severity:.0f} % over {self.length:g} m, {self.n_crossings} crossings per scenario, "
                  f"seed {self.seed}",
-                 f"  {'case':16s} {'R':>2s} {'crit.':>5s} {'layout':20s} {'efficiency':>10s} {'detection':>12s} "
-                 f"{'limit':>6s} {'loc. err [m]':>13s} {'coverage95':>12s} {'false alarm':>12s}  positions [m]"]
+                 f"  {'case':16s} {'R':>2s} {'crit.':>5s} {'layout':20s} {'efficiency':>10s} {'detection':>22s} "
+                 f"{'limit':>6s} {'loc. err [m]':>13s} {'coverage95':>12s} {'false alarm':>22s}  positions [m]"]
         for r in self.rows:
             limit = "n/a" if r.detection_limit is None else f"{r.detection_limit:.3f}"
             lines.append(f"  {r.case[:16]:16s} {r.count:2d} {r.criterion[:5]:>5s} {r.layout[:20]:20s} "
-                         f"{100 * r.efficiency:9.1f}% {_pm(r.detection_rate, r.detection_rate_se):>12s} "
-                         f"{limit:>6s} {_pm(r.localisation_error_m, r.localisation_error_m_se):>13s} "
-                         f"{_pm(r.coverage95, r.coverage95_se):>12s} {_pm(r.false_alarm_rate, r.false_alarm_rate_se):>12s}"
+                         f"{100 * r.efficiency:9.1f}% {_detection(r):>22s} {limit:>6s} "
+                         f"{_pm(r.localisation_error_m, r.localisation_error_m_se, 'no detections'):>13s} "
+                         f"{_pm(r.coverage95, r.coverage95_se):>12s} {_false_alarm(r):>22s}"
                          "  " + ", ".join(f"{x:g}" for x in r.layout_m))
-        lines.append("  (mean ± Monte-Carlo standard error over the scenarios; efficiency certified against the "
-                     "relaxation bound of the row's criterion)")
+        lines.append("  (detection and false alarm: share of the scenarios with its count and Wilson 95 % interval; "
+                     "other columns mean ± Monte-Carlo standard error over the scenarios; efficiency certified "
+                     "against the relaxation bound of the row's criterion)")
         return "\n".join(lines)
 
 
@@ -128,10 +140,25 @@ def _missing(value):
     return value is None or (isinstance(value, float) and math.isnan(value))
 
 
-def _pm(mean, se):
+def _pm(mean, se, empty="n/a"):
     if math.isnan(mean):
-        return "n/a"
+        return empty
     return f"{mean:5.3f}±{se:5.3f}" if not math.isnan(se) else f"{mean:5.3f}"
+
+
+def _rate(mean, count, n, low, high):
+    if n == 0:
+        return "no scenarios"
+    return f"{mean:.2f} ({count}/{n}; {low:.2f}-{high:.2f})"
+
+
+def _detection(row):
+    return _rate(row.detection_rate, row.n_detected, row.n_local, row.detection_rate_low, row.detection_rate_high)
+
+
+def _false_alarm(row):
+    return _rate(row.false_alarm_rate, row.n_false_alarms, row.n_controls, row.false_alarm_rate_low,
+                 row.false_alarm_rate_high)
 
 
 def _load(case):
@@ -308,8 +335,16 @@ def _study_rows(job, chosen, result):
             localisation_error_m=m["localisation_error_m"].mean, localisation_error_m_se=m["localisation_error_m"].se,
             coverage95=m["coverage95"].mean, coverage95_se=m["coverage95"].se,
             false_alarm_rate=m["false_alarm_rate"].mean, false_alarm_rate_se=m["false_alarm_rate"].se,
-            n_scenarios=score.n_scenarios))
+            n_scenarios=score.n_scenarios,
+            **_rate_fields("detection_rate", m["detection_rate"], "n_detected", "n_local"),
+            **_rate_fields("false_alarm_rate", m["false_alarm_rate"], "n_false_alarms", "n_controls")))
     return rows
+
+
+def _rate_fields(name, metric, count, total):
+    """A rate Metric as the StudyRow fields of its interval and counts."""
+    low, high = metric.ci95
+    return {f"{name}_low": low, f"{name}_high": high, count: metric.count, total: metric.n}
 
 
 def _keep(name, baselines):
