@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 from scipy import special
 
-__all__ = ["Verdict", "STATUSES", "band_departures", "inversion_verdict"]
+__all__ = ["Verdict", "STATUSES", "band_departures", "combined_verdict", "inversion_verdict"]
 
 STATUSES = ("no_change", "departure", "local_damage", "model_error", "insufficient_data")
 MIN_LOSS_PROBABILITY = 0.5  # posterior probability of a loss a damage headline needs
@@ -221,3 +221,17 @@ def _data_verdict(stretches: list, detection: Any, damage_probability: float | N
                        f"so no loss is concluded.", evidence=evidence)
     return Verdict("no_change", f"No change: EI stays within its nominal band and no local loss is detected at a "
                    f"false-alarm rate of {detection.false_alarm_rate:g}.", evidence=evidence)
+
+
+_PRECEDENCE = ("model_error", "local_damage", "departure", "insufficient_data", "no_change")
+
+
+def combined_verdict(*verdicts: "Verdict | None") -> "Verdict | None":
+    """The verdict of the same data judged several ways: the first by precedence (a model error first).
+
+    Non-verdicts (None, or a diagnosis's plain text) are skipped; None when no verdict is given.
+    """
+    given = [v for v in verdicts if isinstance(v, Verdict)]
+    if not given:
+        return None
+    return min(given, key=lambda v: _PRECEDENCE.index(v.status))
