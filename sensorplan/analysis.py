@@ -37,6 +37,17 @@ class Analysis:
         EI identified from ``data`` (when given).
     diagnosis : GapDiagnosis or None
         Sim-to-real gap of ``data`` (when given).
+    target : TargetDesign or None
+        The requirement (worst-case detection power ``target_power`` for the
+        detectability defaults) and the fewest sensors placed for detection
+        that meet it (:func:`sensorplan.design.target.design_for_target`).
+    recommended_power : float or None
+        Worst-case power of the recommended layout for the same requirement.
+    crossings_needed : int or None
+        Crossings with which the recommended layout would meet the requirement.
+    verdict : Verdict or None
+        The one verdict on ``data`` (the inversion's, overruled by a model
+        error the gap diagnosis finds).
     """
 
     case: object
@@ -48,6 +59,10 @@ class Analysis:
     diagnosis: object = None
     detectability: object = None
     exclude: tuple = ()
+    target: object = None
+    recommended_power: float | None = None
+    crossings_needed: int | None = None
+    verdict: object = None
 
     @property
     def verified_names(self):
@@ -57,7 +72,8 @@ class Analysis:
 def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None = None, criterion: str = "D",
             spacing: float | None = None, n_scenarios: int = 6, n_crossings: int = 10, seed: int = 0,
             progress: "Callable[[str], None] | None" = None, design_options: dict | None = None,
-            detect: bool = True, progress_units: "Callable[[int, int], None] | None" = None) -> Analysis:
+            detect: bool = True, progress_units: "Callable[[int, int], None] | None" = None,
+            target_power: float = 0.9) -> Analysis:
     """Run the analyses of a report: informativeness, layout, verification, identification, gap.
 
     Parameters
@@ -79,10 +95,14 @@ def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None 
         (``grid``, ``constraints``, ``kind``, ``noise_std``, ...); a ``grid``
         here overrides ``spacing``.
     detect : bool
-        Add the detectability map of the recommended layout.
+        Add the detectability map of the recommended layout and the
+        requirement's answer (``target``).
     progress_units : callable, optional
         Called with (done, total) after each repeated unit of a stage (the
         verification's scenario inversions).
+    target_power : float
+        The requirement: worst-case power of detecting the detectability
+        defaults' loss (25 % over 2 m at a false-alarm rate of 5 %).
 
     Returns
     -------
@@ -101,24 +121,58 @@ def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None 
         f"inversion of synthetic damage ({n_scenarios} locations, {n_crossings} crossings each)")
     verification = _verify_design(case, design, n_scenarios=n_scenarios, n_crossings=n_crossings, seed=seed,
                                   progress=progress_units)
-    detect_map = None
+    requirement = {}
     if detect:
-        say("mapping what the layout detects along the bridge")
-        detect_map = _installed_detectability(case, design, n_crossings=n_crossings)
-    posterior, diagnosis = _measured(case, data, say) if data is not None else (None, None)
-    return Analysis(case, candidates, design, verification, posterior=posterior, diagnosis=diagnosis,
-                    detectability=detect_map, exclude=tuple(getattr(options["grid"], "exclude", ())))
+        requirement = _requirement(case, design, options, count=count, n_crossings=n_crossings,
+                                   power=target_power, say=say)
+    measured = {} if data is None else _measured(case, data, say)
+    return Analysis(case, candidates, design, verification, exclude=tuple(getattr(options["grid"], "exclude", ())),
+                    **measured, **requirement)
+
+
+def _requirement(case, design, options, *, count, n_crossings, power, say):
+    """The recommended layout's detectability, the fewest sensors meeting ``power`` and the crossings needed."""
+    from .design.target import DEFAULT_MAX_COUNT, design_for_target
+
+    say("mapping what the layout detects along the bridge")
+    detect_map = _installed_detectability(case, design, n_crossings=n_crossings)
+    say(f"finding the fewest sensors that reach a worst-case detection power of {power:g}")
+    keep = {k: options[k] for k in ("grid", "constraints", "kind", "noise_std") if k in options}
+    target = design_for_target(case, power=power, max_count=max(count, DEFAULT_MAX_COUNT), n_crossings=n_crossings,
+                               progress=say, **keep)
+    worst = float(np.min(detect_map.power))
+    needed = None if worst >= power else _crossings_for(case, design, detect_map, power, n_crossings)
+    return {"detectability": detect_map, "target": target, "recommended_power": worst, "crossings_needed": needed}
+
+
+def _crossings_for(case, design, detect_map, power, n_crossings):
+    """Fewest crossings with which the recommended layout reaches worst-case ``power`` (d grows as sqrt(n))."""
+    import math
+
+    from scipy.special import ndtri
+
+    d_min = float(np.min(detect_map.d))
+    if d_min <= 0.0:
+        return None
+    need = -float(ndtri(detect_map.false_alarm_rate)) + float(ndtri(power))
+    n = max(1, math.ceil(n_crossings * (need / d_min) ** 2 - 1e-9))
+    while float(np.min(_installed_detectability(case, design, n_crossings=n).power)) < power:
+        n += 1
+    return n
 
 
 def _measured(case, data, say):
-    """The EI identified from measured ``data`` and the diagnosis of their gap to the model."""
+    """The EI identified from measured ``data``, the diagnosis of their gap to the model, and the one verdict."""
     from .diagnosis.diagnose import diagnose
     from .inference.inversion import invert
+    from .verdict import combined_verdict
 
     say(f"identifying EI from the {len(data)} measured crossing(s)")
     posterior = invert(case, data)
     say("diagnosing the gap between the model and the data")
-    return posterior, diagnose(case, data)
+    diagnosis = diagnose(case, data)
+    verdict = combined_verdict(posterior.verdict, getattr(diagnosis, "verdict", None))
+    return {"posterior": posterior, "diagnosis": diagnosis, "verdict": verdict}
 
 
 def _candidate_informativeness(case):

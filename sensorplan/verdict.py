@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 from scipy import special
 
-__all__ = ["Verdict", "STATUSES", "band_departures", "inversion_verdict"]
+__all__ = ["Verdict", "STATUSES", "band_departures", "combined_verdict", "inversion_verdict"]
 
 STATUSES = ("no_change", "departure", "local_damage", "model_error", "insufficient_data")
 MIN_LOSS_PROBABILITY = 0.5  # posterior probability of a loss a damage headline needs
@@ -117,19 +117,29 @@ def _percent(loss: float) -> str:
 
 
 def band_departures(edges: np.ndarray, log_mean: np.ndarray, log_std: np.ndarray, log_nominal: np.ndarray,
-                    *, level: float = BAND_LEVEL) -> list[dict]:
+                    *, level: float = BAND_LEVEL, below: np.ndarray | None = None,
+                    simultaneous: bool = True) -> list[dict]:
     """Stretches where the nominal log EI lies outside the simultaneous ``level`` band.
 
-    The band is mean +- z std with z the Bonferroni quantile over the
-    elements (a conservative simultaneous band: under the posterior, the
-    whole field lies inside it with probability at least ``level``).
-    Returns one dict per contiguous stretch: ``start``, ``stop`` [m],
-    ``loss`` (1 - EI/EI_nominal at the element of largest |z|) and ``z``.
+    The band is Bonferroni over the elements (conservative: under the
+    posterior the whole field lies inside it with probability at least
+    ``level``): element i departs when its two-sided tail probability
+    2 min(F_i, 1 - F_i) is below (1 - level) / n, with F_i the posterior
+    probability that log EI_i lies below the nominal.  ``below`` gives F_i
+    (e.g. from a skewed mixture posterior); by default it is the Gaussian
+    Phi((nominal - mean) / std).  Returns one dict per contiguous stretch
+    (one side of the nominal): ``start``, ``stop`` [m], ``loss`` (1 -
+    EI/EI_nominal of the posterior mean at the element furthest out) and
+    ``z`` (its two-sided tail as a signed normal quantile).  With
+    ``simultaneous=False`` the band is the pointwise one the figures show.
     """
     edges, mean, std, nominal = (np.asarray(a, float) for a in (edges, log_mean, log_std, log_nominal))
-    z_limit = float(special.ndtri(1.0 - (1.0 - level) / (2 * mean.size)))
-    z = np.where(std > 0, (mean - nominal) / np.where(std > 0, std, 1.0), 0.0)
-    outside = np.abs(z) > z_limit
+    if below is None:
+        below = special.ndtr((nominal - mean) / np.where(std > 0, std, np.inf))
+    below = np.clip(np.asarray(below, float), 1e-300, 1.0)
+    tail = 2.0 * np.minimum(below, 1.0 - below)
+    z = np.where(below > 0.5, -1.0, 1.0) * -special.ndtri(np.maximum(tail, 1e-300) / 2.0)
+    outside = tail < (1.0 - level) / (mean.size if simultaneous else 1)
     out = []
     j = 0
     while j < mean.size:
@@ -149,7 +159,7 @@ def band_departures(edges: np.ndarray, log_mean: np.ndarray, log_std: np.ndarray
 def inversion_verdict(*, edges: np.ndarray, log_mean: np.ndarray, log_std: np.ndarray, log_nominal: np.ndarray,
                       residual_p: Sequence[float], residual_level: float, sensor_names: Sequence[str],
                       noise_scale: float, noise_configured: bool, detection: Any = None,
-                      damage_probability: float | None = None) -> Verdict:
+                      damage_probability: float | None = None, below: np.ndarray | None = None) -> Verdict:
     """The verdict of an inversion of measured crossings.
 
     Parameters
@@ -170,15 +180,20 @@ def inversion_verdict(*, edges: np.ndarray, log_mean: np.ndarray, log_std: np.nd
         The detector's outcome (None: it could not run).
     damage_probability : float or None
         Posterior probability of a local loss (reported as evidence).
+    below : ndarray, optional
+        Posterior probability that log EI lies below its nominal, per
+        element (default: from the Gaussian of ``log_mean``, ``log_std``).
     """
     p = np.asarray(residual_p, float)
     flagged = [str(sensor_names[i]) for i in range(p.size) if np.isfinite(p[i]) and p[i] < residual_level / p.size]
-    stretches = band_departures(edges, log_mean, log_std, log_nominal)
+    stretches = band_departures(edges, log_mean, log_std, log_nominal, below=below)
+    pointwise = band_departures(edges, log_mean, log_std, log_nominal, below=below, simultaneous=False)
     evidence: dict = {
         "residual_test": {"level": residual_level, "flagged": flagged,
                           "min_p": float(np.nanmin(p)) if np.any(np.isfinite(p)) else None},
         "noise_scale": float(noise_scale),
-        "band": {"level": BAND_LEVEL, "simultaneous": "Bonferroni over elements", "outside": stretches},
+        "band": {"level": BAND_LEVEL, "simultaneous": "Bonferroni over elements", "outside": stretches,
+                 "outside_pointwise": pointwise},
         "detector": None if detection is None else detection.to_dict(),
         "damage_probability": damage_probability,
     }
@@ -213,11 +228,35 @@ def _data_verdict(stretches: list, detection: Any, damage_probability: float | N
                        evidence=evidence)
     if detection is None:
         return Verdict("insufficient_data", "Insufficient data: no zone of the bridge can be tested for a local "
-                       "loss with these sensors and crossings, and EI stays within its nominal band.",
+                       "loss with these sensors and crossings, and the nominal EI stays within the simultaneous 95 % band.",
                        evidence=evidence, next_step="add crossings or sensors (`sensorplan recommend --target-power`)")
+    hint = _pointwise_hint(evidence["band"]["outside_pointwise"])
     if doubted:
-        return Verdict("no_change", f"No change: EI stays within its nominal band; the detector's statistic exceeds "
+        return Verdict("no_change", f"No change: the nominal EI stays within the simultaneous 95 % band; the detector's statistic exceeds "
                        f"its threshold, but the posterior probability of a loss is only {damage_probability:.2f}, "
-                       f"so no loss is concluded.", evidence=evidence)
-    return Verdict("no_change", f"No change: EI stays within its nominal band and no local loss is detected at a "
-                   f"false-alarm rate of {detection.false_alarm_rate:g}.", evidence=evidence)
+                       f"so no loss is concluded.{hint}", evidence=evidence)
+    return Verdict("no_change", f"No change: the nominal EI stays within the simultaneous 95 % band and no local loss is detected at a "
+                   f"false-alarm rate of {detection.false_alarm_rate:g}.{hint}", evidence=evidence)
+
+
+def _pointwise_hint(stretches: list) -> str:
+    """A sentence on where the pointwise band (the one the figures show) leaves the nominal, if anywhere."""
+    if not stretches:
+        return ""
+    where = ", ".join(f"{s['start']:.1f}-{s['stop']:.1f} m ({_percent(s['loss'])})" for s in stretches)
+    return (f" The pointwise 95 % band leaves the nominal at {where}, but the simultaneous band does not: an "
+            f"indication worth more crossings, not a conclusion.")
+
+
+_PRECEDENCE = ("model_error", "local_damage", "departure", "insufficient_data", "no_change")
+
+
+def combined_verdict(*verdicts: "Verdict | None") -> "Verdict | None":
+    """The verdict of the same data judged several ways: the first by precedence (a model error first).
+
+    Non-verdicts (None, or a diagnosis's plain text) are skipped; None when no verdict is given.
+    """
+    given = [v for v in verdicts if isinstance(v, Verdict)]
+    if not given:
+        return None
+    return min(given, key=lambda v: _PRECEDENCE.index(v.status))

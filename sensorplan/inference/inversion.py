@@ -31,7 +31,8 @@ from .._errors import ConfigError, DataError, SensorplanWarning
 from .._threads import single_threaded
 from ..model.crossings import Crossings
 from ..model.prior import GMRFPrior, HyperPrior
-from .checks import fit_warnings
+from ..verdict import inversion_verdict
+from .checks import RESIDUAL_LEVEL, fit_warnings, residual_p_values
 from .damage import damage_hypotheses
 from .detector import detect_damage
 from .ei_problem import EIProblem, prior_matrices
@@ -176,6 +177,7 @@ def _posterior(problem, fit, mixture, *, hyper, excluded, detection, probability
                          tau_at_bound=fit.mass_at_bound > BOUND_MASS, tau_side="flat" if fit.flat_side else "rough")
     for text in trust:
         warnings.warn(text, SensorplanWarning, stacklevel=3)
+    verdict = _verdict(problem, mixture, alpha, fits, detection, probability)
     return PosteriorResult(
         edges=problem.mesh.edges.copy(), theta=theta, covariance=covariance,
         parameterisation=problem.parameterisation, ei_nominal=problem.ei_nominal,
@@ -185,7 +187,25 @@ def _posterior(problem, fit, mixture, *, hyper, excluded, detection, probability
         tau=fit.tau, log_evidence=fit.log_evidence, converged=bool(fit.converged), n_iter=fit.n_iter,
         excluded_crossings=tuple(excluded), fits=fits, hyper_method=hyper, messages=tuple(messages),
         mixture=mixture, tau_mass_at_bound=fit.mass_at_bound, warnings=trust, damage=detection,
-        damage_probability=probability, hyper_nodes=fit.mixture)
+        damage_probability=probability, hyper_nodes=fit.mixture, verdict=verdict)
+
+
+def _verdict(problem, mixture, alpha, fits, detection, probability):
+    """The one verdict on the data (:func:`sensorplan.verdict.inversion_verdict`) from the posterior's log EI."""
+    theta, covariance = mixture.mean, mixture.covariance
+    n = problem.n_elements
+    std = np.sqrt(np.clip(np.diag(covariance)[:n], 0.0, None))
+    below = None
+    if problem.parameterisation == "log_ei":
+        log_mean, log_std = theta[:n], std
+        below = mixture.cdf(np.log(problem.ei_nominal), slice(0, n))  # the mixture's own (skewed) tails
+    else:  # compliance v: log EI = -log v, to first order std(log EI) = std(v) / v
+        log_mean, log_std = -np.log(theta[:n]), std / theta[:n]
+    return inversion_verdict(
+        edges=problem.mesh.edges, log_mean=log_mean, log_std=log_std, log_nominal=np.log(problem.ei_nominal),
+        residual_p=residual_p_values(problem.noise, fits, alpha), residual_level=RESIDUAL_LEVEL,
+        sensor_names=problem.sensors.names, noise_scale=alpha, noise_configured=problem.case.noise is not None,
+        detection=detection, damage_probability=probability, below=below)
 
 
 def _with_damage(mixture, problem, prior, detection, damage_prior, damage_log_std):

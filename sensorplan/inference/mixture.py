@@ -134,6 +134,11 @@ class GaussianMixture:
             raise ConfigError(f"The 'probability' parameter must be in (0, 1). Got {probability!r} instead.")
         return mixture_quantile(self.weights, self.thetas[:, index], self.component_stds[:, index], probability)
 
+    def cdf(self, values, index=slice(None)):
+        """Marginal P(theta_i <= values_i) of the parameters ``index`` (exact for the mixture)."""
+        stds = np.maximum(self.component_stds[:, index], 1e-300)
+        return _cdf_pdf(np.asarray(values, float), self.weights, self.thetas[:, index], stds)[0]
+
     def linear_cdf(self, coefficients, value):
         """P(coefficients . theta <= value) under the mixture."""
         a = np.asarray(coefficients, dtype=float)

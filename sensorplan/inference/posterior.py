@@ -14,6 +14,7 @@ import numpy as np
 from scipy import special
 
 from .._errors import ConfigError
+from ..verdict import Verdict
 from .hyperposterior import BOUND_MASS
 from .mixture import GaussianMixture
 
@@ -140,6 +141,7 @@ class PosteriorResult:
     damage_probability: float | None = None
     hyper_nodes: GaussianMixture | None = None
     sensor_kinds: tuple = ()  # "rotation" / "deflection" per sensor (engineering units in the summary)
+    verdict: Verdict | None = None
 
     def __post_init__(self):
         if self.mixture is None:
@@ -238,6 +240,14 @@ class PosteriorResult:
                          "high": float(np.exp(high[i])), "nominal": float(self.spring_nominal[i])}
         return out
 
+    def _detector_lines(self):
+        """The detector's lines, its loss estimate only where the verdict concludes a local loss."""
+        lines = self.damage.summary().splitlines()
+        if self.damage.detected and (self.verdict is None or self.verdict.status != "local_damage"):
+            lines = [lines[0], f"  statistic above its threshold, but no loss is concluded: see the verdict "
+                               f"({self.verdict.status if self.verdict else 'none'})"]
+        return lines
+
     def summary(self):
         how = "integrated out" if self.hyper_method == "integrated" else f"by {self.hyper_method}"
         lines = [f"Bayesian identification of EI: {self.n_elements} elements, {self.n_springs} springs, "
@@ -255,10 +265,12 @@ class PosteriorResult:
             lines.append(f"  tau integrated over {mix.n_components} nodes: mode {self.tau:.4g}, 95 % of the "
                          f"hyper-posterior in [{lo:.3g}, {hi:.3g}]; mass at the grid ends "
                          f"{self.tau_mass_at_bound:.1e}")
+        if self.verdict is not None:
+            lines.insert(0, f"VERDICT ({self.verdict.status}): {self.verdict.summary}")
         for text in self.warnings:
             lines.append(f"  WARNING: {text}")
         if self.damage is not None:
-            lines += ["  " + line for line in self.damage.summary().splitlines()]
+            lines += ["  " + line for line in self._detector_lines()]
         if self.damage_probability is not None:
             lines.append(f"  the bands average over local-loss hypotheses (posterior probability of a loss "
                          f"{self.damage_probability:.2f})")
@@ -300,6 +312,7 @@ class PosteriorResult:
             "warnings": list(self.warnings),
             "damage": None if self.damage is None else self.damage.to_dict(),
             "damage_probability": self.damage_probability,
+            "verdict": None if self.verdict is None else self.verdict.to_dict(),
             "units": {"edges_m": "m", "ei": "N m^2", "springs": "N m/rad (rotational), N/m (vertical)",
                       "noise_std": "rad (rotation) or m (deflection)"},
         }

@@ -24,19 +24,15 @@ def plot_ei_posterior(result, *, ax=None, supports=None, truth=None):
         ax.stairs(truth_values, truth_edges, color="k", linewidth=1.2, label="truth", baseline=None)
     if supports is not None:
         mark_bridge(ax, supports)
-    damage = getattr(result, "damage", None)
-    if damage is not None and damage.detected:
-        a, b = damage.centre_m - damage.length_m / 2, damage.centre_m + damage.length_m / 2
-        lo, hi = damage.loss_ci95
-        ax.axvspan(a, b, color="C3", alpha=0.15, label=f"detected loss {100 * damage.loss:.0f} % "
-                   f"(95 %: {100 * lo:.0f}-{100 * hi:.0f} %)")
+    verdict = getattr(result, "verdict", None)
+    if verdict is not None and verdict.location_m is not None:
+        a, b = verdict.location_m
+        ax.axvspan(a, b, color="C3", alpha=0.15, label=verdict.headline)
     ax.set_xlim(edges[0], edges[-1])
     ax.set_xlabel("position along the bridge x [m]")
     ax.set_ylabel("EI [N m^2]")
-    ax.set_title("Identified flexural rigidity" if damage is None else
-                 "Identified flexural rigidity: " + ("local loss DETECTED" if damage.detected else
-                                                     f"no local loss detected (false-alarm rate "
-                                                     f"{damage.false_alarm_rate:g})"))
+    ax.set_title("Identified flexural rigidity" if verdict is None else
+                 f"Identified flexural rigidity: {verdict.headline}")
     ax.legend(fontsize=7, ncol=2, loc="best")
     return ax
 

@@ -53,7 +53,7 @@ def render_report(analysis, *, provenance=None):
 
     ``provenance`` (from :func:`provenance`) adds the provenance section.
     """
-    sections = [("Conclusion", f'<p class="conclusion">{conclusion_html(analysis)}</p>'), model_section(analysis.case),
+    sections = [("Conclusion", f'<p class="{_conclusion_class(analysis)}">{conclusion_html(analysis)}</p>'), model_section(analysis.case),
                 informativeness_section(analysis), design_section(analysis)]
     if analysis.detectability is not None:
         sections.append(detectability_section(analysis.detectability))
@@ -64,3 +64,11 @@ def render_report(analysis, *, provenance=None):
         sections.append(provenance_section(provenance))
     return Report(render_page(analysis.case, sections), tuple(title for title, _ in sections), design=analysis.design,
                   verification=analysis.verification, posterior=analysis.posterior, diagnosis=analysis.diagnosis)
+
+
+def _conclusion_class(analysis):
+    """The conclusion's box: green only when the requirement is met and the data (if any) show no change."""
+    met = analysis.target is not None and analysis.target.answer.met and (
+        analysis.target.answer.count <= analysis.design.count)
+    calm = analysis.verdict is None or analysis.verdict.status == "no_change"
+    return "conclusion" if met and calm else "conclusion warn"

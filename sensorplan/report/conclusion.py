@@ -6,7 +6,7 @@ import html
 
 import numpy as np
 
-__all__ = ["conclusion_html", "better_baselines"]
+__all__ = ["conclusion_html", "better_baselines", "sufficiency_sentence"]
 
 
 def _positions(xs):
@@ -41,8 +41,58 @@ def better_baselines(analysis):
     return out
 
 
+def sufficiency_sentence(analysis):
+    """The report's first sentence: is the requirement met, and if not, what would meet it.
+
+    Written from ``analysis.target`` (the fewest sensors placed for detection
+    that reach the required worst-case power) and the recommended layout's
+    own worst-case power; with measured data it carries the verdict's status.
+    """
+    target, d = analysis.target, analysis.design
+    if target is None:
+        head = "No requirement was assessed (detectability not computed)"
+    else:
+        a, det = target.answer, analysis.detectability
+        need = (f"worst-case power {a.power:.2f} of detecting a {100 * det.severity:g} % EI loss over "
+                f"{det.length_m:g} m anywhere on the bridge ({det.n_crossings} crossing(s), false-alarm rate "
+                f"{100 * det.false_alarm_rate:g} %)")
+        if a.met and a.count <= d.count:
+            head = (f"Sufficient: {a.count} sensor(s) placed for detection reach the required {need} with "
+                    f"{a.worst_case_power:.2f}; the recommended {d.criterion}-optimal layout of {d.count} reaches "
+                    f"{analysis.recommended_power:.2f}")
+        else:
+            head = (f"Not sufficient: the required {need} is not reached with {d.count} sensor(s) (the recommended "
+                    f"layout reaches {analysis.recommended_power:.2f})")
+            head += _what_would_do(a, analysis)
+    if analysis.verdict is not None:
+        head += f"; the measured data's verdict is {analysis.verdict.status}"
+    return head + "."
+
+
+def _what_would_do(answer, analysis):
+    """The counts and crossings that would meet an unmet requirement."""
+    ways = []
+    if answer.met:
+        ways.append(f"{answer.count} sensors placed for detection would reach {answer.worst_case_power:.2f}")
+    else:
+        ways.append(f"no count up to {answer.count} reaches it")
+    if analysis.crossings_needed is not None:
+        ways.append(f"{analysis.crossings_needed} crossings with the recommended layout would")
+    return "; " + " and ".join(ways) if ways else ""
+
+
 def conclusion_html(analysis):
-    """One paragraph: what to install, what it detects, how it verified, the caveats."""
+    """The conclusion: sufficiency first, then the data's verdict, the layout, what it detects, how it verified."""
+    text = f"<b>{html.escape(sufficiency_sentence(analysis))}</b> "
+    if analysis.verdict is not None:
+        text += html.escape(analysis.verdict.summary) + " "
+        if analysis.verdict.next_step:
+            text += html.escape(f"Next step: {analysis.verdict.next_step}.") + " "
+    return text + _layout_html(analysis)
+
+
+def _layout_html(analysis):
+    """What to install, what it detects, how it verified, the caveats."""
     d, v = analysis.design, analysis.verification
     rec = dict(zip(analysis.verified_names, v.layouts))["recommended"]
     m = rec.metrics
@@ -83,6 +133,4 @@ def conclusion_html(analysis):
         caveats.append(f"the layout is certified only to {100 * d.efficiency:.0f} % of the best possible")
     caveats.append(f"the verification uses {len(rec.records)} synthetic scenarios of the configured model "
                    "(supports, vehicle, noise); a model the bridge does not follow makes every number optimistic")
-    if analysis.diagnosis is not None:
-        caveats.append(f"gap diagnosis of the measured data: {analysis.diagnosis.verdict}")
     return text + "Caveats: " + "; ".join(html.escape(c) for c in caveats) + "."

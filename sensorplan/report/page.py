@@ -23,6 +23,7 @@ td.l,th.l{text-align:left}figure{margin:1em 0}figure img{max-width:100%;border:1
 figcaption{font-size:.9em;color:#444}figcaption b{color:#1d1d1f}.note{color:#555;font-size:.9em}
 .verdict{background:#f6f8ff;border-left:4px solid #4a6cf7;padding:.5em .8em}
 .conclusion{background:#f4faf4;border-left:4px solid #2e8b57;padding:.6em .9em;font-size:1.02em}
+.conclusion.warn{background:#fdf6ec;border-left-color:#d9822b}
 .warn{color:#a33}
 @media print{body{max-width:none;margin:0;padding:0;font-size:10pt;color:#000}nav{display:none}
 h2{page-break-after:avoid;break-after:avoid}figure,table{page-break-inside:avoid;break-inside:avoid}
