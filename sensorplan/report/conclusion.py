@@ -114,10 +114,10 @@ def _layout_html(analysis):
         text += (f"; the smallest loss it detects with 90 % probability is {100 * finite.min():.0f} % "
                  f"(median over the bridge {100 * np.median(finite):.0f} %). " if finite.size else ". ")
     text += (f"In the verification by inversion of synthetic damage ({v.n_crossings} crossings per scenario) it "
-             f"detected {m['detection_rate'].mean:.2f} ± {m['detection_rate'].se:.2f} of the "
-             f"{100 * v.severity:.0f} % losses over {v.length:g} m at a false-alarm rate of "
-             f"{m['false_alarm_rate'].mean:.2f}, and its 95 % credible bands covered the true EI at "
-             f"{m['coverage95'].mean:.2f} ± {m['coverage95'].se:.2f} of the elements. ")
+             f"detected {m['detection_rate'].text(empty='none (no damaged scenario)')} of the "
+             f"{100 * v.severity:.0f} % losses over {v.length:g} m, raised false alarms on "
+             f"{m['false_alarm_rate'].text(empty='no control')} of the undamaged controls, and its 95 % credible "
+             f"bands covered the true EI at {m['coverage95'].text()} of the elements. ")
     better = better_baselines(analysis)
     if better:
         text += ('<b class="warn">A baseline verified better than the recommended layout: ' + "; ".join(
@@ -131,6 +131,7 @@ def _layout_html(analysis):
         caveats.append("the credible bands are too narrow (coverage below 0.90)")
     if d.efficiency < 0.95:
         caveats.append(f"the layout is certified only to {100 * d.efficiency:.0f} % of the best possible")
+    caveats += list(v.false_alarm_caveats())
     caveats.append(f"the verification uses {len(rec.records)} synthetic scenarios of the configured model "
                    "(supports, vehicle, noise); a model the bridge does not follow makes every number optimistic")
     return text + "Caveats: " + "; ".join(html.escape(c) for c in caveats) + "."

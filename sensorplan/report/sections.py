@@ -194,8 +194,22 @@ def _ranking(verification, design, names):
     ranking = rank_layouts(replace(verification, names=tuple(names)), criterion=design.criterion, values=values)
     rows = [(str(e.rank), e.name, e.detection_text(), fmt(e.detection_limit, 3),
              fmt(e.localisation_error_m, 2), fmt(e.coverage95, 3), fmt(e.criterion, 6)) for e in ranking.entries]
-    notes = [line.strip() for line in ranking.summary().splitlines()[len(ranking.entries) + 1:]]
     return ("<h3>Ranking by verification</h3>"
             + table_html(["rank", "layout", "detection rate", "detection limit", "localisation error [m]",
                           "95 % coverage", f"{design.criterion} criterion"], rows)
-            + "".join(f'<p class="verdict">{html.escape(n)}</p>' for n in notes))
+            + f'<p class="verdict">{html.escape(_ranking_note(ranking, design.criterion))}</p>')
+
+
+def _ranking_note(ranking, criterion):
+    """One note on the ranking: which layouts verify better than the recommended one, and on what."""
+    above = [e for e in ranking.entries if e.name in ranking.verifies_better]
+    if not above:
+        return f"The {criterion}-optimal layout verifies best."
+    clear = [e for e in above if e.better_on]
+    if not clear:
+        return (f"{len(above)} layout(s) rank above the {criterion}-optimal one only on ties broken in their favour "
+                f"({', '.join(e.name for e in above)}): the verification cannot tell them apart.")
+    named = "; ".join(f"{e.name} (better on {', '.join(e.better_on)})" for e in clear)
+    return (f"{len(clear)} layout(s) verify better than the {criterion}-optimal one beyond their Monte-Carlo "
+            f"error: {named}. The design criterion and the verification measure different things; for detection, "
+            f"prefer `--criterion detect` or `--target-power`.")
