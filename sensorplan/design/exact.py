@@ -40,7 +40,7 @@ from .criteria.detect import centre_d_squared
 
 __all__ = ["ExactSearch", "exact_search", "MAX_NODES"]
 
-MAX_NODES = 4_000_000  # partial and complete layouts generated before the search gives up
+MAX_NODES = 3_000_000  # partial and complete layouts generated before the search gives up
 _CHUNK = 8192  # layouts evaluated together
 
 
