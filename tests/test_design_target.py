@@ -13,13 +13,14 @@
 
 import itertools
 import json
+import math
 
 import numpy as np
 import pytest
 
 import sensorplan as sp
 from sensorplan.cli import main
-from sensorplan.design.exact import exact_search
+from sensorplan.design.exact import estimate_nodes, exact_search
 from sensorplan.design.recommend import build_problem
 from sensorplan.design.target_levels import levels
 from sensorplan.detection.detectability import detectability
@@ -141,6 +142,26 @@ def test_exact_search_finds_every_layout_above_the_threshold(name):
         assert list(result.values) == sorted(result.values, reverse=True)
     stopped = exact_search(problem, values[order[0]] * 2, length=case.bridge.length, max_nodes=10)
     assert not stopped.complete and stopped.layouts == ()
+
+
+def test_node_estimate_tells_feasible_from_hopeless():
+    case = example_case("openlab-like")
+    problem = build_problem(case, 4, "detect", grid=sp.CandidateGrid(spacing=1.0), n_crossings=100)
+    threshold = 6.0
+    actual = exact_search(problem, threshold, length=case.bridge.length, max_nodes=10**7).nodes
+    estimate = estimate_nodes(problem, threshold, length=case.bridge.length)
+    assert actual / 5 <= estimate <= actual * 5
+    assert estimate <= sum(math.comb(problem.n_candidates, r) for r in range(1, 5))
+
+
+def test_a_search_over_its_limit_is_not_a_proof():
+    result = design(*CASES[1][:4], max_nodes=5)
+    answer = result.answer
+    assert answer.met and answer.count == 3 and answer.minimality == "not proven"
+    assert [t.outcome for t in result.trials] == ["not proven", "not proven", "reached"]
+    assert result.trials[1].note.startswith("exact search not started: about ")
+    assert result.headline().endswith("; whether fewer sensors could is not proven (the bound is not conclusive "
+                                      "and an exhaustive search too long).")
 
 
 def test_levels_cheapest_first_with_costs_per_kind():

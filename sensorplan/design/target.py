@@ -40,7 +40,7 @@ from ..detection.detectability import detectability
 from ..model.noise import NoiseModel
 from .candidates import sensor_layout
 from .detect_problem import DetectionTarget, centres_inside
-from .exact import MAX_NODES, exact_search
+from .exact import MAX_NODES, estimate_nodes, exact_search
 from .feasibility import check_feasible, packing
 from .recommend import Search, build_problem, design_result, search_layout
 from .results import CurvePoint
@@ -50,7 +50,8 @@ from .target_results import CountTrial, TargetAnswer, TargetDesign
 __all__ = ["design_for_target", "DEFAULT_MAX_COUNT"]
 
 DEFAULT_MAX_COUNT = 12
-_SECONDS_PER_LAYOUT = 8e-6  # of the exact search, measured on the embedded examples
+_MICROSECONDS_PER_LAYOUT = (2.0, 1.0)  # exact search: 2 + 1 per sensor, measured on the embedded examples
+_SKIP = 3.0  # an exact search estimated at more than this times its limit is not started
 _ROUND_OFF = 1e-6  # relative: the design's d^2 and detectability's agree far better (~1e-8)
 
 
@@ -207,24 +208,43 @@ def _positions(problem, index):
 
 def _prove(req, trial, search, dmap, max_nodes, say):
     """Exact search of a level the heuristic left short: a layout that reaches the power (then the trial is
-    "reached" with it), or a proof that none does ("exhaustive"), or "not proven"."""
+    "reached" with it), or a proof that none does ("exhaustive"), or "not proven" (with a note when the
+    search was not started because its estimated size is far above ``max_nodes``)."""
     problem = _level_problem(req, trial.count, trial.budget)
-    layouts = min(max_nodes, sum(math.comb(problem.n_candidates, r) for r in range(1, trial.count + 1)))
-    if layouts * _SECONDS_PER_LAYOUT > 5.0:
-        say(f"target power {req.power:g}: {trial.count} sensor(s): exact search over {problem.n_candidates} "
-            f"candidates (up to {layouts:,} layouts, about {layouts * _SECONDS_PER_LAYOUT:.0f} s at most)")
-    result = exact_search(problem, req.threshold * (1.0 - _ROUND_OFF), length=req.case.bridge.length,
-                          max_nodes=max_nodes)
+    threshold, length = req.threshold * (1.0 - _ROUND_OFF), req.case.bridge.length
+    size = sum(math.comb(problem.n_candidates, r) for r in range(1, trial.count + 1))
+    if size > max_nodes:
+        size = int(estimate_nodes(problem, threshold, length=length))
+    head = f"target power {req.power:g}: {trial.count} sensor(s): exact search over {problem.n_candidates} candidates"
+    per_layout = 1e-6 * (_MICROSECONDS_PER_LAYOUT[0] + _MICROSECONDS_PER_LAYOUT[1] * trial.count)
+    if size > _SKIP * max_nodes:
+        note = (f"exact search not started: about {size:.2g} layouts, {_duration(size * per_layout)} "
+                f"(limit {max_nodes:,})")
+        say(f"{head}: {note}")
+        return replace(trial, outcome="not proven", note=note), search, dmap
+    if size * per_layout > 5.0:
+        say(f"{head} (about {min(size, max_nodes):,} layouts, {_duration(min(size, max_nodes) * per_layout)} at "
+            "most)")
+    result = exact_search(problem, threshold, length=length, max_nodes=max_nodes)
     for layout, value in zip(result.layouts, result.values):
         candidate = req.map(layout)
         worst = req.worst(candidate)
         if worst >= req.power:
-            better = Search(search.baselines, search.relaxation, "exhaustive search", list(layout),
-                            float(value))
+            better = Search(search.baselines, search.relaxation, "exhaustive search", list(layout), float(value))
             return (replace(trial, layout_m=_positions(problem, layout), worst_case_power=worst,
                             outcome="reached", method="exhaustive search"), better, candidate)
     proven = result.complete and len(result.layouts) < 8
-    return replace(trial, outcome="exhaustive" if proven else "not proven"), search, dmap
+    note = "" if proven else f"exact search stopped at {result.nodes:,} layouts"
+    return replace(trial, outcome="exhaustive" if proven else "not proven", note=note), search, dmap
+
+
+def _duration(seconds):
+    """About how long, in words."""
+    if seconds < 120:
+        return f"about {seconds:.0f} s"
+    if seconds < 7200:
+        return f"about {seconds / 60:.0f} min"
+    return f"about {seconds / 3600:.2g} h"
 
 
 def _settle(req, trials, found, max_nodes, say, nested):
@@ -243,7 +263,9 @@ def _settle(req, trials, found, max_nodes, say, nested):
         if trials[k].outcome != "reached":
             break
         answer_at, k = k, k - 1
-    trials = [replace(t, outcome="implied") if t.outcome == "pending" else t for t in trials]
+    proven = k >= 0 and trials[k].outcome in ("exhaustive", "relaxation bound")
+    label = "implied" if proven else "not proven"
+    trials = [replace(t, outcome=label) if t.outcome == "pending" else t for t in trials]
     return answer_at, trials, found
 
 

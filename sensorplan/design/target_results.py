@@ -70,7 +70,7 @@ class CountTrial:
     ``"relaxation bound"``, ``"exhaustive"``, ``"implied"`` (a larger count does not reach it either and
     adding a sensor never lowers the power), ``"infeasible"`` (no layout meets the constraints) or
     ``"not proven"``.  ``bound_power`` is the power of the certified relaxation bound (no layout of this
-    level does better); ``method`` how the layout was found.
+    level does better); ``method`` how the layout was found; ``note`` why an exact search did not settle it.
     """
 
     count: int
@@ -81,11 +81,15 @@ class CountTrial:
     outcome: str
     method: str
     time_s: float
+    note: str = ""
 
     def to_dict(self):
-        return {"count": self.count, "budget": self.budget, "layout_m": list(self.layout_m),
-                "worst_case_power": self.worst_case_power, "bound_power": self.bound_power,
-                "outcome": self.outcome, "method": self.method, "time_s": self.time_s}
+        out = {"count": self.count, "budget": self.budget, "layout_m": list(self.layout_m),
+               "worst_case_power": self.worst_case_power, "bound_power": self.bound_power,
+               "outcome": self.outcome, "method": self.method, "time_s": self.time_s}
+        if self.note:
+            out["note"] = self.note
+        return out
 
     def line(self, power):
         """One line of the summary's table, for the required ``power``."""
@@ -94,7 +98,8 @@ class CountTrial:
         if self.worst_case_power is None:
             return head + _OUTCOMES[self.outcome].format(power=power)
         return (head + f"worst-case power {floor3(self.worst_case_power):.3f}, at most {floor3(self.bound_power):.3f} "
-                f"for any layout: {_OUTCOMES[self.outcome].format(power=power)} ({self.method}, {self.time_s:.1f} s)")
+                f"for any layout: {_OUTCOMES[self.outcome].format(power=power)} ({self.method}, {self.time_s:.1f} s)"
+                + (f"; {self.note}" if self.note else ""))
 
 
 _OUTCOMES = {"reached": "reaches {power:g}",
