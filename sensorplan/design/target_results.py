@@ -141,7 +141,8 @@ class TargetDesign:
                  else f"centred anywhere in {self.region[0]:g}-{self.region[1]:g} m")
         loss = (f"a {100 * m.severity:g} % EI loss over {m.length_m:g} m {where} ({m.n_crossings} crossing(s), "
                 f"false-alarm rate {100 * m.false_alarm_rate:g} %)")
-        sensors = _sensors(a.count, self.design.layout_kind) + ("" if a.cost is None else f" (cost {a.cost:g})")
+        sensors = _sensors(a.count, self.design.layout_kind, len(self.design.fixed_m)) + (
+            "" if a.cost is None else f" (cost {a.cost:g})")
         if a.met:
             return (f"Sufficient: {sensors} reach a worst-case power of {floor3(a.worst_case_power):.3f} >= "
                     f"{a.power:g} for {loss}{_fewer(a)}.")
@@ -161,12 +162,14 @@ class TargetDesign:
         return {**self.design.to_dict(), "target": target}
 
 
-def _sensors(count, kinds):
-    """"3 rotation sensor(s)", or "3 sensors (2 rotation, 1 deflection)" when the kinds differ."""
+def _sensors(count, kinds, existing=0):
+    """"3 rotation sensor(s)", or "3 sensors (2 rotation, 1 deflection)" when the kinds differ; with existing
+    sensors "3 new rotation sensor(s) and the 2 existing"."""
     names = sorted(set(kinds))
-    if len(names) == 1:
-        return f"{count} {names[0]} sensor(s)"
-    return f"{count} sensors (" + ", ".join(f"{list(kinds).count(k)} {k}" for k in names) + ")"
+    new = "new " if existing else ""
+    text = (f"{count} {new}{names[0]} sensor(s)" if len(names) == 1 else
+            f"{count} {new}sensors (" + ", ".join(f"{list(kinds).count(k)} {k}" for k in names) + ")")
+    return text + (f" and the {existing} existing" if existing else "")
 
 
 _HOW = {"relaxation bound": "certified by the relaxation bound", "exhaustive": "exhaustive search over every layout"}
