@@ -245,3 +245,20 @@ def test_power_and_cap_errors_name_the_parameter():
         sp.design_for_target(case, power=1.0)
     with pytest.raises(sp.ConfigError, match="'max_count'"):
         sp.design_for_target(case, power=0.8, max_count=0)
+
+
+@pytest.mark.parametrize("example,spacing,step,crossings,needed", CASES, ids=[c[0] for c in CASES])
+def test_cli_capped_below_the_need(tmp_path, capsys, example, spacing, step, crossings, needed):
+    path = tmp_path / "design.json"
+    code = main(["recommend", "--example", example, "--target-power", "0.8", "--spacing", str(spacing), "--step",
+                 str(step), "--crossings", str(crossings), "--count", str(needed - 1), "--seed", "1",
+                 "--json", str(path), "--out", str(tmp_path / "out")])
+    assert code == 0 and capsys.readouterr().out.startswith("Not sufficient: with the cap of ")
+    data = json.loads(path.read_text())
+    target, layout, case = data["target"], data["layout_m"], example_case(example)
+    assert target["met"] is False and target["count"] == needed - 1 == len(layout)
+    n = target["crossings_needed"]
+    assert worst_power(case, layout, step=step, crossings=crossings) == pytest.approx(target["worst_case_power"],
+                                                                                       abs=1e-12)
+    assert worst_power(case, layout, step=step, crossings=n) >= 0.8 > worst_power(case, layout, step=step,
+                                                                                   crossings=n - 1)
