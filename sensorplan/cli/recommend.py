@@ -1,8 +1,11 @@
-"""``sensorplan recommend``: certified layout, baselines, criterion versus R (and --verify)."""
+"""``sensorplan recommend``: certified layout, baselines, criterion versus R (and --verify, --target-power)."""
+
+import sys
 
 from .._errors import ConfigError
 from ._common import (
     COUNT,
+    DESIGN_FLAGS,
     DISTANCE,
     FALSE_ALARM,
     LENGTH,
@@ -38,18 +41,25 @@ HELP = "recommend where to put R sensors (certified layout + baselines)"
 EPILOG = """example:
   sensorplan recommend --example openlab-like --count 3 --criterion D --exclude 14.5:15.5 --out out/design
   sensorplan recommend --example openlab-like --count 4 --criterion detect --crossings 10 --out out/detect
+  sensorplan recommend --example simply-supported --target-power 0.8 --out out/target
 """
 DETECT_OPTIONS = ("severity", "length", "nuisance", "step", "false_alarm")
+POWER = real(0.0, 1.0, what="a detection power", low_open=True, high_open=True)
+# the parameters of design_for_target and CandidateGrid as the options name them
+FLAGS = DESIGN_FLAGS | {"support_margin": "--support-margin", "max_count": "--count", "power": "--target-power"}
 
 
 def add_arguments(p):
     from ..design.criteria import CRITERIA
 
     add_case_arguments(p)
-    p.add_argument("--count", type=COUNT, help="number of new sensors R (default: as many as the case has)")
+    p.add_argument("--count", type=COUNT, help="number of new sensors R (default: as many as the case has); with "
+                   "--target-power the largest count tried (default 12)")
     p.add_argument("--criterion", choices=list(CRITERIA), default="D", help="design criterion (default D)")
     p.add_argument("--spacing", type=LENGTH, default=0.5, help="candidate grid spacing in m (default 0.5)")
     p.add_argument("--exclude", type=parse_zones, help="exclusion zones start:stop in m, e.g. 14:16,29:30")
+    p.add_argument("--support-margin", type=DISTANCE, help="keep new sensors at least this distance in m from "
+                   "every support (default 0)")
     p.add_argument("--fixed", type=parse_sensors,
                    help="existing sensors in m, each optionally with :kind, e.g. 11,19:deflection")
     p.add_argument("--keep-case-sensors", action="store_true",
@@ -80,6 +90,9 @@ def add_arguments(p):
                    "(default smooth, as in detectability)")
     d.add_argument("--step", type=LENGTH, help="spacing of the damage centres in m (default 0.5)")
     d.add_argument("--false-alarm", type=FALSE_ALARM, help="false-alarm rate of the reported power (default 0.05)")
+    d.add_argument("--target-power", type=POWER, help="design to a requirement: the fewest sensors (with --cost "
+                   "and --budget the cheapest layout) whose detect-optimal layout reaches this worst-case power, "
+                   "e.g. 0.8; --count caps the count")
     add_out_arguments(p, json_default="design.json")
     add_verify_arguments(p, with_flag=True)
 
@@ -87,15 +100,20 @@ def add_arguments(p):
 def run(args, out, files):
     from .. import plotting
     from ..design.recommend import recommend
+    from ..design.target import design_for_target
     from ..verification.ranking import rank_layouts
 
     case = load_case(args)
     count = case.sensors.n_sensors if args.count is None else args.count
-    with option_names():
-        options = design_options(args, case)
+    with option_names(FLAGS):
+        options = design_options(args, case) if args.target_power is None else target_options(args, case)
         check_grid(case, args)
         check_signal(case, options["noise_std"], args.crossings)
-        result = recommend(case, count, args.criterion, **options)
+        if args.target_power is None:
+            answer = result = recommend(case, count, args.criterion, **options)
+        else:
+            answer = design_for_target(case, progress=_progress(args), **options)
+            result = answer.design
     outdir = args.out
     figures = [
         stage_figure(files, plotting.plot_layout(result, exclude=args.exclude or ()), outdir / "layout.png"),
@@ -105,7 +123,7 @@ def run(args, out, files):
     ]
     if result.curve:
         figures.append(stage_figure(files, plotting.plot_criterion_curve(result), outdir / "criterion_vs_R.png"))
-    payload = result.to_dict()
+    payload = answer.to_dict()
     verification = None
     if args.verify:
         names = ["recommended"] + [b.name for b in result.baselines if b.feasible]
@@ -119,7 +137,7 @@ def run(args, out, files):
         payload.update(ranking.to_dict())
         figures.append(vfig)
     json_path = stage_json(files, args.json or outdir / "design.json", payload)
-    out(result.summary())
+    out(answer.summary())
     if verification is not None:
         out(verification.summary())
         out(ranking.summary())
@@ -135,23 +153,45 @@ def _region(args):
     return args.region[0]
 
 
-def _detection_target(args):
+def _progress(args):
+    """One line per count tried on stderr (nothing with --quiet)."""
+    if args.quiet:
+        return None
+    return lambda message: print(f"sensorplan recommend: {message}", file=sys.stderr, flush=True)
+
+
+def _detection_target(args, criterion):
     """The --severity ... options as a DetectionTarget (criteria on detection information, e.g. detect;
     None for the other criteria)."""
     from ..design.criteria import criterion_class
     from ..design.recommend import DetectionTarget
 
     given = {k: getattr(args, k) for k in DETECT_OPTIONS if getattr(args, k) is not None}
-    if criterion_class(args.criterion).information != "detection":
+    if criterion_class(criterion).information != "detection":
         if given:
             names = ", ".join("--" + k.replace("_", "-") for k in given)
-            raise ConfigError(f"{names} apply to --criterion detect only. Got --criterion {args.criterion}.")
+            raise ConfigError(f"{names} apply to --criterion detect only. Got --criterion {criterion}.")
         return None
     return DetectionTarget(**given)
 
 
-def design_options(args, case):
-    """The keyword arguments of :func:`sensorplan.design.recommend.recommend` given by the options."""
+def target_options(args, case):
+    """The keyword arguments of :func:`sensorplan.design.target.design_for_target` given by the options
+    (--target-power; the layouts are detect-optimal, --count is the largest count tried)."""
+    if args.criterion not in ("D", "detect"):
+        raise ConfigError(f"--target-power designs detect-optimal layouts; drop --criterion {args.criterion} (or "
+                          "give --criterion detect)")
+    if args.springs:
+        raise ConfigError("--springs applies to the information criteria; --target-power designs detect layouts "
+                          "(their nuisance always includes the elastic springs): drop --springs")
+    options = design_options(args, case, criterion="detect")
+    del options["springs"]
+    return {"power": args.target_power, "max_count": args.count, **options}
+
+
+def design_options(args, case, *, criterion=None):
+    """The keyword arguments of :func:`sensorplan.design.recommend.recommend` given by the options
+    (``criterion`` default ``args.criterion``)."""
     from ..design.recommend import CandidateGrid, Constraints
 
     kinds, noise = kinds_and_noise(args, case, extra={k for _, k in args.fixed or () if k is not None})
@@ -165,10 +205,12 @@ def design_options(args, case):
                               span_min=_spans(args.per_span_min, "--per-span-min", case),
                               span_max=_spans(args.per_span_max, "--per-span-max", case), costs=costs,
                               budget=args.budget)
-    return {"grid": CandidateGrid(spacing=args.spacing, exclude=tuple(args.exclude or ()), kinds=kinds),
+    grid = CandidateGrid(spacing=args.spacing, exclude=tuple(args.exclude or ()), kinds=kinds,
+                         support_margin=args.support_margin or 0.0)
+    return {"grid": grid,
             "noise_std": {k: noise[k] for k in kinds}, "constraints": constraints, "n_crossings": args.crossings,
             "springs": args.springs, "solver": args.solver, "rng": args.seed,
-            "region": _region(args), "target": _detection_target(args)}
+            "region": _region(args), "target": _detection_target(args, criterion or args.criterion)}
 
 
 _NOT_DESIGN = {"help", "out", "json", "verify", "quiet", "debug", "scenarios", "workers", "verify_crossings"}

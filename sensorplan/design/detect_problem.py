@@ -23,7 +23,7 @@ from ..model.fisher import fisher_blocks
 from ..model.noise import NoiseModel
 from .criteria.detect import RIDGE, DetectCriterion
 
-__all__ = ["DetectionTarget", "detection_information"]
+__all__ = ["DetectionTarget", "detection_information", "centres_inside"]
 
 
 @dataclass(frozen=True)
@@ -51,6 +51,15 @@ class DetectionTarget:
     false_alarm: float = 0.05
 
 
+def centres_inside(centres, region):
+    """Mask of the damage ``centres`` [m] inside ``region`` (start, stop) [m], ends included (all when None)."""
+    centres = np.asarray(centres, dtype=float)
+    if region is None:
+        return np.ones(centres.shape, dtype=bool)
+    a, b = region
+    return (centres >= a - 1e-9) & (centres <= b + 1e-9)
+
+
 def _centres(case, target, region):
     centres = centre_grid(case.bridge.length, target.length, target.step)
     if region is None:
@@ -61,7 +70,7 @@ def _centres(case, target, region):
         raise ConfigError(f"The 'region' parameter must be (start, stop) in m. Got {region!r} instead.") from None
     if not b > a:
         raise ConfigError(f"The 'region' parameter must be start:stop with stop > start. Got {a:g}:{b:g} instead.")
-    inside = centres[(centres >= a - 1e-9) & (centres <= b + 1e-9)]
+    inside = centres[centres_inside(centres, (a, b))]
     if inside.size == 0:
         raise ConfigError(f"The 'region' {a:g}:{b:g} m contains no damage centre (centres run from "
                           f"{centres[0]:g} to {centres[-1]:g} m every {target.step:g} m); widen it.")

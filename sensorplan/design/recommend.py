@@ -31,11 +31,13 @@ from .problem import DesignProblem
 from .relaxation import Relaxation, solve_relaxation
 from .results import Baseline, CurvePoint, DesignResult, SolverStats
 from .selection import best_layout, exchange, greedy
+from .supports import keep_off_supports, support_notes
 
 if TYPE_CHECKING:
     from ..model.case import Case
 
-__all__ = ["recommend", "build_problem", "candidate_positions", "CandidateGrid", "Constraints", "DetectionTarget"]
+__all__ = ["recommend", "build_problem", "candidate_positions", "search_layout", "design_result", "Search",
+           "CandidateGrid", "Constraints", "DetectionTarget"]
 
 
 @dataclass(frozen=True)
@@ -53,12 +55,16 @@ class CandidateGrid:
     kinds : sequence of str, optional
         Sensor kinds offered at every position (e.g. ``("rotation", "deflection")``);
         default: the ``kind`` of :func:`recommend`.
+    support_margin : float
+        Smallest distance [m] of a new sensor from every support (default 0: none);
+        applies to explicit ``positions`` too.
     """
 
     spacing: float = 0.5
     exclude: tuple = ()
     positions: tuple | None = None
     kinds: tuple | None = None
+    support_margin: float = 0.0
 
     def candidates(self, bridge):
         """Candidate positions [m] on ``bridge``."""
@@ -67,7 +73,7 @@ class CandidateGrid:
         else:
             x = candidate_positions(bridge, self.spacing, self.exclude)
         bridge.check_on_bridge(x, "candidates", "recommend")
-        return x
+        return keep_off_supports(x, bridge.support_positions, self.support_margin)
 
 
 @dataclass(frozen=True)
@@ -246,14 +252,16 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
     problem = build_problem(case, count, criterion, grid=grid, constraints=constraints, kind=kind,
                             noise_std=noise_std, n_crossings=n_crossings, prior=prior, springs=springs,
                             region=region, functionals=functionals, target=target)
-    search = _search(problem, case, solver=solver, n_random=n_random, rng=rng)
-    return _design_result(case, problem, search, _curve(problem, count, curve_max, solver), n_crossings=n_crossings)
+    search = search_layout(problem, case, solver=solver, n_random=n_random, rng=rng)
+    margin = 0.0 if grid is None else float(grid.support_margin)
+    return design_result(case, problem, search, _curve(problem, count, curve_max, solver), n_crossings=n_crossings,
+                         support_margin=margin)
 
 
 @dataclass(frozen=True, eq=False)
-class _Search:
+class Search:
     """What the search found: the baselines (candidate indices or None by name), the relaxation, and the
-    best layout with its utility and the start it came from."""
+    best layout (candidate indices) with its utility and the start it came from (``method``)."""
 
     baselines: dict
     relaxation: Relaxation
@@ -262,8 +270,9 @@ class _Search:
     utility: float
 
 
-def _search(problem, case, *, solver, n_random, rng):
-    """Baselines, the greedy start, the relaxation and the best layout from every start."""
+def search_layout(problem, case, *, solver, n_random, rng):
+    """The :class:`Search` of ``problem``: baselines, the greedy start, the relaxation and the best layout
+    from every start (what :func:`recommend` returns, before the result is assembled)."""
     base = make_baselines(problem, length=case.bridge.length,
                           support_positions=case.bridge.support_positions, n_random=n_random, rng=rng)
     try:
@@ -272,11 +281,12 @@ def _search(problem, case, *, solver, n_random, rng):
         g_start = None
     relaxation = solve_relaxation(problem, solver, start_layout=g_start)
     method, layout, utility = best_layout(problem, relaxation.weights, base, greedy_layout=g_start, rng=rng)
-    return _Search(base, relaxation, method, layout, utility)
+    return Search(base, relaxation, method, layout, utility)
 
 
-def _design_result(case, problem, search, curve, *, n_crossings):
-    """The DesignResult of a search: values and certificate, baselines, curve, posterior std, details."""
+def design_result(case, problem, search, curve, *, n_crossings, support_margin=0.0):
+    """The DesignResult of a :class:`Search`: values and certificate, baselines, ``curve`` (CurvePoints),
+    posterior std, details, and the notes on sensors that sit on a support."""
     crit = problem.criterion
     sign = 1.0 if crit.maximise else -1.0
     value, bound = sign * search.utility, sign * search.relaxation.bound
@@ -306,7 +316,9 @@ def _design_result(case, problem, search, curve, *, n_crossings):
                         informativeness=informativeness, layout_kind=layout_kind, fixed_kind=fixed_kind,
                         fixed_noise_std=fixed_std,
                         noise_std={k: float(problem.noise_std[problem.kinds.index(k)]) for k in kinds},
-                        cost=_cost(problem, order), budget=problem.budget)
+                        cost=_cost(problem, order), budget=problem.budget,
+                        support_notes=support_notes(case.bridge, layout_m, layout_kind),
+                        support_margin_m=float(support_margin))
 
 
 def _baseline_results(problem, base, value):

@@ -145,6 +145,10 @@ class DesignResult:
         Noise std [rad or m] of new sensors of each candidate kind.
     cost, budget : float or None
         Total cost of the recommended sensors and the budget (None without a budget).
+    support_notes : tuple of str
+        One sentence per recommended sensor that sits on a support: where, and what it reads there.
+    support_margin_m : float
+        Smallest distance [m] of a new sensor from every support the candidates kept (0: none).
     """
 
     criterion: str
@@ -178,6 +182,8 @@ class DesignResult:
     noise_std: dict = field(default_factory=dict)
     cost: float | None = None
     budget: float | None = None
+    support_notes: tuple = ()
+    support_margin_m: float = 0.0
 
     @property
     def mixed(self) -> bool:
@@ -205,6 +211,9 @@ class DesignResult:
             lines.append("  existing sensors [m]: " + self._positions(self.fixed_m, self.fixed_kind))
         if self.budget is not None:
             lines.append(f"  cost {self.cost:g} of a budget of {self.budget:g}")
+        if self.support_margin_m > 0:
+            lines.append(f"  candidates kept at least {self.support_margin_m:g} m from every support")
+        lines += [f"  {note}" for note in self.support_notes]
         gap = self.value - self.bound
         lines.append(f"  criterion {self.value:.6g}; relaxation bound {self.bound:.6g}; gap {gap:.3g}; "
                      f"certified efficiency >= {100 * self.efficiency:.2f} %  (method: {self.method})")
@@ -254,4 +263,5 @@ class DesignResult:
             "solver": self.solver.to_dict(),
             "curve": [p.to_dict() for p in self.curve],
             **self.details,
+            **({"support_margin_m": self.support_margin_m} if self.support_margin_m > 0 else {}),
         }
