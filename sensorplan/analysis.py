@@ -73,7 +73,7 @@ def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None 
             spacing: float | None = None, n_scenarios: int = 6, n_crossings: int = 10, seed: int = 0,
             progress: "Callable[[str], None] | None" = None, design_options: dict | None = None,
             detect: bool = True, progress_units: "Callable[[int, int], None] | None" = None,
-            target_power: float = 0.9) -> Analysis:
+            target_power: float = 0.9, requirement: dict | None = None) -> Analysis:
     """Run the analyses of a report: informativeness, layout, verification, identification, gap.
 
     Parameters
@@ -103,6 +103,9 @@ def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None 
     target_power : float
         The requirement: worst-case power of detecting the detectability
         defaults' loss (25 % over 2 m at a false-alarm rate of 5 %).
+    requirement : dict, optional
+        Other keyword arguments of :func:`sensorplan.design.target.design_for_target`
+        (``target``: the loss, nuisance and false-alarm rate; ``region``).
 
     Returns
     -------
@@ -121,42 +124,51 @@ def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None 
         f"inversion of synthetic damage ({n_scenarios} locations, {n_crossings} crossings each)")
     verification = _verify_design(case, design, n_scenarios=n_scenarios, n_crossings=n_crossings, seed=seed,
                                   progress=progress_units)
-    requirement = {}
+    requirement_of = {}
     if detect:
-        requirement = _requirement(case, design, options, count=count, n_crossings=n_crossings,
-                                   power=target_power, say=say)
+        requirement_of = _requirement(case, design, options, count=count, n_crossings=n_crossings,
+                                      power=target_power, say=say, extra=requirement or {})
     measured = {} if data is None else _measured(case, data, say)
     return Analysis(case, candidates, design, verification, exclude=tuple(getattr(options["grid"], "exclude", ())),
-                    **measured, **requirement)
+                    **measured, **requirement_of)
 
 
-def _requirement(case, design, options, *, count, n_crossings, power, say):
+def _requirement(case, design, options, *, count, n_crossings, power, say, extra):
     """The recommended layout's detectability, the fewest sensors meeting ``power`` and the crossings needed."""
+    from .design.detect_problem import centres_inside
     from .design.target import DEFAULT_MAX_COUNT, design_for_target
 
     say("mapping what the layout detects along the bridge")
-    detect_map = _installed_detectability(case, design, n_crossings=n_crossings)
+    loss = extra.get("target")
+    detect_map = _installed_detectability(case, design, n_crossings=n_crossings, target=loss)
     say(f"finding the fewest sensors that reach a worst-case detection power of {power:g}")
     keep = {k: options[k] for k in ("grid", "constraints", "kind", "noise_std") if k in options}
     target = design_for_target(case, power=power, max_count=max(count, DEFAULT_MAX_COUNT), n_crossings=n_crossings,
-                               progress=say, **keep)
-    worst = float(np.min(detect_map.power))
-    needed = None if worst >= power else _crossings_for(case, design, detect_map, power, n_crossings)
+                               progress=say, **keep, **extra)
+    inside = centres_inside(detect_map.centres_m, extra.get("region"))
+    worst = float(np.min(detect_map.power[inside]))
+    needed = None if worst >= power else _crossings_for(case, design, detect_map, power, n_crossings, loss,
+                                                                 extra.get("region"))
     return {"detectability": detect_map, "target": target, "recommended_power": worst, "crossings_needed": needed}
 
 
-def _crossings_for(case, design, detect_map, power, n_crossings):
+def _crossings_for(case, design, detect_map, power, n_crossings, loss, region):
     """Fewest crossings with which the recommended layout reaches worst-case ``power`` (d grows as sqrt(n))."""
     import math
 
     from scipy.special import ndtri
 
-    d_min = float(np.min(detect_map.d))
+    from .design.detect_problem import centres_inside
+
+    d_min = float(np.min(detect_map.d[centres_inside(detect_map.centres_m, region)]))
     if d_min <= 0.0:
         return None
     need = -float(ndtri(detect_map.false_alarm_rate)) + float(ndtri(power))
     n = max(1, math.ceil(n_crossings * (need / d_min) ** 2 - 1e-9))
-    while float(np.min(_installed_detectability(case, design, n_crossings=n).power)) < power:
+    while True:
+        dmap = _installed_detectability(case, design, n_crossings=n, target=loss)
+        if float(np.min(dmap.power[centres_inside(dmap.centres_m, region)])) >= power:
+            break
         n += 1
     return n
 
@@ -202,7 +214,7 @@ def _verify_design(case, design, *, n_scenarios, n_crossings, seed, progress=Non
                           n_crossings=n_crossings, seed=seed, progress=progress)
 
 
-def _installed_detectability(case, design, *, n_crossings):
+def _installed_detectability(case, design, *, n_crossings, target=None):
     """The detectability map of the new and existing sensors, each with its own kind and noise."""
     from .design.candidates import sensor_layout
     from .detection.detectability import detectability
@@ -212,4 +224,7 @@ def _installed_detectability(case, design, *, n_crossings):
                               tuple(design.layout_kind) + tuple(design.fixed_kind),
                               [design.noise_std[k] for k in design.layout_kind] + list(design.fixed_noise_std))
     noise = NoiseModel(np.asarray(installed.noise_std), case.noise.correlation_length if case.noise else 0.0)
-    return detectability(case.with_sensors(installed, noise), n_crossings=n_crossings)
+    loss = {} if target is None else {"severity": target.severity, "length": target.length,
+                                      "false_alarm": target.false_alarm, "nuisance": target.nuisance,
+                                      "step": target.step}
+    return detectability(case.with_sensors(installed, noise), n_crossings=n_crossings, **loss)

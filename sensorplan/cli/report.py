@@ -51,12 +51,16 @@ def _inputs(args):
 def run(args, out, files):
     from ..analysis import analyse
     from ..inference.screening import check_case_data_scale, check_not_noise_free
+    from ..detection.results import POWER_TARGET
     from ..report import provenance, render_report
+    from ..report.conclusion import sufficiency_sentence
 
     case = load_case(args)
     with option_names():
         check_grid(case, args)
         design = design_options(args, case)
+        wanted = design_options(args, case, criterion="detect")
+    requirement = {"target": wanted["target"], "region": wanted["region"]}
     data = read_data(args.data, case, "report") if args.data is not None else None
     if data is not None:
         check_case_data_scale(case, data, source=str(args.data))
@@ -65,7 +69,8 @@ def run(args, out, files):
     with option_names():
         analysis = analyse(case, data=data, count=args.count, criterion=args.criterion, n_scenarios=args.scenarios,
                            n_crossings=args.verify_crossings, seed=args.seed, progress=progress.stage,
-                           progress_units=progress.count, design_options=design)
+                           progress_units=progress.count, design_options=design,
+                           target_power=args.target_power or POWER_TARGET, requirement=requirement)
     argv = recommend_argv(args)
     options = {k: (str(v) if isinstance(v, Path) else v) for k, v in sorted(vars(args).items())
                if k not in ("handler", "quiet", "debug")}
@@ -78,7 +83,11 @@ def run(args, out, files):
     path = files.write_text(args.out / "report.html", report.html)
     json_path = stage_json(files, args.json or args.out / "design.json",
                            {"recommend_argv": argv, "provenance": record.to_dict(),
-                            "layout_m": list(analysis.design.layout_m), "design": analysis.design.to_dict()})
+                            "layout_m": list(analysis.design.layout_m), "design": analysis.design.to_dict(),
+                            "sufficiency": sufficiency_sentence(analysis),
+                            "target": None if analysis.target is None else analysis.target.answer.to_dict(),
+                            "verdict": None if analysis.verdict is None else analysis.verdict.to_dict()})
+    out(sufficiency_sentence(analysis))
     out(analysis.design.summary())
     out(f"report with {len(report.sections)} sections written to {path}; design inputs: {json_path}")
     return 0

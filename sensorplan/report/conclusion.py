@@ -75,10 +75,12 @@ def _what_would_do(answer, analysis):
     if answer.met:
         ways.append(f"{answer.count} sensors placed for detection would reach {answer.worst_case_power:.2f}")
     else:
-        ways.append(f"no count up to {answer.count} reaches it")
+        ways.append(f"no count up to {answer.count} reaches it with {analysis.detectability.n_crossings} crossing(s)")
+        if answer.crossings_needed is not None:
+            ways.append(f"{answer.count} sensors placed for detection would with {answer.crossings_needed} crossings")
     if analysis.crossings_needed is not None:
         ways.append(f"{analysis.crossings_needed} crossings with the recommended layout would")
-    return "; " + " and ".join(ways) if ways else ""
+    return "; " + ", ".join(ways)
 
 
 def conclusion_html(analysis):
