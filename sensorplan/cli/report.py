@@ -36,6 +36,9 @@ def add_arguments(p):
             action.help = "random seed of the random baseline and of the verification's noise"
         elif action.dest == "verify_crossings":
             action.help = "crossings simulated per verification scenario, and in the detectability map"
+        elif action.dest == "target_power":
+            action.help = ("the requirement the report opens with: Sufficient or Not sufficient for this "
+                           "worst-case power of detecting the --severity loss over --length (default 0.9)")
 
 
 def _inputs(args):
@@ -70,7 +73,8 @@ def run(args, out, files):
         analysis = analyse(case, data=data, count=args.count, criterion=args.criterion, n_scenarios=args.scenarios,
                            n_crossings=args.verify_crossings, seed=args.seed, progress=progress.stage,
                            progress_units=progress.count, design_options=design,
-                           target_power=args.target_power or POWER_TARGET, requirement=requirement)
+                           target_power=POWER_TARGET if args.target_power is None else args.target_power,
+                           requirement=requirement)
     argv = recommend_argv(args)
     options = {k: (str(v) if isinstance(v, Path) else v) for k, v in sorted(vars(args).items())
                if k not in ("handler", "quiet", "debug")}
