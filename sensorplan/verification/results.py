@@ -114,12 +114,13 @@ class ScenarioRecord:
     false_alarm: float | None = None
     localisation_error_m: float | None = None
     loss_covered: float | None = None  # 1.0 when the 95 % interval of the loss covers the true one
+    verdict: str | None = None  # status of the one verdict an owner would have read on these data
 
     def to_dict(self):
         out = {"kind": self.kind, "centre_m": self.centre_m, "rmse": self.rmse, "coverage95": self.coverage95,
                "band_width": self.band_width, "converged": self.converged, "statistic": self.statistic,
                "threshold": self.threshold}
-        for name in ("false_alarm", "detected", "localisation_error_m", "loss_covered"):
+        for name in ("false_alarm", "detected", "localisation_error_m", "loss_covered", "verdict"):
             if getattr(self, name) is not None:
                 out[name] = getattr(self, name)
         return out
@@ -231,6 +232,7 @@ class VerificationResult:
                      "other columns mean ± Monte-Carlo standard error; rmse and band width relative to EI; detection "
                      "over the local losses, limit = their known-location power at the Bonferroni level)")
         lines += [f"  caveat: {c}" for c in self.false_alarm_caveats()]
+        lines += [f"  verdicts of {label[:26]}: {text}" for label, text in zip(self.labels, self._verdict_texts())]
         # only where the limit is worth comparing with (a few detections are expected)
         ratios = [s.detection_ratio for s in self.layouts if s.detection_limit is not None and s.detection_limit >= 0.2]
         if ratios and min(ratios) < 0.8:
@@ -242,6 +244,27 @@ class VerificationResult:
     def labels(self):
         """The layouts' names, or their positions when unnamed."""
         return [name or score.label for name, score in zip(self.names or [None] * len(self.layouts), self.layouts)]
+
+    def verdicts(self):
+        """Per layout, the statuses of the verdict (:mod:`sensorplan.verdict`) an owner would have read on each
+        scenario's data: ``{label: {"damaged": {status: count}, "controls": {status: count}}}``."""
+        out = {}
+        for label, score in zip(self.labels, self.layouts):
+            counts: dict = {"damaged": {}, "controls": {}}
+            for record in score.records:
+                if record.verdict is not None:
+                    group = counts["controls" if record.kind == "control" else "damaged"]
+                    group[record.verdict] = group.get(record.verdict, 0) + 1
+            out[label] = counts
+        return out
+
+    def _verdict_texts(self):
+        texts = []
+        for counts in self.verdicts().values():
+            parts = [f"{group} " + ", ".join(f"{status} {n}" for status, n in sorted(c.items()))
+                     for group, c in counts.items() if c]
+            texts.append("; ".join(parts) or "none recorded")
+        return texts
 
     def false_alarm_caveats(self):
         """One sentence per distinct caveat on the layouts' false-alarm rates (:func:`false_alarm_caveat`),
@@ -262,7 +285,7 @@ class VerificationResult:
                 d["name"] = name
             d["false_alarm_caveat"] = false_alarm_caveat(score.metrics["false_alarm_rate"], self.false_alarm)
             layouts.append(d)
-        return {"layouts": layouts, "n_crossings": self.n_crossings, "seed": self.seed,
+        return {"layouts": layouts, "verdict": self.verdicts(), "n_crossings": self.n_crossings, "seed": self.seed,
                 "severity": self.severity, "damage_length_m": self.length, "false_alarm": self.false_alarm,
                 "nuisance": self.nuisance}
 

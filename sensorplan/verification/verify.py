@@ -103,7 +103,7 @@ def _score(case, post, detection, scenario, truth):
     rmse = float(np.sqrt(np.mean((post.ei_mean / truth - 1.0) ** 2)))
     common = dict(kind=scenario.kind, centre_m=scenario.centre, rmse=rmse, coverage95=covered, band_width=width,
                   converged=float(bool(post.converged)), statistic=detection.statistic,
-                  threshold=detection.threshold)
+                  threshold=detection.threshold, verdict=None if post.verdict is None else post.verdict.status)
     if scenario.kind == "control":
         return ScenarioRecord(**common, false_alarm=float(detection.detected))
     if scenario.kind == "local" and detection.detected:
