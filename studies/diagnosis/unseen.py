@@ -163,11 +163,12 @@ OUTSIDE = tuple(e for e in OUT_OF_LIBRARY if e not in CONTROLS)  # drawn after t
 SPRINGS = ("support_rotational_spring", "vertical_support_spring")
 
 
-def random_case(rng, step=None, *, min_spans=1):
+def random_case(rng, step=None, *, min_spans=1, correlation=None):
     """A random bridge, vehicle, layout and noise model (the nominal model the diagnosis gets).
 
     ``step``: the load step [m] instead of the one drawn (the same draws otherwise); ``min_spans``: at
-    least this many spans (a bearing that lifts off needs a continuous bridge).
+    least this many spans (a bearing that lifts off needs a continuous bridge); ``correlation``: the noise's
+    AR(1) correlation length [m] instead of the one drawn.
     """
     n_spans = max(int(rng.integers(1, 4)), min_spans)
     main = rng.uniform(12.0, 35.0)
@@ -207,6 +208,7 @@ def random_case(rng, step=None, *, min_spans=1):
     std = float(np.median(peak)) / rng.uniform(40.0, 150.0)
     std = float(np.clip(std, 2e-7, 5e-4))
     corr = 0.0 if rng.random() < 0.5 else float(rng.uniform(0.3, 1.0))
+    corr = corr if correlation is None else float(correlation)
     sensors = sp.SensorLayout(np.round(pos, 2), "rotation", names, [std] * n_sensors)
     return sp.Case(bridge, mesh, ei, vehicle, sensors, sp.NoiseModel([std] * n_sensors, corr), sweep=sweep,
                    name="random")
@@ -219,14 +221,15 @@ def describe_case(case):
             f"rot {sum(0 < r < np.inf for r in b.rotational_springs)} vert {sum(v < np.inf for v in b.vertical_springs)}")
 
 
-def dataset(index, effects, seed, step=None, *, noise_free=False):
+def dataset(index, effects, seed, step=None, correlation=None, *, noise_free=False):
     """(case, crossings) of dataset ``index``: a random case and 8-12 crossings with ``effects`` withheld.
 
+    ``step``, ``correlation``: the load step and the noise's correlation length instead of those drawn;
     ``noise_free``: the same draws without the noise (pairs_limit.py's oracle).
     """
     ss = np.random.SeedSequence((seed, index))
     case_rng, data_rng = (np.random.default_rng(s) for s in ss.spawn(2))
-    case = random_case(case_rng, step, min_spans=2 if "bearing_liftoff" in effects else 1)
+    case = random_case(case_rng, step, min_spans=2 if "bearing_liftoff" in effects else 1, correlation=correlation)
     n_cr = int(case_rng.integers(8, 13))
     ei = None
     true = tuple(e for e in effects if e in EFFECT_NAMES or e in OUT_OF_LIBRARY)
@@ -238,10 +241,10 @@ def dataset(index, effects, seed, step=None, *, noise_free=False):
 
 
 def run_one(job):
-    kind, index, effects, seed, *step = job  # and the load step replacing the drawn one, if any
+    kind, index, effects, seed, *drawn = job  # and the load step and correlation length replacing the drawn ones
     t0 = time.process_time()
     try:
-        case, data = dataset(index, effects, seed, *step)
+        case, data = dataset(index, effects, seed, *drawn)
         n_cr = len(data.crossings)
         t0 = time.process_time()
         with warnings.catch_warnings():
@@ -316,13 +319,15 @@ def main(argv=None):
     ap.add_argument("--kind", choices=("single", "pairs", "both"), default="both")
     ap.add_argument("--step", type=float, default=None,
                     help="load step [m] of every dataset instead of the drawn 0.1-0.25 m (a dense record: 0.05)")
+    ap.add_argument("--correlation", type=float, default=None,
+                    help="AR(1) correlation length [m] of every dataset's noise instead of the drawn 0 or 0.3-1 m")
     ap.add_argument("--effects", nargs="*", default=None, help="only the single-effect datasets of these effects")
     args = ap.parse_args(argv)
     todo = jobs(args.cases, args.pairs, args.seed)
     if args.effects is not None:
         todo = [j for j in todo if j[0] == "single" and j[2][0] in args.effects]
-    if args.step is not None:
-        todo = [job + (args.step,) for job in todo]
+    if args.step is not None or args.correlation is not None:
+        todo = [job + (args.step, args.correlation) for job in todo]
     if args.kind != "both":
         todo = [j for j in todo if j[0] == args.kind]
     recs = []

@@ -209,7 +209,8 @@ def run_one(bridge, effect, seed):
         "p_value_after": d.gap_after.p_value,
         "min_heldout_rms": min((e.heldout_rms_after for e in d.effects
                                 if e.heldout_rms_after is not None), default=math.nan),
-        "verdict": d.verdict,
+        "verdict": d.statement,
+        "status": d.verdict.status,
         "springs_differ": any(f.differs for f in d.springs),
         "findings": " | ".join(f.text for fs in d.findings.values() for f in fs),
         "alternatives": ";".join(f"{k}~{'/'.join(v)}" for k, v in d.alternatives.items() if v),
@@ -260,7 +261,7 @@ COLUMNS = ("bridge", "effect", "seed", "predicted", "right", "causes", "confound
            "gap_significant", "top_effect", "top_log_bf", "second_effect", "second_log_bf", "true_rank",
            "true_log_bf", "true_heldout_gain", "true_rms_after", "true_heldout_rms", "noise_floor",
            "true_max_ei_shift", "true_information_kept", "base_rms", "min_heldout_rms",
-           "systematic_rms_before", "systematic_rms_after", "p_value_before", "p_value_after", "verdict",
+           "systematic_rms_before", "systematic_rms_after", "p_value_before", "p_value_after", "verdict", "status",
            "log_bfs", "heldout_gains", "springs_differ", "findings", "alternatives", "heldout_ratio_after",
            "seconds", "cpu_seconds", "error")
 
