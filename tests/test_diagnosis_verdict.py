@@ -61,15 +61,16 @@ def test_gap_test_is_calibrated_under_correlated_noise():
 
 
 def _ar1_control():
-    """A random two-span bridge with six tiltmeters, AR(1) noise (1 m) read every 0.1 m, no effect (unseen.py)."""
+    """An effect-free random bridge of unseen.py (three spans, four tiltmeters) with AR(1) noise of 1 m read every
+    0.1 m: the gap test on unwhitened residuals called it unexplained."""
     import unseen
 
-    return unseen.dataset(0, ("none",), 4343, 0.1, 1.0)
+    return unseen.dataset(23, ("none",), 4343, 0.1, 1.0)
 
 
 def test_effect_free_control_with_correlated_noise_is_adequate():
     case, data = _ar1_control()
-    assert case.noise.correlation_length == 1.0
+    assert case.noise.correlation_length == 1.0 and case.bridge.n_spans == 3 and case.sensors.n_sensors == 4
     d = diagnose(case, data)
     assert d.causes == () and d.partial == () and not d.unexplained
     assert "adequate" in d.statement and d.verdict.status == "no_change"

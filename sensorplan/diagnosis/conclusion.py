@@ -72,7 +72,7 @@ class EIFit:
 
 def gap_verdict(gap, nominal_gap, ei: EIFit, *, causes: Sequence[str], unexplained: bool, in_case: Mapping,
                 partial: Sequence[str] = (), springs_differ: Sequence[str] = (), confounded: Sequence[str] = (),
-                text: str = "") -> Verdict:
+                findings: Mapping | None = None, text: str = "") -> Verdict:
     """The :class:`~sensorplan.verdict.Verdict` of a diagnosis.
 
     ``gap``: of the case's model with EI fitted; ``nominal_gap``: of the
@@ -81,8 +81,10 @@ def gap_verdict(gap, nominal_gap, ei: EIFit, *, causes: Sequence[str], unexplain
     ``partial``: effects that reduced the gap but left it significant (not
     causes); ``springs_differ``: where the case's elastic springs differ
     from their configured values; ``confounded``: effects an EI change can
-    mimic; ``text``: the statement.
+    mimic; ``findings``: cause -> its :class:`~.results.Finding` s (where
+    each cause acts is said in the summary); ``text``: the statement.
     """
+    findings = {} if findings is None else findings
     stretches = band_departures(ei.edges, ei.log_mean, ei.log_std, ei.log_nominal)
     change = ei.log_mean - ei.log_nominal
     evidence = {
@@ -92,13 +94,14 @@ def gap_verdict(gap, nominal_gap, ei: EIFit, *, causes: Sequence[str], unexplain
         "band": {"level": BAND_LEVEL, "simultaneous": "Bonferroni over elements", "outside": stretches},
         "max_ei_change": float(np.max(np.abs(np.expm1(change)))) if change.size else 0.0,
         "springs_differ": list(springs_differ), "confounded": list(confounded),
+        "findings": {name: [f.text for f in findings.get(name, ())] for name in causes},
     }
     if not gap.testable:
         return Verdict("insufficient_data", "Insufficient data: the gap between the model and the data cannot be "
                        "tested (a single crossing too short for the structure test).", evidence=evidence,
                        next_step="record two crossings or more (`sensorplan recommend --target-power` for how many)")
     if gap.significant or causes or unexplained:
-        return _model_error(causes, unexplained, in_case, evidence, gap.significant)
+        return _model_error(causes, unexplained, in_case, evidence, gap.significant, findings)
     springs = ("; the case's elastic springs differ from their configured values: " + ", ".join(springs_differ)
                if springs_differ else "")
     step = ("write the identified springs into the case: `sensorplan diagnose --write-case FILE`"
@@ -110,13 +113,14 @@ def gap_verdict(gap, nominal_gap, ei: EIFit, *, causes: Sequence[str], unexplain
                    f"the data) and EI stays within its nominal band{springs}.", evidence=evidence, next_step=step)
 
 
-def _model_error(causes, unexplained, in_case, evidence, significant):
-    """The model-error verdict: the causes (or unexplained) and what to do next."""
+def _model_error(causes, unexplained, in_case, evidence, significant, findings):
+    """The model-error verdict: the causes (or unexplained), where they act (their first two findings), what next."""
     gap = ("a significant systematic gap between the model and the data" if significant or not causes else
            "a systematic difference between the model and the data (below the gap test's level; the effects' "
            "refits find it)")
     if causes:
-        found = f"explained by {' and '.join(causes)}"
+        found = "explained by " + " and ".join(
+            c + (f" ({'; '.join(f.where for f in findings[c][:2])})" if findings.get(c) else "") for c in causes)
         case_side = [c for c in causes if in_case.get(c, False)]
         data_side = [c for c in causes if not in_case.get(c, False)]
         steps = []

@@ -305,7 +305,8 @@ def _diagnosis(data, base, *, final, selection, results, confounded, offered, no
     n_base, n_el = problem.n_elements, final.problem.n_elements
     verdict = gap_verdict(base.gap, base.nominal_gap, _ei_fit(data, final), causes=selected, unexplained=unexplained,
                           in_case={n: offered[n].in_case for n in selected}, partial=selection.partial,
-                          springs_differ=differs, confounded=[c.name for c in confounded], text=text)
+                          springs_differ=differs, confounded=[c.name for c in confounded], findings=final.findings,
+                          text=text)
     return GapDiagnosis(
         base.gap, effects=tuple(results), causes=tuple(selected), unexplained=unexplained,
         confounded=tuple(confounded), statement=text, verdict=verdict, gap_after=final.gap,
