@@ -19,10 +19,15 @@
 4. Stepwise selection (:mod:`.selection.select`): forward steps, noise
    scale re-estimated after each pick, backward test, look-ahead, swaps.
 5. The selected model is refitted with its hyperparameters; its EI and
-   bands are the EI after correction.
+   bands are the EI after correction.  If its gap is still significant the
+   picks are not named as causes (:func:`.selection.select.named_causes`):
+   they are partial, the gap is unexplained and the case's model is refitted
+   instead.
 6. Confounding: an effect whose data signature a plausible EI change can
    mimic is reported as confounded, with the candidate sensor position that
    best separates the two (:mod:`.confounding`).
+7. The statement and the one verdict (:mod:`.conclusion`), which also reads
+   the gap of the nominal model (the case's EI and springs).
 
 Owns: :func:`diagnose`.  May import: inference, model, the executors and the diagnosis's parts.
 """
