@@ -96,7 +96,7 @@ def case():
 def test_effect_free_data_are_adequate(case):
     d = diagnose(case, generate(case, None, rng=3))
     assert d.causes == () and not d.unexplained
-    assert "adequate" in d.verdict
+    assert "adequate" in d.statement and d.verdict.status == "no_change"
 
 
 @pytest.mark.slow
@@ -123,7 +123,8 @@ def test_withheld_effect_is_found(case, effect, seed):
 @pytest.mark.slow
 def test_out_of_library_effect_is_unexplained(case):
     d = diagnose(case, generate(case, "vibration", rng=0))
-    assert d.unexplained and "unexplained" in d.verdict
+    assert d.unexplained and "unexplained" in d.statement and d.causes == ()
+    assert d.verdict.status == "model_error" and "unexplained" in d.verdict.summary
 
 
 @pytest.mark.slow
@@ -135,6 +136,10 @@ def test_genuine_ei_change_is_not_blamed_on_an_effect(case):
 
     d = diagnose(case, generate(case, None, rng=5, ei=ei))
     assert d.causes == () and not d.unexplained
+    # the one verdict: EI departs from nominal (never "no change"), where the loss is
+    assert d.verdict.status == "departure"
+    a, b = d.verdict.location_m
+    assert a < 9.0 and b > 5.0 and d.verdict.loss > 0
 
 
 @pytest.mark.slow
@@ -166,7 +171,8 @@ def test_diagnosis_json_holds_the_computed_values(case):
         assert entry["parameters"] == effect.parameters
     # effects are ranked by their Bayes factor
     assert [e.log_bayes_factor for e in d.effects] == sorted((e.log_bayes_factor for e in d.effects), reverse=True)
-    assert j["causes"] == list(d.causes) and j["unexplained"] is d.unexplained and j["verdict"] == d.verdict
+    assert j["causes"] == list(d.causes) and j["unexplained"] is d.unexplained and j["statement"] == d.statement
+    assert j["verdict"] == json.loads(json.dumps(d.verdict.to_dict())) and j["verdict"]["status"] == d.verdict.status
     np.testing.assert_array_equal(j["ei_edges_m"], case.mesh.edges)
     np.testing.assert_array_equal(j["ei_base"], d.ei_base)
     np.testing.assert_array_equal(j["ei_final"], d.ei_final)

@@ -155,5 +155,5 @@ def test_ei_absorbs_the_settlement_in_the_kept_lasers(withheld, with_lwa5):
 def test_report_prints(withheld, capsys):
     study.print_outcome(withheld)
     out = capsys.readouterr().out
-    for text in ("verdict:", "implied settlement at x = 30 m", "withheld LWA_5", "2 (x = 30.0)"):
+    for text in ("Verdict (", "statement:", "implied settlement at x = 30 m", "withheld LWA_5", "2 (x = 30.0)"):
         assert text in out

@@ -78,7 +78,7 @@ def run(args, out, files):
         from ..io.case_writer import case_to_toml
 
         kept_out = [] if result.corrected_model is None else list(result.corrected_model.not_in_case)
-        header = (f"{case.name} corrected by `sensorplan diagnose` ({result.verdict})"
+        header = (f"{case.name} corrected by `sensorplan diagnose` ({result.statement})"
                   + (f"\nnot in the case (properties of the data): {', '.join(kept_out)}" if kept_out else ""))
         path = files.write_text(args.write_case, case_to_toml(corrected_case(case, result), header=header))
         out(f"corrected case written to {path}" + (f" (not in it: {', '.join(kept_out)})" if kept_out else ""))

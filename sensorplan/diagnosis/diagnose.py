@@ -19,10 +19,15 @@
 4. Stepwise selection (:mod:`.selection.select`): forward steps, noise
    scale re-estimated after each pick, backward test, look-ahead, swaps.
 5. The selected model is refitted with its hyperparameters; its EI and
-   bands are the EI after correction.
+   bands are the EI after correction.  If its gap is still significant the
+   picks are not named as causes (:func:`.selection.select.named_causes`):
+   they are partial, the gap is unexplained and the case's model is refitted
+   instead.
 6. Confounding: an effect whose data signature a plausible EI change can
    mimic is reported as confounded, with the candidate sensor position that
    best separates the two (:mod:`.confounding`).
+7. The statement and the one verdict (:mod:`.conclusion`), which also reads
+   the gap of the nominal model (the case's EI and springs).
 
 Owns: :func:`diagnose`.  May import: inference, model, the executors and the diagnosis's parts.
 """
@@ -41,8 +46,10 @@ from .._threads import single_threaded
 from ..inference.screening import check_case_data_scale
 from ..model.crossings import Crossings
 from ..model.prior import GMRFPrior
+from .conclusion import EIFit, gap_verdict, statement
 from .confounding import confounding
 from .effects import CaseSprings, effect_names, make_effect
+from .entries import corrected_model, effect_entry
 from .gap import residual_gap
 from .joint.binning import KEEP, bin_crossings, choose_size
 from .joint.fits import blocks_of, integrated_fit
@@ -54,8 +61,7 @@ from .selection.heldout import fold_rows, heldout, make_folds
 from .selection.passes import fit_models
 from .selection.policy import DEFAULT_POLICY
 from .selection.refit import quick_fit
-from .selection.select import select
-from .verdict import corrected_model, effect_entry, verdict
+from .selection.select import named_causes, select
 
 if TYPE_CHECKING:
     from ..model.case import Case
@@ -82,13 +88,17 @@ class _Data:
 
 @dataclass(frozen=True, eq=False)
 class _Base:
-    """The base fit: its problem, the fit with hyperparameters integrated, its quick fit and score, its gap."""
+    """The base fit: its problem, the fit with hyperparameters integrated, its quick fit and score, its gap.
+
+    ``nominal_gap``: the gap of the nominal model (the case's EI and springs).
+    """
 
     problem: Any
     full: Any
     candidate: Candidate
     gap: Any
     residual_map: Any
+    nominal_gap: Any
 
     @property
     def ei(self):
@@ -167,6 +177,12 @@ def _diagnose(case, crossings, prior, offered, not_offered, policy, *, n_folds, 
     say("final refit of the selected model with its hyperparameters")
     final = _final_fit(data, base, [offered[n] for n in selection.selected], selection.current, prior,
                        estimate_springs=estimate_springs)
+    causes = named_causes(selection.selected, gap_remains=final.gap.significant, policy=policy)
+    if len(causes) < len(selection.selected):
+        say("the selected effects leave a significant gap: no cause named; final refit of the case's model")
+        selection = replace(selection, selected=(), alternatives={}, current=base.candidate,
+                            partial=selection.selected)
+        final = _final_fit(data, base, [], base.candidate, prior, estimate_springs=estimate_springs)
     say("confounding with EI")
     others = [offered[r.name] for r in results if r.name not in selection.selected]
     confounded = confounding(data.case, data.crossings, others, prior=prior, theta_base=base.candidate.fit.theta,
@@ -227,12 +243,14 @@ def _base_fit(data, prior, offered, folds, *, policy, estimate_springs, say):
     _, _, cross, load, _ = problem.rows(fit.theta)
     test_masks = fold_rows(data.crossings, folds, cross, load)
     candidate = Candidate(fit, heldout(fit, test_masks))
-    gap, residual_map = residual_gap(data.on_rows(problem, [], prior, estimate_springs), fit.theta, alpha)
+    rows = data.on_rows(problem, [], prior, estimate_springs)
+    gap, residual_map = residual_gap(rows, fit.theta, alpha)
+    nominal_gap, _ = residual_gap(rows, problem.theta0, alpha)
     predictions = [y for y, _ in problem.predict(problem.theta0, jacobian=False)]  # the nominal model
     ctx = DiagnosisContext(data.case, data.crossings, prior=prior, effects=offered, estimate_springs=estimate_springs,
                            noise_scale=alpha, tau=tau, blocks=blocks_of(problem, fit.theta), test_masks=test_masks,
                            predictions=predictions, policy=policy)
-    return _Base(problem, full, candidate, gap, residual_map), ctx
+    return _Base(problem, full, candidate, gap, residual_map, nominal_gap), ctx
 
 
 @dataclass(frozen=True, eq=False)
@@ -273,8 +291,9 @@ def _final_fit(data, base, effects, current, prior, *, estimate_springs):
 def _diagnosis(data, base, *, final, selection, results, confounded, offered, not_offered, estimate_springs):
     """The :class:`GapDiagnosis` of the stages' results."""
     selected, held = selection.selected, selection.current.held
-    unexplained = bool(final.gap.significant)
-    text = verdict(selected, unexplained=unexplained, significant=base.gap.significant, confounded=confounded)
+    # no cause named: the gap of the case's model (the base fit, or its refit) is what remains
+    unexplained = bool(final.gap.significant or (not selected and base.gap.significant))
+    text = statement(selected, unexplained=unexplained, significant=base.gap.significant)
     # a candidate a cause holds as a special case is not a second finding: the data cannot tell them apart
     includes = {s: inside for s in selected
                 if (inside := tuple(n for n in offered[s].contains if n in offered and n not in selected))}
@@ -289,11 +308,15 @@ def _diagnosis(data, base, *, final, selection, results, confounded, offered, no
         heldout_rms_after=None if held is None else float(held.rms_by_sensor[i]))
         for i, n in enumerate(problem.sensor_names)}
     n_base, n_el = problem.n_elements, final.problem.n_elements
+    verdict = gap_verdict(base.gap, base.nominal_gap, _ei_fit(data, final), causes=selected, unexplained=unexplained,
+                          in_case={n: offered[n].in_case for n in selected}, partial=selection.partial,
+                          springs_differ=differs, confounded=[c.name for c in confounded], findings=final.findings,
+                          text=text)
     return GapDiagnosis(
         base.gap, effects=tuple(results), causes=tuple(selected), unexplained=unexplained,
-        confounded=tuple(confounded), verdict=text, gap_after=final.gap, ei_edges=data.case.mesh.edges.copy(),
-        ei_base=base.ei, ei_final=np.exp(final.theta[:n_el]), residual_map=base.residual_map,
-        ei_base_band=tuple(np.exp(b[:n_base]) for b in base.full.band()),
+        confounded=tuple(confounded), statement=text, verdict=verdict, gap_after=final.gap,
+        ei_edges=data.case.mesh.edges.copy(), ei_base=base.ei, ei_final=np.exp(final.theta[:n_el]),
+        residual_map=base.residual_map, ei_base_band=tuple(np.exp(b[:n_base]) for b in base.full.band()),
         ei_final_band=tuple(np.exp(b[:n_el]) for b in final.fit.band()),
         findings=final.findings, alternatives=dict(selection.alternatives), not_offered=not_offered,
         shrinkage=shrinkage, springs=final.springs,
@@ -301,4 +324,11 @@ def _diagnosis(data, base, *, final, selection, results, confounded, offered, no
         noise_scale=float(final.fit.noise_scale), converged=bool(base.full.converged and final.converged),
         heldout_ratio_after=None if held is None else held.ratio,
         heldout_ratio_before=None if base_held is None else base_held.ratio, corrected_model=final.corrected,
-        binning=data.binning, includes=includes)
+        binning=data.binning, includes=includes, partial=tuple(selection.partial))
+
+
+def _ei_fit(data, final):
+    """The final refit's log EI (posterior mean and std of the mixture over the hyperparameters) and its nominal."""
+    n_el = final.problem.n_elements
+    std = np.sqrt(np.clip(np.diag(final.fit.mixture.covariance)[:n_el], 0, None))
+    return EIFit(data.case.mesh.edges, final.theta[:n_el], std, final.problem.theta0[:n_el])

@@ -10,6 +10,8 @@ from dataclasses import KW_ONLY, asdict, dataclass, field
 
 import numpy as np
 
+from ..verdict import Verdict
+
 __all__ = ["Binning", "Confounding", "CorrectedModel", "EffectFit", "Finding", "Gap", "GapDiagnosis", "ResidualMap",
            "SensorGap", "SensorShrinkage"]
 
@@ -70,6 +72,9 @@ class Gap:
     p_value : float
         Bonferroni p-value of the systematic and structure tests.
     significant : bool
+    testable : bool
+        Whether any test could be run (False: a single crossing too short
+        for the structure test; the gap then says nothing).
     """
 
     rms_residual: float
@@ -80,12 +85,13 @@ class Gap:
     worst_positions_m: tuple
     p_value: float
     significant: bool
+    testable: bool = True
 
     def to_dict(self):
         return {"rms_residual": self.rms_residual, "systematic_rms": self.systematic_rms,
                 "noise_rms": self.noise_rms, "by_sensor": {k: v.to_dict() for k, v in self.by_sensor.items()},
                 "worst_positions_m": list(self.worst_positions_m), "p_value": self.p_value,
-                "significant": self.significant}
+                "significant": self.significant, "testable": self.testable}
 
 
 @dataclass(frozen=True)
@@ -212,8 +218,14 @@ class CorrectedModel:
 class GapDiagnosis:
     """Result of :func:`~sensorplan.diagnosis.diagnose.diagnose` (JSON keys as in the CLI).
 
+    ``verdict``: the one :class:`~sensorplan.verdict.Verdict` (status,
+    summary, where, how much, evidence, next step;
+    :mod:`~sensorplan.diagnosis.conclusion`); ``statement``: the one-line
+    statement of the causes (causes found, unexplained, adequate);
     ``effects``: one :class:`EffectFit` per candidate, best log Bayes factor
-    first; ``causes``: the selected effects in order of selection; per
+    first; ``causes``: the selected effects in order of selection, named
+    only when the model with them leaves no significant gap (else they are
+    ``partial``: they reduce the gap but leave it significant); per
     cause its ``findings`` (of the final refit), ``alternatives`` (effects
     explaining the gap about as well) and ``includes`` (candidates it holds
     as a special case); ``not_offered``: effect -> why it cannot act on
@@ -230,7 +242,8 @@ class GapDiagnosis:
     causes: tuple
     unexplained: bool
     confounded: tuple
-    verdict: str
+    statement: str
+    verdict: Verdict
     gap_after: Gap
     ei_edges: np.ndarray
     ei_base: np.ndarray
@@ -251,6 +264,7 @@ class GapDiagnosis:
     corrected_model: CorrectedModel | None = None
     binning: Binning | None = None
     includes: dict = field(default_factory=dict)
+    partial: tuple = ()
 
     def summary(self):
         from .summary import summary_lines
@@ -264,7 +278,9 @@ class GapDiagnosis:
             "causes": list(self.causes),
             "unexplained": bool(self.unexplained),
             "confounded": [c.to_dict() for c in self.confounded],
-            "verdict": self.verdict,
+            "verdict": self.verdict.to_dict(),
+            "statement": self.statement,
+            "partial": list(self.partial),
             "gap_after": self.gap_after.to_dict(),
             "ei_edges_m": self.ei_edges.tolist(),
             "ei_base": self.ei_base.tolist(),

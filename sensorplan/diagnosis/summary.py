@@ -11,8 +11,10 @@ __all__ = ["summary_lines"]
 
 
 def summary_lines(d):
-    g = d.gap
-    lines = [f"Sim-to-real gap: {'significant' if g.significant else 'not significant'} (p = {g.p_value:.2g})"]
+    """The printed diagnosis: the verdict's sentence and next step first, then the gap, the effects, the causes."""
+    g, v = d.gap, d.verdict
+    lines = [f"Verdict ({v.status}): {v.summary}"] + ([f"  next step: {v.next_step}"] if v.next_step else [])
+    lines.append(f"Sim-to-real gap: {'significant' if g.significant else 'not significant'} (p = {g.p_value:.2g})")
     for name, s in d.shrinkage.items():
         v = g.by_sensor[name]
         lines.append(f"  {name}: residual rms {in_unit(v.rms_residual, s.kind)}, systematic "
@@ -31,13 +33,24 @@ def summary_lines(d):
                      "information on EI")
     for name, reason in d.not_offered.items():
         lines.append(f"  not offered: {name} ({reason})")
-    lines.append(f"  {'effect':26s} {'log BF':>8s} {'held-out gain':>14s} {'max EI shift':>13s}")
+    return lines + _effect_lines(d) + _cause_lines(d) + _closing_lines(d)
+
+
+def _effect_lines(d):
+    """The table of the candidate effects, each fitted alone."""
+    lines = [f"  {'effect':26s} {'log BF':>8s} {'held-out gain':>14s} {'max EI shift':>13s}"]
     for e in d.effects:
         gain = "n/a" if e.heldout_score_gain is None else f"{e.heldout_score_gain:.1f}"
         bf = "n/a" if not np.isfinite(e.log_bayes_factor) else f"{e.log_bayes_factor:.1f}"
         flag = ("" if e.converged else "  (stopped: far below the best; not used)" if e.abandoned
                 else "  (not converged: not used)")
         lines.append(f"  {e.name:26s} {bf:>8s} {gain:>14s} {100 * e.max_ei_shift:12.1f}%{flag}")
+    return lines
+
+
+def _cause_lines(d):
+    """Each cause with its findings and alternatives, the residuals before and after, the corrected EI."""
+    lines = []
     for k, name in enumerate(d.causes):
         lines.append(f"  cause {k + 1}: {name}")
         lines += [f"    {f.text}" for f in d.findings.get(name, ())] or ["    (no single parameter stands out)"]
@@ -57,6 +70,15 @@ def summary_lines(d):
             lo, hi = (np.asarray(b) for b in d.ei_final_band)
             lines.append(f"  EI after correction: {np.min(d.ei_final):.3g} to {np.max(d.ei_final):.3g} N·m², "
                          f"95 % bands {np.min(lo):.3g} to {np.max(hi):.3g} N·m² (noise scale {d.noise_scale:.2f})")
+    return lines
+
+
+def _closing_lines(d):
+    """Partial effects, the confounded ones, convergence and the statement."""
+    g, lines = d.gap, []
+    if d.partial:
+        lines.append(f"  not causes: {', '.join(d.partial)} reduce the gap but leave it significant (the cause is "
+                     "outside the library)")
     if d.confounded and not g.significant and not d.causes:
         # nothing to explain: which effects an EI change could mimic is no finding here (it is in to_dict())
         lines.append(f"  no significant gap, so confounded alternatives are not listed ({len(d.confounded)} effects "
@@ -68,5 +90,5 @@ def summary_lines(d):
                      f"({100 * c.information_kept:.0f} % of its information survives){where}")
     if not d.converged:
         lines.append("  WARNING: the base or final fit did not converge; treat the verdict with caution")
-    lines.append(f"  verdict: {d.verdict}")
+    lines.append(f"  statement: {d.statement}")
     return lines

@@ -4,6 +4,17 @@ Each generator builds the data with the public forward model (a finer,
 differently aligned truth mesh, noise from the case's noise model) and
 applies the effect directly: a changed bridge, shifted sensors, shifted
 load positions, changed axle loads, or additive / multiplicative terms.
+
+Three effects are outside the library (:data:`OUT_OF_LIBRARY`): a free
+vibration along the crossing, and two the package's beam cannot express,
+simulated with the study's own finite-element beam (:mod:`beam_fe`) and
+added as the difference they make to its readings:
+
+* ``shear_deformation``: the deck's shear flexibility (a Timoshenko beam,
+  phi = 12 EI / (kGA L^2) of 0.05-0.2 over the first span);
+* ``bearing_liftoff``: one bearing of a continuous bridge a one-sided
+  contact with a gap of 2-10 % of the largest deflection above it without
+  it: it carries no reaction under a light or distant load, nor in tension.
 """
 
 from dataclasses import replace
@@ -14,9 +25,12 @@ import sensorplan as sp
 from sensorplan.model.crossings import Crossing, Crossings
 from sensorplan.verification.verify import truth_mesh
 
+from beam_fe import liftoff_readings, shear_lines
+
 EFFECT_NAMES = ("support_rotational_spring", "vertical_support_spring", "sensor_offset", "thermal_drift",
                 "position_offset", "axle_loads", "sensor_position", "dynamic_amplification", "sensor_gain",
                 "load_dependent_stiffness")
+OUT_OF_LIBRARY = ("vibration", "shear_deformation", "bearing_liftoff")
 
 
 def _fine(case):
@@ -24,7 +38,7 @@ def _fine(case):
 
 
 def generate(case, effect, rng, n_crossings=6, *, ei=None, return_noise_rms=False, noise_free=False):
-    """Crossings of ``case`` with ``effect`` present (None: effect-free; "vibration": out of library).
+    """Crossings of ``case`` with ``effect`` present (None: effect-free; :data:`OUT_OF_LIBRARY`: out of library).
 
     ``effect`` may also be a tuple of effects, applied together (each as it is
     applied alone, in the order given).
@@ -48,6 +62,7 @@ def generate(case, effect, rng, n_crossings=6, *, ei=None, return_noise_rms=Fals
     gain = np.ones(sensors.n_sensors)
     load_factor = np.ones(n_crossings)
     ei_factor = np.ones(n_crossings)
+    beam = {}  # the out-of-library effects of the study's own beam: name -> their parameters
     for name in (effect,) if effect is None or isinstance(effect, str) else tuple(effect):
         if name == "support_rotational_spring":
             rot = list(bridge.rotational_springs)
@@ -90,9 +105,22 @@ def generate(case, effect, rng, n_crossings=6, *, ei=None, return_noise_rms=Fals
             phase = rng.uniform(0, 2 * np.pi, n_crossings)
             wave = np.sin(2 * np.pi * pos[None, :] / 2.3 + phase[:, None])
             add += 0.08 * peak[None, :, None] * wave[:, None, :]
+        elif name == "shear_deformation":
+            span = bridge.spans[0]
+            beam[name] = {"kga": 12.0 * float(np.median(case.ei)) / (rng.uniform(0.05, 0.2) * span**2)}
+        elif name == "bearing_liftoff":
+            if bridge.n_spans < 2:
+                raise ValueError("bearing_liftoff needs a continuous bridge (two spans or more)")
+            beam[name] = {"support": int(rng.integers(0, bridge.n_spans + 1)), "fraction": rng.uniform(0.02, 0.1)}
         elif name is not None:
             raise ValueError(name)
     truth = replace(fine, bridge=bridge, sensors=sensors, vehicle=vehicle)
+    added = {}  # the beam effects of the crossings that share a load shift and an EI factor, computed once
+    for c in range(n_crossings):
+        key = (float(shifts[c]), float(ei_factor[c]))
+        if key not in added:
+            added[key] = _beam_effects(truth, ei_fine * ei_factor[c], pos + shifts[c], beam)
+        add[c] += added[key] * load_factor[c]
     noise = case.noise.sample(pos, rng, n_crossings)
     if noise_free:
         noise = np.zeros_like(noise)
@@ -105,4 +133,22 @@ def generate(case, effect, rng, n_crossings=6, *, ei=None, return_noise_rms=Fals
     out = Crossings(case.sensors.names, tuple(crossings))
     if return_noise_rms:
         return out, float(np.sqrt(np.mean(noise**2)))
+    return out
+
+
+def _beam_effects(truth, ei, positions, beam):
+    """The readings the out-of-library ``beam`` effects add to ``truth``'s, (S, m) (0 without them)."""
+    out = np.zeros((truth.sensors.n_sensors, positions.size))
+    if not beam:
+        return out
+    mesh = truth.mesh
+    args = (truth.bridge, lambda x: ei[mesh.element_of(x)], truth.sensors, truth.vehicle, positions)
+    if "shear_deformation" in beam:
+        timoshenko, bernoulli = shear_lines(*args, kga=beam["shear_deformation"]["kga"], ei_edges=mesh.edges)
+        out += timoshenko - bernoulli
+    if "bearing_liftoff" in beam:
+        p = beam["bearing_liftoff"]
+        lifted, bearing = liftoff_readings(*args, support=p["support"], gap_fraction=p["fraction"],
+                                           ei_edges=mesh.edges)
+        out += lifted - bearing
     return out

@@ -1,7 +1,10 @@
 """Validation study of the sim-to-real gap diagnosis (``sensorplan diagnose``).
 
-For every effect of the library, an effect-free control and one effect
-outside the library ("vibration": a free vibration along the crossing), on
+For every effect of the library, an effect-free control and three effects
+outside the library ("vibration": a free vibration along the crossing;
+"shear_deformation": the deck's shear flexibility, and "bearing_liftoff": a
+bearing in one-sided contact with a gap, both simulated by the study's own
+Timoshenko beam, beam_fe.py; the lift-off on the continuous bridges only), on
 four bridges
 
   single-span   one 20 m span (``simply-supported``), a TWO-axle vehicle
@@ -29,7 +32,9 @@ Scored per dataset:
 * shrinkage: the held-out residual rms after adding the TRUE effect
   (``heldout_rms_after`` of its entry in ``diagnosis.effects``) against the
   noise floor, the rms of the noise actually added to the data;
-* out of library: the verdict must be "unexplained" with no cause named.
+* out of library: the statement must be "unexplained" with no cause named
+  (effects that take part of the gap but leave it significant are listed as
+  partial, not as causes).
 
 Acceptance targets (printed as met / not met):
   top-ranked cause right for >= 90 % of the single-effect datasets;
@@ -57,7 +62,16 @@ Run: python studies/diagnosis/validation.py [--quick] [--out DIR] [--workers N]
 The full study (130 datasets) takes about 2 minutes on 2 cores;
 --quick (one bridge, four datasets) under a minute.
 
-Last run (2026-11-26, after the piecewise-cubic lines, the column-sparse
+Last run (issue 37, 147 datasets with shear deformation and bearing lift-off, 2 workers beside other jobs),
+before -> after picks that leave a significant gap are no longer named and the systematic gap test whitens
+AR(1) residuals: top-ranked cause right 99/100 -> 98/100 (74 -> 73 strictly; the single-span sensor
+position seed 0 is now unexplained: Ljung-Box p 7e-5 on one sensor with the held-out rms at 1.01 x noise);
+false alarms 0/10 and 0/10 (every control's verdict no_change); local damage blamed 0/10 and 0/10 (verdict
+departure 9/10); out of the library unexplained with no cause named 11/27 -> 22/27 (vibration 10/10 ->
+10/10, bearing lift-off 0/7 -> 7/7, shear deformation 1/10 -> 5/10: on the three-span bridges a
+rotational restraint with an axle-load error or a sensor gain reproduces it to within the noise in 3,
+on the two-span one 2 are not seen at all); held-out within 20 % 100/100, max 1.109, unchanged.
+Run before (2026-11-26, after the piecewise-cubic lines, the column-sparse
 normal equations and the absolute convergence floor; 2 workers): the same
 verdict on every one of the 130 datasets as the run below (99/100 right,
 74/100 strictly; 0/10 false alarms; local damage 0/10; vibration
@@ -110,15 +124,15 @@ import sensorplan as sp  # noqa: E402
 from sensorplan.diagnosis.diagnose import diagnose  # noqa: E402
 from sensorplan.diagnosis.effects import EFFECTS  # noqa: E402
 
-from effects_data import EFFECT_NAMES, generate  # noqa: E402
+from effects_data import EFFECT_NAMES, OUT_OF_LIBRARY, generate  # noqa: E402
 
 assert tuple(EFFECTS) == EFFECT_NAMES, "the study's effects must be the library's"
 
 LIBRARY = tuple(EFFECTS)
-OUT_OF_LIBRARY = "vibration"
 NONE = "none"                            # label of the effect-free datasets
 LOCAL_DAMAGE = "local_damage"            # EI 30 % lower over a fifth of span 1: part of the model, never an effect
-ALL_EFFECTS = LIBRARY + (NONE, OUT_OF_LIBRARY, LOCAL_DAMAGE)
+# (the effects outside the library added later come last: the seeds of the earlier datasets stay)
+ALL_EFFECTS = LIBRARY + (NONE, "vibration", LOCAL_DAMAGE) + tuple(e for e in OUT_OF_LIBRARY if e != "vibration")
 N_CROSSINGS = 6
 
 # predicted labels besides the library's effects
@@ -139,7 +153,7 @@ BRIDGES = {
     "three-span": ("12+16+12 m on bearings, 3 axles, AR(1) noise 0.5 m", 2, 10.0),
     "three-span-w": ("12+16+12 m on bearings, 3 axles, white noise", 2, 8.0),
 }
-QUICK = {"bridges": ("single-span",), "effects": (NONE, "sensor_offset", "axle_loads", OUT_OF_LIBRARY),
+QUICK = {"bridges": ("single-span",), "effects": (NONE, "sensor_offset", "axle_loads", "vibration"),
          "seeds": 1}
 
 
@@ -206,7 +220,8 @@ def run_one(bridge, effect, seed):
         "p_value_after": d.gap_after.p_value,
         "min_heldout_rms": min((e.heldout_rms_after for e in d.effects
                                 if e.heldout_rms_after is not None), default=math.nan),
-        "verdict": d.verdict,
+        "verdict": d.statement,
+        "status": d.verdict.status,
         "springs_differ": any(f.differs for f in d.springs),
         "findings": " | ".join(f.text for fs in d.findings.values() for f in fs),
         "alternatives": ";".join(f"{k}~{'/'.join(v)}" for k, v in d.alternatives.items() if v),
@@ -257,7 +272,7 @@ COLUMNS = ("bridge", "effect", "seed", "predicted", "right", "causes", "confound
            "gap_significant", "top_effect", "top_log_bf", "second_effect", "second_log_bf", "true_rank",
            "true_log_bf", "true_heldout_gain", "true_rms_after", "true_heldout_rms", "noise_floor",
            "true_max_ei_shift", "true_information_kept", "base_rms", "min_heldout_rms",
-           "systematic_rms_before", "systematic_rms_after", "p_value_before", "p_value_after", "verdict",
+           "systematic_rms_before", "systematic_rms_after", "p_value_before", "p_value_after", "verdict", "status",
            "log_bfs", "heldout_gains", "springs_differ", "findings", "alternatives", "heldout_ratio_after",
            "seconds", "cpu_seconds", "error")
 
@@ -305,7 +320,7 @@ def confusion(records, rows):
 _SHORT = {"support_rotational_spring": "rot_spring", "vertical_support_spring": "vert_spring",
           "sensor_offset": "offset", "thermal_drift": "drift", "position_offset": "pos_offset",
           "axle_loads": "axle_loads", "sensor_position": "sens_pos", "dynamic_amplification": "dyn_ampl",
-          CONFOUNDED: "EI-conf", ADEQUATE: "none", UNEXPLAINED: "unexpl", OUT_OF_LIBRARY: "vibration"}
+          CONFOUNDED: "EI-conf", ADEQUATE: "none", UNEXPLAINED: "unexpl", "shear_deformation": "shear", "bearing_liftoff": "liftoff"}
 
 
 def short(name):
@@ -330,7 +345,7 @@ def report(records, bridges, effects, elapsed):
     failed = [r for r in records if r["error"]]
     lib = [r for r in ok if r["effect"] in LIBRARY]
     free = [r for r in ok if r["effect"] == NONE]
-    vib = [r for r in ok if r["effect"] == OUT_OF_LIBRARY]
+    vib = [r for r in ok if r["effect"] in OUT_OF_LIBRARY]
     print(f"\n{len(records)} datasets ({len(failed)} failed) in {elapsed / 60:.1f} min; "
           f"bridges: {', '.join(bridges)}")
     for r in failed:
@@ -454,9 +469,9 @@ def report(records, bridges, effects, elapsed):
 
     # 4. out of library
     if vib:
-        print(f"\nOut-of-library effect ({OUT_OF_LIBRARY}):")
+        print(f"\nOut-of-library effects ({', '.join(OUT_OF_LIBRARY)}):")
         for r in vib:
-            print(f"  {r['bridge']:13s} seed {r['seed']}: unexplained={r['unexplained']}, causes "
+            print(f"  {r['bridge']:13s} {r['effect']:18s} seed {r['seed']}: unexplained={r['unexplained']}, causes "
                   f"[{r['causes']}], best log BF {r['top_effect']} {r['top_log_bf']:.1f}; sys rms "
                   f"{r['systematic_rms_before'] / r['noise_floor']:.2f} -> "
                   f"{r['systematic_rms_after'] / r['noise_floor']:.2f} x noise, base fit rms "
@@ -509,7 +524,7 @@ def summary(results, records):
                 if k or absorbed:
                     print(f"    {e:28s} EI-confounded {k}/{len(rs)}; base model (EI refitted, effect withheld) "
                           f"already within 2 % of the noise floor in {absorbed}/{len(rs)}")
-    vib = [r for r in ok if r["effect"] == OUT_OF_LIBRARY]
+    vib = [r for r in ok if r["effect"] in OUT_OF_LIBRARY]
     missed = [r for r in vib if not r["unexplained"]]
     if missed:
         cancel = sum(r["systematic_rms_before"] == 0.0 for r in missed)
@@ -538,7 +553,7 @@ def figures(records, m, rows, out):
     for i, t in enumerate(rows):  # outline the cells that count as right
         for j, p in enumerate(PREDICTED):
             right = (t in LIBRARY and (p == t or p == CONFOUNDED)) or (t == NONE and p == ADEQUATE) or (
-                t == OUT_OF_LIBRARY and p == UNEXPLAINED)
+                t in OUT_OF_LIBRARY and p == UNEXPLAINED)
             if right:
                 ax.add_patch(Rectangle((j - 0.5, i - 0.5), 1, 1, fill=False, edgecolor="C3", linewidth=1.5))
     ax.set_xticks(range(len(PREDICTED)), [short(p) for p in PREDICTED], rotation=35, ha="right")
@@ -598,7 +613,9 @@ def main(argv=None):
     tasks = []
     for b in bridges:
         n_seeds = args.seeds or (QUICK["seeds"] if args.quick else BRIDGES[b][1])
-        tasks += [(b, e, s) for e in effects for s in range(n_seeds)]
+        # a bearing that lifts off needs a continuous bridge
+        tasks += [(b, e, s) for e in effects for s in range(n_seeds)
+                  if not (e == "bearing_liftoff" and b == "single-span")]
     tasks.sort(key=lambda t: -BRIDGES[t[0]][2])  # longest first: the pool stays busy to the end
     print(f"Validation of the gap diagnosis: {len(tasks)} datasets, {N_CROSSINGS} crossings each, "
           f"{args.workers} worker(s)")

@@ -24,6 +24,12 @@ class SelectionPolicy:
     gain_threshold: float = 3.0
     # the largest number of selected effects (a gap explained by more is not identified)
     max_rounds: int = 3
+    # whether picks that leave a significant gap are still named as causes (:func:`~.select.named_causes`).  No:
+    # effects that absorb part of a gap they cannot remove are not identified causes, and a reader told "partly
+    # explained by A, B, C; unexplained" reads three causes.  Effects outside the library (a bearing that lifts
+    # off, the deck's shear deformation) were "partly explained" by up to three library effects at once; the
+    # gap that remains is what says the cause is elsewhere.  The picks are reported as partial.
+    name_partial: bool = False
     # a later pick with this many alternatives within bf_threshold is not made: three effects that explain the
     # remainder about equally are no identified cause
     ambiguous: int = 2

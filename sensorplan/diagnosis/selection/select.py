@@ -31,8 +31,11 @@ significant held-out gain (:func:`passes`).
 * Swap (:func:`.revisions.swap`): with two or more selected, a selected
   effect is replaced by another one that alone explains part of the gap
   when that raises the evidence without losing held-out score.
+* Named (:func:`named_causes`): the picks are causes only if the model
+  with them leaves no significant gap (``policy.name_partial``); otherwise
+  the gap is unexplained and the picks are partial.
 
-Owns: :func:`select`, :class:`Selection`.  May import: the selection's parts and the joint model's warm starts.
+Owns: :func:`select`, :func:`named_causes`, :class:`Selection`.  May import: the selection's parts and the joint model's warm starts.
 """
 
 from dataclasses import dataclass
@@ -44,16 +47,21 @@ from .policy import SelectionPolicy
 from .revisions import prune, swap
 from .state import SelectionState, passes
 
-__all__ = ["Selection", "select"]
+__all__ = ["Selection", "named_causes", "select"]
 
 
 @dataclass(frozen=True, eq=False)
 class Selection:
-    """The selected effects in order of selection, each pick's alternatives, the selected model's fit and score."""
+    """The selected effects in order of selection, each pick's alternatives, the selected model's fit and score.
+
+    ``partial``: picks not named as causes (:func:`named_causes`): they
+    reduce the gap but leave it significant.
+    """
 
     selected: tuple
     alternatives: dict
     current: Candidate
+    partial: tuple = ()
 
 
 def select(ctx, names, screened, base, *, policy: SelectionPolicy, folds, say, runner=None):
@@ -78,6 +86,16 @@ def select(ctx, names, screened, base, *, policy: SelectionPolicy, folds, say, r
                   and state.screened[n].fit.log_evidence - base.fit.log_evidence >= policy.bf_threshold]
         state = swap(state, strong, policy=policy, say=say)
     return Selection(state.selected, state.alternatives, state.current)
+
+
+def named_causes(picks, *, gap_remains, policy: SelectionPolicy):
+    """The picks named as causes: all of them, or none when the model with them still leaves a significant gap.
+
+    ``gap_remains``: the gap test of the selected model refitted with its
+    hyperparameters fails.  Effects that take part of a gap without removing
+    it are no identified cause (the reason is ``policy.name_partial``'s).
+    """
+    return tuple(picks) if not gap_remains or policy.name_partial else ()
 
 
 def _candidates(state, step, remaining, eligible, *, policy, say, runner):

@@ -1,6 +1,6 @@
-"""The diagnosis's findings from its fits: each candidate's entry, the corrected model, the verdict.
+"""The diagnosis's findings from its fits: each candidate's entry and the corrected model.
 
-Owns: :func:`effect_entry`, :func:`corrected_model`, :func:`verdict`.  May import: the diagnosis's results.
+Owns: :func:`effect_entry`, :func:`corrected_model`.  May import: the diagnosis's results.
 """
 
 import math
@@ -9,7 +9,7 @@ import numpy as np
 
 from .results import CorrectedModel, EffectFit
 
-__all__ = ["corrected_model", "effect_entry", "verdict"]
+__all__ = ["corrected_model", "effect_entry"]
 
 
 def effect_entry(name, candidate, base, ei_base):
@@ -50,20 +50,3 @@ def corrected_model(problem, theta, std):
         sensor_positions=tuple(float(x) for x in state.sensor_positions),
         axle_loads=tuple(float(w) for w in np.asarray(problem.case.vehicle.axle_loads) * state.axle_factors),
         not_in_case=tuple(b.name for b in problem.blocks if not b.effect.in_case))
-
-
-def verdict(selected, *, unexplained, significant, confounded):
-    """The one-line verdict: causes found, partly explained, unexplained or adequate (and what EI could mimic)."""
-    if selected and not unexplained:
-        text = "causes found: " + ", ".join(selected)
-    elif selected:
-        text = ("partly explained by " + ", ".join(selected) + "; a significant gap remains (unexplained)"
-                if significant else "causes found: " + ", ".join(selected)
-                + "; the residual structure after the fit is significant (unexplained remainder)")
-    elif significant:
-        text = "unexplained: a significant gap remains that no candidate effect explains"
-    else:
-        text = "none: the model is adequate (no significant gap)"
-    if confounded and not selected and significant:
-        text += "; confounded with an EI change: " + ", ".join(c.name for c in confounded)
-    return text
