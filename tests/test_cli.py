@@ -314,13 +314,15 @@ def test_diagnose_writes_json_and_figures(tmp_path, capsys):
     gap = d["gap"]
     assert set(gap) >= {"rms_residual", "systematic_rms", "noise_rms", "by_sensor", "worst_positions_m"}
     assert d["causes"] == [] and d["unexplained"] is False
-    assert d["verdict"].startswith("none: the model is adequate")
+    assert d["statement"].startswith("none: the model is adequate")
+    assert d["verdict"]["status"] == "no_change"
     # the noise of effect-free data is the configured 2 urad (three crossings: within 25 %)
     assert 0.75 * 2e-6 < gap["noise_rms"] < 1.25 * 2e-6 and gap["systematic_rms"] < gap["noise_rms"]
     # the printed summary shows the numbers written to the JSON
     captured = capsys.readouterr()
     printed = captured.out.splitlines()
-    assert printed[0] == f"Sim-to-real gap: not significant (p = {gap['p_value']:.2g})"
+    assert printed[0] == f"Verdict (no_change): {d['verdict']['summary']}"  # the one verdict first
+    assert printed[1] == f"Sim-to-real gap: not significant (p = {gap['p_value']:.2g})"
     # per sensor in its own unit (µrad), never rad and m summed
     for name, s in gap["by_sensor"].items():
         assert any(line.startswith(f"  {name}: residual rms {1e6 * s['rms_residual']:.3g} µrad,") for line in printed)
@@ -330,7 +332,7 @@ def test_diagnose_writes_json_and_figures(tmp_path, capsys):
     # progress on stderr: the base fit and every candidate effect
     assert "sensorplan diagnose: base fit" in captured.err
     assert f"effect {len(d['effects'])} of {len(d['effects'])}" in captured.err
-    assert f"  verdict: {d['verdict']}" in printed
+    assert f"  statement: {d['statement']}" in printed
     for name in ("residual_map.png", "shrinkage.png", "ei_before_after.png"):
         assert (tmp_path / name).exists()
 

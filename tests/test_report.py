@@ -158,16 +158,21 @@ def test_report_shows_the_computed_results(built_report):
     keys = [(-by_name[r[1]].metrics["detection_rate"].mean, -by_name[r[1]].detection_limit) for r in rank_rows]
     assert keys == sorted(keys)
     above = [r[1] for r in rank_rows[:[r[1] for r in rank_rows].index("recommended")]]
+    # one consolidated note on the ranking, naming every layout ranked above the recommended one
+    notes = re.findall(r'<p class="verdict">([^<]*)</p>', report.html.split("Ranking by verification")[1])
+    assert len(notes) >= 1
     for name in above:
-        assert f"NOTE: baseline {name} verifies better than the D-optimal layout" in report.html
-    assert bool(above) != ("the D-optimal layout (recommended) verifies best." in report.html)
+        assert name in notes[0]
+    assert bool(above) != ("The D-optimal layout verifies best." in notes[0])
     # identified EI: one row per element, mean and 95 % interval
     ci = posterior.credible_interval(0.95)
     for j, (a, b) in enumerate(zip(posterior.edges[:-1], posterior.edges[1:])):
         shown = numbers(" ".join(_row(parsed, f"{a:.2f}-{b:.2f}")))  # mean, 95 % low, high, nominal
         np.testing.assert_allclose(shown, [posterior.ei_mean[j], *ci[j], posterior.ei_nominal[j]], rtol=5e-4)
     # diagnosis: the verdict and every effect's log Bayes factor
-    assert f"Verdict: {diagnosis.verdict}" in report.html.replace("&#x27;", "'")
+    shown = report.html.replace("&#x27;", "'")
+    assert f"Verdict ({diagnosis.verdict.status}): {diagnosis.verdict.summary}" in shown
+    assert diagnosis.statement in shown
     for effect in diagnosis.effects:
         assert numbers(_row(parsed, effect.name)[0])[0] == pytest.approx(effect.log_bayes_factor, abs=0.005)
 

@@ -337,7 +337,7 @@ def run_one(bridge, effect, seed):
         t0 = time.process_time()
         d = sp.diagnose(case, data)
         t_diag = time.process_time() - t0
-    return t_diag, t_invert, d.verdict
+    return t_diag, t_invert, d.statement
 
 
 def main(argv=None):
