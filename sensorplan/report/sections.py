@@ -168,7 +168,7 @@ def gap_section(analysis):
     g = diagnosis.gap
     return ("Sim-to-real gap diagnosis",
             f'<p class="verdict">Verdict ({diagnosis.verdict.status}): {html.escape(diagnosis.verdict.summary)} '
-            f"Diagnosis: {html.escape(diagnosis.statement)}</p>'
+            f"Diagnosis: {html.escape(diagnosis.statement)}</p>"
             f"<p>Residual rms {g.rms_residual:.3g}, systematic part {g.systematic_rms:.3g}, "
             f"noise {g.noise_rms:.3g} (p = {g.p_value:.2g}).</p>"
             + table_html(["effect", "log Bayes factor", "held-out gain", "rms after", "held-out rms",
