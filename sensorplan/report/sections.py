@@ -211,6 +211,8 @@ def _ranking_note(ranking, criterion):
         return (f"{len(above)} layout(s) rank above the {criterion}-optimal one only on ties broken in their favour "
                 f"({', '.join(e.name for e in above)}): the verification cannot tell them apart.")
     named = "; ".join(f"{e.name} (better on {', '.join(e.better_on)})" for e in clear)
+    ties = [e.name for e in above if not e.better_on]
+    tied = f" {', '.join(ties)} rank above it only on ties broken in their favour." if ties else ""
     return (f"{len(clear)} layout(s) verify better than the {criterion}-optimal one beyond their Monte-Carlo "
-            f"error: {named}. The design criterion and the verification measure different things; for detection, "
-            f"prefer `--criterion detect` or `--target-power`.")
+            f"error: {named}.{tied} The design criterion and the verification measure different things; for "
+            f"detection, prefer `--criterion detect` or `--target-power`.")
