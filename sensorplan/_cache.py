@@ -26,7 +26,17 @@ import numpy as np
 __all__ = ["Cache", "value_key"]
 
 
+_PLAIN = frozenset({bool, int, float, complex, str, bytes, type(None)})
+
+
 def _part(obj: Any) -> Hashable:
+    kind = type(obj)
+    if kind is np.ndarray:
+        return ("ndarray", obj.dtype.str, obj.shape, obj.tobytes())
+    if kind in _PLAIN:
+        return obj
+    if kind is tuple or kind is list:
+        return (kind.__name__,) + tuple(map(_part, obj))
     if isinstance(obj, np.ndarray):
         return ("ndarray", obj.dtype.str, obj.shape, obj.tobytes())
     if obj is None or isinstance(obj, (bool, int, float, complex, str, bytes, Enum, np.generic)):
@@ -92,24 +102,27 @@ class Cache:
     def get(self, parts: tuple, compute: Callable[[], Any], *, key: Hashable = None) -> Any:
         """The value stored under ``parts`` (or the precomputed ``key``), computed by ``compute()`` if absent."""
         k = value_key(*parts) if key is None else key
-        if k in self._entries:
-            self.hits += 1
-            self._entries.move_to_end(k)
-            return self._entries[k]
-        self.misses += 1
+        found, value = self._find(k)
+        if found:
+            return value
         value = compute()
         self._store(k, value)
         return value
 
     def lookup(self, parts: tuple, *, key: Hashable = None) -> tuple[bool, Any]:
         """``(True, value)`` if ``parts`` (or ``key``) is held, else ``(False, None)``."""
-        k = value_key(*parts) if key is None else key
-        if k in self._entries:
-            self.hits += 1
-            self._entries.move_to_end(k)
-            return True, self._entries[k]
-        self.misses += 1
-        return False, None
+        return self._find(value_key(*parts) if key is None else key)
+
+    def _find(self, k: Hashable) -> tuple[bool, Any]:
+        entries = self._entries
+        try:
+            value = entries[k]
+        except KeyError:
+            self.misses += 1
+            return False, None
+        self.hits += 1
+        entries.move_to_end(k)
+        return True, value
 
     def put(self, parts: tuple, value: Any, *, key: Hashable = None) -> None:
         """Store ``value`` under ``parts`` (or ``key``)."""
