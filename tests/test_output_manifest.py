@@ -87,3 +87,15 @@ def test_a_data_file_without_a_sensor_column_says_which_sensors_it_uses(tmp_path
     assert err[0] == (f"sensorplan invert: warning: {only} has no column for sensor(s) PE2 of the case: using PE1, "
                       "leaving out PE2.")
 
+
+
+def test_diagnose_says_which_sensors_a_partial_data_file_uses(tmp_path, capsys):
+    case = sp.example_case("simply-supported")
+    data = sp.simulate_crossings(case, 3, noise=True, rng=5)
+    only = Path(tmp_path / "t1.csv")
+    write_crossings(only, data.sensor_subset(["T1"]))
+    assert main(["diagnose", "--example", "simply-supported", "--data", str(only), "--out", str(tmp_path / "d"),
+                 "--quiet"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[0] == (f"sensorplan diagnose: warning: {only} has no column for sensor(s) T2 of the case: using T1, "
+                      "leaving out T2.")

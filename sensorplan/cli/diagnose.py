@@ -10,6 +10,7 @@ from ._common import (
     integer,
     load_case,
     output_file,
+    read_data,
     real,
     stage_figure,
     stage_json,
@@ -54,12 +55,10 @@ def run(args, out, files):
     from .._errors import ConfigError
     from ..diagnosis.diagnose import diagnose
     from ..inference.screening import check_not_noise_free
-    from ..io.csvio import read_crossings
-
     if args.workers < 1:
         raise ConfigError(f"The '--workers' option must be a positive integer. Got {args.workers} instead.")
     case = load_case(args)
-    data = read_crossings(args.data, case.sensors)
+    data = read_data(args.data, case, "diagnose")
     check_not_noise_free(case, data, source=str(args.data))
     result = diagnose(case, data, progress=_progress(args), workers=args.workers, scheduler=args.scheduler,
                       scheduler_timeout=args.scheduler_timeout,
