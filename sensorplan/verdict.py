@@ -159,7 +159,8 @@ def band_departures(edges: np.ndarray, log_mean: np.ndarray, log_std: np.ndarray
 def inversion_verdict(*, edges: np.ndarray, log_mean: np.ndarray, log_std: np.ndarray, log_nominal: np.ndarray,
                       residual_p: Sequence[float], residual_level: float, sensor_names: Sequence[str],
                       noise_scale: float, noise_configured: bool, detection: Any = None,
-                      damage_probability: float | None = None, below: np.ndarray | None = None) -> Verdict:
+                      damage_probability: float | None = None, below: np.ndarray | None = None,
+                      detector_run: bool = True) -> Verdict:
     """The verdict of an inversion of measured crossings.
 
     Parameters
@@ -183,6 +184,9 @@ def inversion_verdict(*, edges: np.ndarray, log_mean: np.ndarray, log_std: np.nd
     below : ndarray, optional
         Posterior probability that log EI lies below its nominal, per
         element (default: from the Gaussian of ``log_mean``, ``log_std``).
+    detector_run : bool
+        False when the detector was not asked for: no local-loss conclusion
+        is drawn either way, and a missing detection is not a lack of data.
     """
     p = np.asarray(residual_p, float)
     flagged = [str(sensor_names[i]) for i in range(p.size) if np.isfinite(p[i]) and p[i] < residual_level / p.size]
@@ -204,10 +208,11 @@ def inversion_verdict(*, edges: np.ndarray, log_mean: np.ndarray, log_std: np.nd
                        f"conclusion can be drawn until it is resolved.", evidence=evidence,
                        next_step="check each flagged sensor's sign, position and unit and the supports, then run "
                                  "`sensorplan diagnose` to name the unmodelled effect")
-    return _data_verdict(stretches, detection, damage_probability, evidence)
+    return _data_verdict(stretches, detection, damage_probability, evidence, detector_run)
 
 
-def _data_verdict(stretches: list, detection: Any, damage_probability: float | None, evidence: dict) -> Verdict:
+def _data_verdict(stretches: list, detection: Any, damage_probability: float | None, evidence: dict,
+                  detector_run: bool = True) -> Verdict:
     """The verdict of a fit without a model error: a local loss, a departure, insufficient data or no change."""
     fired = detection is not None and detection.detected
     doubted = fired and damage_probability is not None and damage_probability < MIN_LOSS_PROBABILITY
@@ -226,6 +231,10 @@ def _data_verdict(stretches: list, detection: Any, damage_probability: float | N
                        f"({_percent(worst['loss'])}, outside the simultaneous {100 * BAND_LEVEL:.0f} % band), "
                        f"without a localised loss the detector finds.", location_m=where, loss=worst["loss"],
                        evidence=evidence)
+    if detection is None and not detector_run:
+        return Verdict("no_change", "No change in the band: the nominal EI stays within the simultaneous 95 % band; "
+                       "the damage detector was not run, so a local loss was not tested for."
+                       + _pointwise_hint(evidence["band"]["outside_pointwise"]), evidence=evidence)
     if detection is None:
         return Verdict("insufficient_data", "Insufficient data: no zone of the bridge can be tested for a local "
                        "loss with these sensors and crossings, and the nominal EI stays within the simultaneous 95 % band.",

@@ -75,3 +75,10 @@ def test_headline_agrees_with_status():
     assert "local loss" in _verdict(mean, detection=_detection(True)).headline
     assert "no change" in _verdict(detection=_detection(False)).headline
     assert "model error" in _verdict(p=(1e-9, 1.0), detection=_detection(True)).headline
+
+
+def test_without_the_detector_no_loss_is_concluded_and_data_are_not_called_insufficient():
+    v = inversion_verdict(edges=EDGES, log_mean=NOMINAL, log_std=STD, log_nominal=NOMINAL, residual_p=(0.5, 0.5),
+                          residual_level=1e-3, sensor_names=("A", "B"), noise_scale=1.0, noise_configured=True,
+                          detection=None, detector_run=False)
+    assert v.status == "no_change" and "not run" in v.summary

@@ -69,3 +69,19 @@ def test_undamaged_records_show_no_change():
     statuses = [_verdict(sp.simulate_crossings(FINE, 10, noise=True, rng=100 + k, ei=_truth())).status
                 for k in range(20)]
     assert statuses.count("no_change") >= 18, statuses
+
+
+def test_cli_invert_without_the_detector(tmp_path):
+    import json
+
+    from sensorplan.cli import main
+    from sensorplan.io.csvio import write_crossings
+
+    data = tmp_path / "d.csv"
+    write_crossings(data, sp.simulate_crossings(sp.example_case("openlab-like"), 4, noise=True, rng=7))
+    out = tmp_path / "p.json"
+    assert main(["invert", "--example", "openlab-like", "--data", str(data), "--no-detect", "--json", str(out),
+                 "--out", str(tmp_path), "--quiet"]) == 0
+    result = json.loads(out.read_text())
+    assert result["damage"] is None and result["verdict"]["status"] in ("no_change", "departure")
+    assert "not run" in result["verdict"]["summary"] or result["verdict"]["status"] == "departure"

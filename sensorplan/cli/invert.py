@@ -37,6 +37,8 @@ def add_arguments(p):
                    help="what an undamaged bridge may do: a smooth EI trend per span (default) or one EI "
                         "factor per span (plus the elastic springs either way)")
     p.add_argument("--seed", type=SEED, default=0, help="seed of the detector's threshold simulation (default 0)")
+    p.add_argument("--no-detect", action="store_true",
+                   help="identify EI without the damage detector (the verdict then rests on the band alone)")
     add_out_arguments(p, json_default="posterior.json")
 
 
@@ -61,9 +63,9 @@ def run(args, out, files):
         check_case_data_scale(case, data, source=str(args.data))  # a unit slip is refused before the stage line
         Progress("invert", quiet=args.quiet).stage(
             f"identifying EI on {case.n_elements} elements from {len(data)} crossing(s) of {data.n_sensors} "
-            "sensor(s), then calibrating the damage detector")
+            "sensor(s)" + ("" if args.no_detect else ", then calibrating the damage detector"))
         result = invert(case, data, check_scale=str(args.data), false_alarm=args.false_alarm,
-                        nuisance=args.nuisance, rng=args.seed)
+                        nuisance=args.nuisance, rng=args.seed, detect=not args.no_detect)
     for message in dict.fromkeys(str(w.message) for w in caught):  # the data checks ran twice: each warning once
         print(f"sensorplan invert: warning: {message}", file=sys.stderr)
     figures = [stage_figure(files, plotting.plot_ei_posterior(result, supports=case.bridge.support_positions),

@@ -142,7 +142,7 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
         detection = detect_damage(problem.inversion_case, crossings, false_alarm=false_alarm, nuisance=nuisance, rng=rng)
         mixture, probability = _with_damage(mixture, problem, prior, detection, damage_prior, damage_log_std)
     return _posterior(problem, fit, mixture, hyper=hyper, excluded=excluded, detection=detection,
-                      probability=probability)
+                      probability=probability, detector_run=detect and parameterisation == "log_ei")
 
 
 def _checked_data(case, crossings, *, hyper, check_scale, screen, mesh):
@@ -163,7 +163,7 @@ def _checked_data(case, crossings, *, hyper, check_scale, screen, mesh):
     return crossings, excluded
 
 
-def _posterior(problem, fit, mixture, *, hyper, excluded, detection, probability):
+def _posterior(problem, fit, mixture, *, hyper, excluded, detection, probability, detector_run=True):
     """The result of :func:`invert`, its convergence and trust warnings emitted."""
     theta, covariance, alpha = mixture.mean, mixture.covariance, fit.noise_scale
     messages = []
@@ -177,7 +177,7 @@ def _posterior(problem, fit, mixture, *, hyper, excluded, detection, probability
                          tau_at_bound=fit.mass_at_bound > BOUND_MASS, tau_side="flat" if fit.flat_side else "rough")
     for text in trust:
         warnings.warn(text, SensorplanWarning, stacklevel=3)
-    verdict = _verdict(problem, mixture, alpha, fits, detection, probability)
+    verdict = _verdict(problem, mixture, alpha, fits, detection, probability, detector_run=detector_run)
     return PosteriorResult(
         edges=problem.mesh.edges.copy(), theta=theta, covariance=covariance,
         parameterisation=problem.parameterisation, ei_nominal=problem.ei_nominal,
@@ -190,7 +190,7 @@ def _posterior(problem, fit, mixture, *, hyper, excluded, detection, probability
         damage_probability=probability, hyper_nodes=fit.mixture, verdict=verdict)
 
 
-def _verdict(problem, mixture, alpha, fits, detection, probability):
+def _verdict(problem, mixture, alpha, fits, detection, probability, *, detector_run=True):
     """The one verdict on the data (:func:`sensorplan.verdict.inversion_verdict`) from the posterior's log EI."""
     theta, covariance = mixture.mean, mixture.covariance
     n = problem.n_elements
@@ -205,7 +205,7 @@ def _verdict(problem, mixture, alpha, fits, detection, probability):
         edges=problem.mesh.edges, log_mean=log_mean, log_std=log_std, log_nominal=np.log(problem.ei_nominal),
         residual_p=residual_p_values(problem.noise, fits, alpha), residual_level=RESIDUAL_LEVEL,
         sensor_names=problem.sensors.names, noise_scale=alpha, noise_configured=problem.case.noise is not None,
-        detection=detection, damage_probability=probability, below=below)
+        detection=detection, damage_probability=probability, below=below, detector_run=detector_run)
 
 
 def _with_damage(mixture, problem, prior, detection, damage_prior, damage_log_std):
