@@ -83,10 +83,8 @@ def analyse(case: "Case", *, data: "Crossings | None" = None, count: int | None 
         Measured crossings: adds the identified EI and the gap diagnosis.
     count : int, optional
         Sensors to place (default: as many as the case has).
-    criterion : str
-        Design criterion.
-    spacing : float, optional
-        Candidate spacing [m] (default: about length / 60).
+    criterion, spacing : str, float
+        Design criterion; candidate spacing [m] (default: about length / 60).
     n_scenarios, n_crossings, seed : verification settings.
     progress : callable, optional
         Called with a short message when each stage starts.
