@@ -152,23 +152,21 @@ def _requirement(case, design, options, *, count, n_crossings, power, say, extra
 
 def _crossings_for(case, design, detect_map, power, n_crossings, loss, region):
     """Fewest crossings with which the recommended layout reaches worst-case ``power`` (d grows as sqrt(n))."""
-    import math
-
     from scipy.special import ndtri
 
     from .design.detect_problem import centres_inside
+    from .design.target import crossings_to_reach
 
-    d_min = float(np.min(detect_map.d[centres_inside(detect_map.centres_m, region)]))
-    if d_min <= 0.0:
-        return None
-    need = -float(ndtri(detect_map.false_alarm_rate)) + float(ndtri(power))
-    n = max(1, math.ceil(n_crossings * (need / d_min) ** 2 - 1e-9))
-    while True:
+    def worst(dmap, values):
+        return float(np.min(values[centres_inside(dmap.centres_m, region)]))
+
+    def worst_power(n):
         dmap = _installed_detectability(case, design, n_crossings=n, target=loss)
-        if float(np.min(dmap.power[centres_inside(dmap.centres_m, region)])) >= power:
-            break
-        n += 1
-    return n
+        return worst(dmap, dmap.power)
+
+    need = -float(ndtri(detect_map.false_alarm_rate)) + float(ndtri(power))
+    return crossings_to_reach(worst_power, power=power, n_crossings=n_crossings,
+                              d_min=worst(detect_map, detect_map.d), d_needed=need)
 
 
 def _measured(case, data, say):

@@ -160,7 +160,7 @@ def inversion_verdict(*, edges: np.ndarray, log_mean: np.ndarray, log_std: np.nd
                       residual_p: Sequence[float], residual_level: float, sensor_names: Sequence[str],
                       noise_scale: float, noise_configured: bool, detection: Any = None,
                       damage_probability: float | None = None, below: np.ndarray | None = None,
-                      detector_run: bool = True) -> Verdict:
+                      detector_run: bool = True, noise_limit: float = NOISE_SCALE_LIMIT) -> Verdict:
     """The verdict of an inversion of measured crossings.
 
     Parameters
@@ -177,6 +177,9 @@ def inversion_verdict(*, edges: np.ndarray, log_mean: np.ndarray, log_std: np.nd
     noise_configured : bool
         Whether the noise level was configured (else it was estimated and
         its scale says nothing).
+    noise_limit : float
+        Noise scale above which the misfit counts as systematic (the
+        inversion passes the upper end of its own trust range).
     detection : DamageDetection or None
         The detector's outcome (None: it could not run).
     damage_probability : float or None
@@ -201,7 +204,7 @@ def inversion_verdict(*, edges: np.ndarray, log_mean: np.ndarray, log_std: np.nd
         "detector": None if detection is None else detection.to_dict(),
         "damage_probability": damage_probability,
     }
-    if flagged or (noise_configured and noise_scale > NOISE_SCALE_LIMIT):
+    if flagged or (noise_configured and noise_scale > noise_limit):
         why = (f"systematic residuals at {', '.join(flagged)}" if flagged else
                f"the residuals are {noise_scale:.2g} times the configured noise")
         return Verdict("model_error", f"Model error: {why} that a change of EI does not explain; no damage "

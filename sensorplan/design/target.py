@@ -47,7 +47,7 @@ from .results import CurvePoint
 from .target_levels import levels, monotone
 from .target_results import CountTrial, TargetAnswer, TargetDesign
 
-__all__ = ["design_for_target", "DEFAULT_MAX_COUNT"]
+__all__ = ["design_for_target", "crossings_to_reach", "DEFAULT_MAX_COUNT"]
 
 DEFAULT_MAX_COUNT = 12
 _MICROSECONDS_PER_LAYOUT = (2.0, 1.0)  # exact search: 2 + 1 per sensor, measured on the embedded examples
@@ -287,13 +287,23 @@ def _minimality(trials, answer_at, nested):
 def _crossings_needed(req, search, dmap):
     """Smallest number of crossings with which the layout reaches the power (checked with detectability), or
     None when a centre sees nothing."""
-    d_min = req.worst(dmap, dmap.d)
+    return crossings_to_reach(lambda n: req.worst(req.map(search.layout, n)), power=req.power,
+                              n_crossings=req.n_crossings, d_min=req.worst(dmap, dmap.d), d_needed=req.d_needed)
+
+
+def crossings_to_reach(worst_power, *, power, n_crossings, d_min, d_needed):
+    """Fewest crossings above ``n_crossings`` with ``worst_power(n) >= power``, or None when ``d_min`` is 0.
+
+    d grows with the square root of the crossings, so n = n0 (d_needed / d_min)^2 is the first guess
+    (``d_min`` the worst-case d at ``n_crossings`` = n0, ``d_needed`` = z_(1 - alpha) + z_power); the exact
+    ``worst_power`` (e.g. from detectability) then corrects it for round-off, up or down.
+    """
     if not d_min > 0.0:
         return None
-    n = max(req.n_crossings + 1, math.ceil(req.n_crossings * (req.d_needed / d_min) ** 2 - 1e-9))
-    while req.worst(req.map(search.layout, n)) < req.power:  # round-off: one more
+    n = max(n_crossings + 1, math.ceil(n_crossings * (d_needed / d_min) ** 2 - 1e-9))
+    while worst_power(n) < power:  # round-off: one more
         n += 1
-    while n - 1 > req.n_crossings and req.worst(req.map(search.layout, n - 1)) >= req.power:
+    while n - 1 > n_crossings and worst_power(n - 1) >= power:
         n -= 1
     return n
 

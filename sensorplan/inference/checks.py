@@ -59,10 +59,12 @@ def residual_p_values(noise, fits, noise_scale):
     return np.where(square / count >= 0.25, special.chdtrc(dof, q), np.nan)
 
 
-def fit_warnings(noise, fits, sensor_names, *, noise_scale, noise_configured, tau_at_bound, tau_side):
+def fit_warnings(noise, fits, sensor_names, *, noise_scale, noise_configured, tau_at_bound, tau_side,
+                 residual_p=None):
     """Messages (tuple of str) saying why the fit may not be trusted; empty when nothing is found.
 
-    ``tau_side`` is "flat" or "rough": the end of the tau grid that holds mass.
+    ``tau_side`` is "flat" or "rough": the end of the tau grid that holds mass; ``residual_p`` the
+    :func:`residual_p_values` of ``fits`` when the caller has them already.
     """
     out = []
     lo, hi = NOISE_SCALE_RANGE
@@ -85,7 +87,7 @@ def fit_warnings(noise, fits, sensor_names, *, noise_scale, noise_configured, ta
             what = ("the data favour an ever rougher EI field: an unmodelled effect, a wrong sensor sign or "
                     "position, or wrong load positions are being explained by a jagged EI")
         out.append(f"the prior smoothness tau reaches the end of its range: {what}; {DIAGNOSE}.")
-    p = residual_p_values(noise, fits, noise_scale)
+    p = residual_p_values(noise, fits, noise_scale) if residual_p is None else residual_p
     bad = [i for i in range(p.size) if np.isfinite(p[i]) and p[i] < RESIDUAL_LEVEL / p.size]
     if bad:
         names = ", ".join(f"{sensor_names[i]} (p = {p[i]:.1e})" for i in bad)

@@ -32,7 +32,7 @@ from .._threads import single_threaded
 from ..model.crossings import Crossings
 from ..model.prior import GMRFPrior, HyperPrior
 from ..verdict import inversion_verdict
-from .checks import RESIDUAL_LEVEL, fit_warnings, residual_p_values
+from .checks import NOISE_SCALE_RANGE, RESIDUAL_LEVEL, fit_warnings, residual_p_values
 from .damage import damage_hypotheses
 from .detector import detect_damage
 from .ei_problem import EIProblem, prior_matrices
@@ -172,12 +172,14 @@ def _posterior(problem, fit, mixture, *, hyper, excluded, detection, probability
         warnings.warn("sensorplan invert: the Gauss-Newton / evidence iteration did not converge; "
                       "results are reported with converged = false.", SensorplanWarning, stacklevel=3)
     fits = problem.fits(theta, covariance, alpha)
+    residual_p = residual_p_values(problem.noise, fits, alpha)
     trust = fit_warnings(problem.noise, fits, problem.sensors.names, noise_scale=alpha,
                          noise_configured=problem.case.noise is not None,
-                         tau_at_bound=fit.mass_at_bound > BOUND_MASS, tau_side="flat" if fit.flat_side else "rough")
+                         tau_at_bound=fit.mass_at_bound > BOUND_MASS, tau_side="flat" if fit.flat_side else "rough",
+                         residual_p=residual_p)
     for text in trust:
         warnings.warn(text, SensorplanWarning, stacklevel=3)
-    verdict = _verdict(problem, mixture, alpha, fits, detection, probability, detector_run=detector_run)
+    verdict = _verdict(problem, mixture, alpha, residual_p, detection, probability, detector_run=detector_run)
     return PosteriorResult(
         edges=problem.mesh.edges.copy(), theta=theta, covariance=covariance,
         parameterisation=problem.parameterisation, ei_nominal=problem.ei_nominal,
@@ -190,7 +192,7 @@ def _posterior(problem, fit, mixture, *, hyper, excluded, detection, probability
         damage_probability=probability, hyper_nodes=fit.mixture, verdict=verdict)
 
 
-def _verdict(problem, mixture, alpha, fits, detection, probability, *, detector_run=True):
+def _verdict(problem, mixture, alpha, residual_p, detection, probability, *, detector_run=True):
     """The one verdict on the data (:func:`sensorplan.verdict.inversion_verdict`) from the posterior's log EI."""
     theta, covariance = mixture.mean, mixture.covariance
     n = problem.n_elements
@@ -203,7 +205,7 @@ def _verdict(problem, mixture, alpha, fits, detection, probability, *, detector_
         log_mean, log_std = -np.log(theta[:n]), std / theta[:n]
     return inversion_verdict(
         edges=problem.mesh.edges, log_mean=log_mean, log_std=log_std, log_nominal=np.log(problem.ei_nominal),
-        residual_p=residual_p_values(problem.noise, fits, alpha), residual_level=RESIDUAL_LEVEL,
+        residual_p=residual_p, residual_level=RESIDUAL_LEVEL, noise_limit=NOISE_SCALE_RANGE[1],
         sensor_names=problem.sensors.names, noise_scale=alpha, noise_configured=problem.case.noise is not None,
         detection=detection, damage_probability=probability, below=below, detector_run=detector_run)
 
