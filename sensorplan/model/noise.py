@@ -1,22 +1,51 @@
-"""Measurement noise: per-sensor standard deviation, optional AR(1) correlation.
+"""Measurement noise of each sensor: one model, two ways to state it.
 
-Within one crossing the noise of a sensor is a stationary Gauss-Markov
-(Ornstein-Uhlenbeck) process along the load position with correlation
-exp(-|x_i - x_j| / correlation_length); crossings and sensors are
-independent.  Its precision is tridiagonal, so whitening is a bidiagonal
-recursion and no dense covariance is ever inverted.  For equally spaced
-positions it is the AR(1) model with rho = exp(-step / correlation_length).
+*In time* (what a logger shows): per sensor, white noise (``std``) + a
+correlated Ornstein-Uhlenbeck part (``correlated_std``, ``correlation_time_s``)
++ slow wander, a random walk (``random_walk``, unit per sqrt(s)) whose level at
+the start of each crossing is unknown and marginalised.  Readings at load
+positions x are at times x / speed, so the crossing speed (``speed``, m/s)
+maps the model onto a crossing; whitening is the Kalman filter of
+:mod:`.statespace` (banded in the states, no dense covariance).
+
+*Along the load position* (the older, simpler statement): the whole noise is
+an AR(1) process in x with correlation exp(-|x_i - x_j| / correlation_length);
+its precision is tridiagonal and whitening is a bidiagonal recursion.  With no
+time part and no correlation length the noise is independent.
+
+Crossings and sensors are independent in both.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .._cache import Cache, value_key
 from .._validation import as_float, as_float_array
+from .statespace import innovation_filter
 
 __all__ = ["NoiseModel"]
 
 MAX_RHO = 1.0 - 1e-9
+# Filters kept per noise model (one per time grid and sensor); crossings share grids in simulation.
+_FILTERS = 256
+
+
+def _per_sensor(value, n, name, *, allow_zero=True):
+    """``value`` (a number or one per sensor) as a float array of n non-negative values."""
+    arr = as_float_array(np.broadcast_to(np.asarray(value, dtype=float), (n,)) if np.ndim(value) == 0 else value,
+                         name, "NoiseModel")
+    if arr.size != n:
+        from .._errors import ConfigError
+
+        raise ConfigError(f"The '{name}' parameter of the noise model has {arr.size} values for {n} sensors; "
+                          "give one value, or one per sensor.")
+    if np.any(arr < 0.0) or (not allow_zero and np.any(arr == 0.0)):
+        from .._errors import ConfigError
+
+        raise ConfigError(f"The '{name}' parameter of the noise model must be "
+                          f"{'non-negative' if allow_zero else 'positive'}. Got {arr.tolist()!r} instead.")
+    return np.array(arr, dtype=float)
 
 
 @dataclass(frozen=True, eq=False)
@@ -26,14 +55,28 @@ class NoiseModel:
     Parameters
     ----------
     std : array_like
-        Standard deviation per sensor, in the sensor's unit (rad or m).
+        White-noise standard deviation per sensor, in the sensor's unit (rad
+        or m); with ``correlation_length`` the std of the whole AR(1) noise.
     correlation_length : float
         AR(1) correlation length along the load position [m]; 0 means
-        independent noise.
+        independent noise.  Not combined with the time model.
+    correlated_std, correlation_time_s : float or array_like
+        Ornstein-Uhlenbeck part per sensor: std [rad or m] and correlation
+        time [s] (0: none).
+    random_walk : float or array_like
+        Wander per sensor [rad or m per sqrt(s)] (0: none); its level at the
+        start of a crossing is an unknown offset, marginalised.
+    speed : float, optional
+        Crossing speed [m/s] mapping load positions to times; needed by the
+        time model, ignored otherwise.
     """
 
     std: np.ndarray
     correlation_length: float = 0.0
+    correlated_std: np.ndarray | float = 0.0
+    correlation_time_s: np.ndarray | float = 0.0
+    random_walk: np.ndarray | float = 0.0
+    speed: float | None = None
 
     def __post_init__(self):
         std = as_float_array(self.std, "std", "NoiseModel")
@@ -46,16 +89,74 @@ class NoiseModel:
         object.__setattr__(self, "correlation_length",
                            as_float(self.correlation_length, "correlation_length", "NoiseModel",
                                     low=0.0))
+        for name in ("correlated_std", "correlation_time_s", "random_walk"):
+            object.__setattr__(self, name, _per_sensor(getattr(self, name), std.size, name))
+        if self.speed is not None:
+            object.__setattr__(self, "speed", as_float(self.speed, "speed", "NoiseModel", low=0.0, low_open=True))
+        self._check_time_model()
+        object.__setattr__(self, "_filters", Cache(maxsize=_FILTERS))
+
+    def _check_time_model(self):
+        from .._errors import ConfigError
+
+        if not self.in_time:
+            return
+        missing = (self.correlated_std > 0.0) & (self.correlation_time_s <= 0.0)
+        if np.any(missing):
+            raise ConfigError("The noise model's 'correlated_std' needs a positive 'correlation_time_s' "
+                              f"(s) for sensor {int(np.argmax(missing)) + 1}; give the correlation time.")
+        if self.correlation_length > 0.0:
+            raise ConfigError("Give the noise correlation either in time ('correlated_std', "
+                              "'correlation_time_s', 'random_walk') or along the load position "
+                              "('correlation_length'), not both.")
+        if self.speed is None:
+            raise ConfigError("The time-correlated noise model needs the crossing 'speed' (m/s) to map load "
+                              "positions to times; give [noise] speed or --speed.")
+
+    @property
+    def in_time(self):
+        """Whether the noise has a time-correlated part (OU or wander)."""
+        return bool(np.any(self.correlated_std > 0.0) or np.any(self.random_walk > 0.0))
+
+    @property
+    def cache_key(self):
+        return ("NoiseModel", value_key(self.std), self.correlation_length, value_key(self.correlated_std),
+                value_key(self.correlation_time_s), value_key(self.random_walk), self.speed)
 
     @property
     def n_sensors(self):
         return self.std.size
 
     def subset(self, index):
-        return NoiseModel(self.std[np.atleast_1d(index)], self.correlation_length)
+        index = np.atleast_1d(index)
+        return NoiseModel(self.std[index], self.correlation_length, self.correlated_std[index],
+                          self.correlation_time_s[index], self.random_walk[index], self.speed)
+
+    def at_speed(self, speed):
+        """The same noise for crossings at ``speed`` [m/s] (unchanged without a time model)."""
+        if speed is None or not self.in_time or speed == self.speed:
+            return self
+        return replace(self, speed=speed)
+
+    def times(self, positions):
+        """Times [s] of readings at load ``positions`` [m] (time model only)."""
+        return (np.asarray(positions, dtype=float) - float(np.asarray(positions)[0])) / self.speed
+
+    def filter(self, sensor, positions):
+        """The :class:`~.statespace.InnovationFilter` of one sensor on readings at ``positions``."""
+        positions = np.asarray(positions, dtype=float)
+        key = self._filters.key(("filter", int(sensor), positions))
+        found, filt = self._filters.lookup((), key=key)
+        if not found:
+            filt = innovation_filter(self.times(positions), white=float(self.std[sensor]),
+                                     correlated=float(self.correlated_std[sensor]),
+                                     correlation_time=float(self.correlation_time_s[sensor]),
+                                     random_walk=float(self.random_walk[sensor]))
+            self._filters.put(key, filt)
+        return filt
 
     def rho(self, positions):
-        """Lag-one correlations between consecutive positions, shape (n_loads - 1,)."""
+        """Lag-one correlations between consecutive positions, shape (n_loads - 1,) (AR(1) in x only)."""
         positions = np.asarray(positions, dtype=float)
         if self.correlation_length < 1e-12:  # 0, or so short that exp(-step / length) is 0 (and may overflow)
             return np.zeros(max(positions.size - 1, 0))
@@ -63,15 +164,19 @@ class NoiseModel:
         return np.minimum(np.exp(-np.diff(positions) / self.correlation_length), MAX_RHO)
 
     def whiten(self, values, positions, sensor_axis=0):
-        """Apply Gamma^{-1/2} / std along the load axis (axis ``sensor_axis + 1``).
+        """Apply Sigma^{-1/2} along the load axis (axis ``sensor_axis + 1``), sensor by sensor.
 
         ``values`` has the sensors on ``sensor_axis`` and the load positions
         right after it; any trailing axes (e.g. parameters) are carried along.
-        The result r satisfies r^T r = y^T Gamma^{-1} y / std^2 per sensor.
+        The result r satisfies r^T r = y^T Sigma^{-1} y per sensor (with the
+        time model's offset marginalised).
         """
         values = np.asarray(values, dtype=float)
         load_axis = sensor_axis + 1
         moved = np.moveaxis(values, (sensor_axis, load_axis), (0, 1))
+        if self.in_time:
+            out = np.stack([self.filter(i, positions).whiten(moved[i]) for i in range(moved.shape[0])])
+            return np.moveaxis(out, (0, 1), (sensor_axis, load_axis))
         rho = self.rho(positions)
         out = moved.copy()
         if rho.size and np.any(rho > 0.0):
@@ -82,14 +187,31 @@ class NoiseModel:
         return np.moveaxis(out, (0, 1), (sensor_axis, load_axis))
 
     def log_det_gamma(self, positions):
-        """log det of the correlation matrix of one sensor in one crossing."""
+        """log det of the AR(1) correlation matrix of one sensor in one crossing (0 for the time model)."""
         rho = self.rho(positions)
         return float(np.sum(np.log1p(-rho**2)))
 
+    def log_det(self, positions):
+        """log det of the noise covariance of all sensors in one crossing at ``positions``."""
+        positions = np.asarray(positions, dtype=float)
+        if self.in_time:
+            return float(sum(self.filter(i, positions).log_det() for i in range(self.n_sensors)))
+        return self.log_det_gamma(positions) * self.n_sensors + 2.0 * positions.size * float(np.sum(np.log(self.std)))
+
+    def dof(self, n_loads):
+        """Readings per crossing that inform anything but the sensors' offsets (all, without wander)."""
+        return int(n_loads) * self.n_sensors - int(np.sum(self.random_walk > 0.0)) * (int(n_loads) > 0)
+
     def sample(self, positions, rng, n_crossings=1):
-        """Noise draws of shape (n_crossings, n_sensors, n_loads)."""
+        """Noise draws of shape (n_crossings, n_sensors, n_loads).
+
+        The time model's wander starts at 0 at the first reading (the
+        offset it leaves is arbitrary; inference marginalises it).
+        """
         rng = np.random.default_rng(rng)
         positions = np.asarray(positions, dtype=float)
+        if self.in_time:
+            return self._sample_in_time(positions, rng, n_crossings)
         white = rng.standard_normal((n_crossings, self.n_sensors, positions.size))
         rho = self.rho(positions)
         out = white.copy()
@@ -97,3 +219,19 @@ class NoiseModel:
         for k in range(1, positions.size):
             out[:, :, k] = rho[k - 1] * out[:, :, k - 1] + innov[k - 1] * white[:, :, k]
         return out * self.std[None, :, None]
+
+    def _sample_in_time(self, positions, rng, n_crossings):
+        dt = np.diff(self.times(positions))
+        shape = (n_crossings, self.n_sensors, positions.size)
+        out = rng.standard_normal(shape) * self.std[None, :, None]
+        tau = np.where(self.correlation_time_s > 0.0, self.correlation_time_s, 1.0)[None, :]
+        phi = np.exp(-dt[:, None] / tau)  # (n_loads - 1, sensors)
+        ou = np.empty(shape)
+        ou[:, :, 0] = rng.standard_normal(shape[:2])
+        steps = rng.standard_normal(shape)
+        for k in range(1, positions.size):
+            ou[:, :, k] = phi[k - 1] * ou[:, :, k - 1] + np.sqrt(1.0 - phi[k - 1]**2) * steps[:, :, k]
+        out += ou * self.correlated_std[None, :, None]
+        walk = np.concatenate([np.zeros(shape[:2] + (1,)),
+                               np.cumsum(rng.standard_normal(shape[:2] + (dt.size,)) * np.sqrt(dt), axis=2)], axis=2)
+        return out + walk * self.random_walk[None, :, None]
