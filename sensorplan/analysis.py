@@ -214,13 +214,10 @@ def _installed_detectability(case, design, *, n_crossings, target=None):
     """The detectability map of the new and existing sensors, each with its own kind and noise."""
     from .design.candidates import sensor_layout
     from .detection.detectability import detectability
-    from .model.noise import NoiseModel
-
     installed = sensor_layout(tuple(design.layout_m) + tuple(design.fixed_m),
                               tuple(design.layout_kind) + tuple(design.fixed_kind),
                               [design.noise_std[k] for k in design.layout_kind] + list(design.fixed_noise_std))
-    noise = NoiseModel(np.asarray(installed.noise_std), case.noise.correlation_length if case.noise else 0.0)
     loss = {} if target is None else {"severity": target.severity, "length": target.length,
                                       "false_alarm": target.false_alarm, "nuisance": target.nuisance,
                                       "step": target.step}
-    return detectability(case.with_sensors(installed, noise), n_crossings=n_crossings, **loss)
+    return detectability(case.with_sensors(installed), n_crossings=n_crossings, **loss)

@@ -47,7 +47,23 @@ SPECS = {
         axles=[(0.0, 30.0e3), (2.0, 30.0e3)], positions=np.arange(0.0, 20.25, 0.5),
         sensors=[(2.0, "rotation", 2.0e-6), (12.0, "rotation", 2.0e-6), (6.0, "deflection", 1.5e-5)],
         correlation=0.6, length=1.5, step=1.85, severity=0.25, crossings=2),
+    # the two spans under the noise model in time: white + Ornstein-Uhlenbeck (3 s) + wander, at 1.2 m/s
+    "two-span-time": dict(
+        spans=[10.0, 8.0], rot=[5.0e8, 0.0, 0.0], vert=[INF, 1.0e9, INF], elements=9,
+        ei=[1.8e9] * 5 + [2.4e9] * 4,
+        axles=[(0.0, 30.0e3), (2.0, 30.0e3)], positions=np.arange(0.0, 20.25, 0.5),
+        sensors=[(2.0, "rotation", 2.0e-6), (12.0, "rotation", 2.0e-6), (6.0, "deflection", 1.5e-5)],
+        correlation=0.0, time=dict(relative_correlated=0.5, correlation_time_s=3.0, relative_walk=0.15, speed=1.2),
+        length=1.5, step=1.85, severity=0.25, crossings=2),
 }
+
+
+def _time_model(spec):
+    """The time model's keyword arguments of ``spec`` (per sensor, relative to the white std)."""
+    time = spec["time"]
+    stds = np.array([s[2] for s in spec["sensors"]])
+    return dict(correlated_std=time["relative_correlated"] * stds, correlation_time_s=time["correlation_time_s"],
+                random_walk=time["relative_walk"] * stds, speed=time["speed"])
 
 
 def _case(spec):
@@ -55,8 +71,9 @@ def _case(spec):
     offsets, loads = zip(*spec["axles"])
     xs, kinds, stds = zip(*spec["sensors"])
     sensors = SensorLayout(xs, kinds, None, stds)
+    noise = NoiseModel(stds, spec["correlation"], **(_time_model(spec) if "time" in spec else {}))
     return Case(bridge, Mesh.uniform(bridge, spec["elements"]), spec["ei"], Vehicle(offsets, loads), sensors,
-                NoiseModel(stds, spec["correlation"]), LoadSweep(spec["positions"]))
+                noise, LoadSweep(spec["positions"]))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -140,13 +157,29 @@ def _fe_difference(spec, centre, undamaged, severity=None):
     return _fe_lines(spec, fine, damaged) - undamaged
 
 
-def _whiten(spec, values):
-    """Dense AR(1) whitening: L^-1 y per sensor, with L L^T = sigma^2 exp(-|dz| / lambda)."""
+def _covariance(spec, i):
+    """Dense noise covariance of sensor i in one crossing, from the definitions.
+
+    AR(1) in x: sigma^2 exp(-|dz| / lambda).  In time (t = z / speed):
+    white^2 I + c^2 exp(-|dt| / tau) + q^2 min(t_i - t_0, t_j - t_0) (the walk from the
+    first reading; its unknown starting level is a nuisance column of ones, see _FEReference).
+    """
     z = np.asarray(spec["positions"])
-    corr = np.exp(-np.abs(z[:, None] - z[None, :]) / spec["correlation"])
+    std = spec["sensors"][i][2]
+    if "time" not in spec:
+        return std**2 * np.exp(-np.abs(z[:, None] - z[None, :]) / spec["correlation"])
+    model = _time_model(spec)
+    t = z / model["speed"]
+    c, q = model["correlated_std"][i], model["random_walk"][i]
+    return (std**2 * np.eye(z.size) + c**2 * np.exp(-np.abs(t[:, None] - t[None, :]) / model["correlation_time_s"])
+            + q**2 * np.minimum(t[:, None] - t[0], t[None, :] - t[0]))
+
+
+def _whiten(spec, values):
+    """Dense whitening: L^-1 y per sensor, with L L^T the covariance of :func:`_covariance`."""
     out = []
-    for i, (_, _, std) in enumerate(spec["sensors"]):
-        chol = np.linalg.cholesky(std**2 * corr)
+    for i in range(len(spec["sensors"])):
+        chol = np.linalg.cholesky(_covariance(spec, i))
         out.append(scipy.linalg.solve_triangular(chol, values[i], lower=True))
     return np.array(out)
 
@@ -157,9 +190,14 @@ class _FEReference:
     def __init__(self, spec):
         self.spec = spec
         columns, names = _fe_nuisance(spec)
+        if "time" in spec:  # the wander's unknown level in each sensor: a nuisance column of ones per sensor
+            n_s, n_x = columns.shape[:2]
+            offsets = np.zeros((n_s, n_x, n_s))
+            offsets[np.arange(n_s), :, np.arange(n_s)] = 1.0
+            columns, names = np.concatenate([columns, offsets], axis=2), list(names) + ["offset"] * n_s
         self.columns = _whiten(spec, columns).reshape(-1, columns.shape[2])
         self.keep = {"smooth": list(range(len(names))),
-                     "levels": [i for i, n in enumerate(names) if n in ("level", "spring")]}
+                     "levels": [i for i, n in enumerate(names) if n in ("level", "spring", "offset")]}
         self.undamaged = _fe_lines(spec, _mesh_edges(spec), np.array(spec["ei"], dtype=float))
 
     def d(self, centre, nuisance, severity=None):

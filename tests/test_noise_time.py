@@ -108,3 +108,22 @@ def test_degrees_of_freedom_spend_one_reading_per_wandering_sensor():
 def test_bad_time_models_name_the_field(kwargs, field):
     with pytest.raises(ConfigError, match=field):
         NoiseModel([1e-5, 1e-5], **kwargs)
+
+
+def test_a_reading_stands_for_the_mean_of_the_logger_samples_between_readings():
+    x = np.linspace(0.0, 10.0, 21)  # a reading every 0.5 m: 0.5 s at 1 m/s, 50 samples at 100 Hz
+    one = NoiseModel([2e-5], correlated_std=1e-5, correlation_time_s=3.0, speed=1.0)
+    mean = NoiseModel([2e-5], correlated_std=1e-5, correlation_time_s=3.0, speed=1.0, sample_rate=100.0)
+    ref = dense_covariance(x, 2e-5 / np.sqrt(50.0), 1e-5, 3.0, 0.0)
+    y = np.random.default_rng(2).standard_normal((1, 21)) * 1e-5
+    w = mean.whiten(y, x)[0]
+    np.testing.assert_allclose(w @ w, y[0] @ np.linalg.solve(ref, y[0]), rtol=1e-10)
+    # slower crossings average more samples: more information, capped by the correlated part (what the
+    # information would be without white noise) and always above the one-sample readings
+    speeds = (4.0, 1.0, 0.25, 0.05)
+    ones = np.ones((1, 21))
+    info = [float(np.sum(mean.at_speed(v).whiten(ones, x)**2)) for v in speeds]
+    cap = NoiseModel([1e-12], correlated_std=1e-5, correlation_time_s=3.0, speed=1.0)
+    assert all(a < b for a, b in zip(info, info[1:]))
+    for v, i in zip(speeds, info):
+        assert float(np.sum(one.at_speed(v).whiten(ones, x)**2)) < i < float(np.sum(cap.at_speed(v).whiten(ones, x)**2))

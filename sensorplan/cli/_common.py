@@ -1,6 +1,7 @@
 """What every command shares: case arguments, value parsers, progress, staged output."""
 
 import argparse
+import dataclasses
 import json
 import math
 import os
@@ -67,6 +68,13 @@ def add_case_arguments(parser):
     group.add_argument("--example", help="embedded example: simply-supported, openlab-like, three-span")
 
 
+def add_speed_argument(parser):
+    """``--speed``: the crossing speed [m/s] of a design or simulation under the noise model in time."""
+    parser.add_argument("--speed", dest="crossing_speed", type=real(0.05, 100.0, what="a speed in m/s"),
+                        help="crossing speed in m/s under the case's noise model in time (default: [noise] speed); "
+                             "slower or more crossings buy information until the wander caps it")
+
+
 def add_out_arguments(parser, *, json_default):
     parser.add_argument("--out", type=Path, default=Path("sensorplan-out"), help="output folder for figures")
     parser.add_argument("--json", type=output_file, help=f"JSON file (default OUT/{json_default})")
@@ -79,6 +87,13 @@ def load_case(args):
     case = load(args.config) if args.config is not None else example_case(args.example)
     if args.command != "simulate" and getattr(args, "elements", None) is None:
         check_elements(case, args.command)
+    speed = getattr(args, "crossing_speed", None)
+    if speed is not None:
+        if case.noise is None or not case.noise.in_time:
+            raise ConfigError(f"--speed {speed:g} m/s: the case's noise has no part in time ([noise] correlated_std, "
+                              "correlation_time_s, random_walk), so the speed changes nothing; estimate one with "
+                              "'sensorplan noise --write-case' or drop --speed.")
+        case = dataclasses.replace(case, noise=case.noise.at_speed(speed))
     return case
 
 

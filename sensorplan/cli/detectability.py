@@ -5,6 +5,7 @@ from ._common import (
     LENGTH,
     MAX_CROSSINGS,
     add_case_arguments,
+    add_speed_argument,
     add_out_arguments,
     check_layouts,
     check_length,
@@ -28,6 +29,7 @@ EPILOG = """example:
 
 def add_arguments(p):
     add_case_arguments(p)
+    add_speed_argument(p)
     p.add_argument("--layout", type=parse_positions,
                    help="sensor positions in m, e.g. 3.5,8,12 (default: the case's sensors)")
     p.add_argument("--kind", choices=["rotation", "deflection"],

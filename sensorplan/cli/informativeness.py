@@ -4,6 +4,7 @@ from ._common import (
     MAX_CROSSINGS,
     NOISE_STD,
     add_case_arguments,
+    add_speed_argument,
     check_layouts,
     integer,
     load_case,
@@ -22,6 +23,7 @@ def add_arguments(p):
     from pathlib import Path
 
     add_case_arguments(p)
+    add_speed_argument(p)
     p.add_argument("--positions", type=parse_positions,
                    help="candidate tiltmeter positions in m, e.g. 2.5,5,10 (default: the case's sensors)")
     p.add_argument("--crossings", type=integer(1, MAX_CROSSINGS), default=1, help="number of crossings (default 1)")

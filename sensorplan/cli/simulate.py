@@ -5,6 +5,7 @@ from ._common import (
     MAX_CROSSINGS,
     SEED,
     add_case_arguments,
+    add_speed_argument,
     integer,
     load_case,
     output_file,
@@ -20,6 +21,7 @@ EPILOG = """example:
 
 def add_arguments(p):
     add_case_arguments(p)
+    add_speed_argument(p)
     p.add_argument("--crossings", type=integer(1, MAX_CROSSINGS), default=1, help="number of crossings (default 1)")
     p.add_argument("--noise", action="store_true", help="add noise from the case's noise model")
     p.add_argument("--seed", type=SEED, help="random seed (required with --noise)")

@@ -32,7 +32,6 @@ from scipy.special import ndtr, ndtri
 from .._errors import ConfigError
 from .._threads import single_threaded
 from .._validation import MIN_ZONE_LENGTH, as_float_array
-from ..model.noise import NoiseModel
 from ..model.sensors import SENSOR_KINDS, SensorLayout
 from .results import POWER_TARGET, DetectabilityMap
 from .signatures import NUISANCES, SignatureModel, centre_grid
@@ -103,8 +102,7 @@ def _sensors_and_noise(case, layout, kind):
                           f"and the case has no {kind} sensor with a noise level. Choose another 'kind'.")
     std = case.noise_std_for(kind)
     sensors = SensorLayout(positions, (kind,) * positions.size, None, (std,) * positions.size)
-    correlation = 0.0 if case.noise is None else case.noise.correlation_length
-    return sensors, NoiseModel(np.full(positions.size, std), correlation)
+    return sensors, case.noise_for(sensors)
 
 
 @single_threaded

@@ -77,8 +77,8 @@ def _separating_sensor(case, crossings, effect, prior, theta, base_info, *, alph
     xs = np.linspace(0.0, case.bridge.length, N_CANDIDATES)
     names = tuple(f"candidate_{i}" for i in range(xs.size))
     sensors = SensorLayout(xs, kind, names, [std] * xs.size)
-    corr = noise.correlation_length if noise is not None else 0.0
-    cand_noise = NoiseModel([std] * xs.size, corr)
+    cand_noise = (NoiseModel([std] * xs.size) if noise is None
+                  else noise.for_sensors((kind,) * noise.n_sensors, (kind,) * xs.size, [std] * xs.size))
     if binned is None:
         cand_case = replace(case, sensors=sensors, noise=cand_noise)
         dummy = Crossings(names, tuple(replace(c, values=np.zeros((xs.size, c.n_loads))) for c in crossings))

@@ -24,6 +24,17 @@ def _list(values):
     return "[" + ", ".join(_num(v) for v in values) + "]"
 
 
+def _noise_lines(noise):
+    """The [noise] section's keys of ``noise`` (the time model's only when it has one)."""
+    if not noise.in_time:
+        return [f"correlation_length = {_num(noise.correlation_length)}"]
+    lines = [f"correlated_std = {_list(noise.correlated_std)}",
+             f"correlation_time_s = {_list(noise.correlation_time_s)}",
+             f"random_walk = {_list(noise.random_walk)}"]
+    lines.append(f"speed = {_num(noise.speed)}")
+    return lines + ([] if noise.sample_rate is None else [f"sample_rate = {_num(noise.sample_rate)}"])
+
+
 def case_to_toml(case, *, header=""):
     """TOML text of ``case``; reading it back gives the same case (uniform meshes and sweeps only)."""
     bridge, mesh = case.bridge, case.mesh
@@ -42,8 +53,7 @@ def case_to_toml(case, *, header=""):
               f"positions = {_list(case.sensors.positions)}",
               "kinds = [" + ", ".join(f'"{k}"' for k in case.sensors.kinds) + "]"]
     if case.noise is not None:
-        lines += [f"noise_std = {_list(case.noise.std)}", "", "[noise]",
-                  f"correlation_length = {_num(case.noise.correlation_length)}"]
+        lines += [f"noise_std = {_list(case.noise.std)}", "", "[noise]"] + _noise_lines(case.noise)
     if case.sweep is not None:
         x = case.sweep.positions
         step = float(x[1] - x[0]) if x.size > 1 else 1.0

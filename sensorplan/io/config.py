@@ -26,6 +26,7 @@ __all__ = ["load_case", "case_from_dict", "example_case", "load_logger_format", 
 EXAMPLES = ("simply-supported", "openlab-like", "three-span")
 MAX_SENSORS = 1_000  # as many as --positions takes; every analysis is linear in the sensor count at best
 
+TIME_KEYS = ("correlated_std", "correlation_time_s", "random_walk", "speed", "sample_rate")
 _KEYS = {
     "bridge": {"spans", "ei", "elements", "element_length", "rotational_springs",
                "vertical_springs"},
@@ -33,7 +34,7 @@ _KEYS = {
     "sensors": {"names", "positions", "kinds", "noise_std", "noise_std_mm_per_m",
                 "noise_std_urad", "noise_std_mm"},
     "loads": {"start", "stop", "step"},
-    "noise": {"correlation_length"},
+    "noise": {"correlation_length", *TIME_KEYS},
     "case": {"name"},
     "logger": {"temperature_columns", "tilt_unit", "deflection_unit"},
 }
@@ -195,14 +196,31 @@ def _vehicle(v):
 
 
 def _noise(n, sensors):
-    """The noise model of the sensors' noise std and the [noise] section (None without a noise std)."""
+    """The noise model of the sensors' noise std and the [noise] section (None without a noise std).
+
+    The time model's keys (``correlated_std`` [rad or m], ``correlation_time_s``
+    [s], ``random_walk`` [rad or m per sqrt(s)]) take one number or one per
+    sensor; ``speed`` [m/s] maps load positions to times; ``sample_rate`` [Hz] is the logger's rate the
+    white std refers to.
+    """
     noise = None
     if sensors.noise_std is not None:
-        noise = NoiseModel(sensors.noise_std, n.get("correlation_length", 0.0))
-    elif "correlation_length" in n:
-        raise ConfigError("'correlation_length' needs a noise standard deviation in [sensors].")
-    plausibility.check_noise(noise)
+        time = {key: _number_or_list(n[key], key) for key in TIME_KEYS if key in n}
+        noise = NoiseModel(sensors.noise_std, n.get("correlation_length", 0.0), **time)
+    elif n.keys() & {"correlation_length", *TIME_KEYS}:
+        key = sorted(n.keys() & {"correlation_length", *TIME_KEYS})[0]
+        raise ConfigError(f"'{key}' needs a noise standard deviation in [sensors] (noise_std).")
+    plausibility.check_noise(noise, sensors.kinds)
     return noise
+
+
+def _number_or_list(raw, key):
+    """A number, or a list of numbers, of the [noise] section."""
+    try:
+        return float(raw) if not isinstance(raw, list) else [float(x) for x in raw]
+    except (TypeError, ValueError):
+        raise ConfigError(f"The '{key}' parameter must be a number or a list of numbers (one per sensor). "
+                          f"Got {raw!r} instead.") from None
 
 
 def _sweep(lo):

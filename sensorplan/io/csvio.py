@@ -1,4 +1,7 @@
-"""CSV files of crossings: ``crossing,position_m,<sensor...>[,load_factor]``.
+"""CSV files of crossings: ``crossing,position_m,<sensor...>[,load_factor][,time_s]``.
+
+``time_s`` (optional) is the time of each reading [s], as a logger recorded
+it; the noise model in time then uses it instead of positions / speed.
 
 Values are in rad (rotation) or m (deflection).  Reading validates columns,
 sensor names, numbers, NaNs, increasing positions within a crossing and
@@ -29,7 +32,8 @@ __all__ = ["read_crossings", "write_crossings", "format_crossings", "write_table
 # 0.02 rad = 20 mm/m, nor deflects it by 1 m): larger values are unit slips.
 _LIMITS = {"rotation": (0.02, "rad", "mm/m or micro-radians given as rad? Convert to rad"),
            "deflection": (1.0, "m", "mm given as m? Convert to m")}
-_LOAD_FACTOR = (1e-2, 1e2)  # a crossing's vehicle is 1/100 to 100 times the case's vehicle
+_LOAD_FACTOR = (1e-2, 1e2)
+EXTRA_COLUMNS = ("load_factor", "time_s")  # optional columns after the sensors  # a crossing's vehicle is 1/100 to 100 times the case's vehicle
 
 
 def write_crossings(path: "str | os.PathLike[str]", crossings: Crossings) -> None:
@@ -42,13 +46,16 @@ def format_crossings(crossings):
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     with_factor = any(np.any(c.load_factor != 1.0) for c in crossings)
+    with_times = all(c.times is not None for c in crossings)
     header = ["crossing", "position_m", *crossings.sensor_names]
-    writer.writerow(header + (["load_factor"] if with_factor else []))
+    writer.writerow(header + (["load_factor"] if with_factor else []) + (["time_s"] if with_times else []))
     for c in crossings:
         for k in range(c.n_loads):
             row = [c.label, repr(float(c.positions[k]))] + [repr(float(v)) for v in c.values[:, k]]
             if with_factor:
                 row.append(repr(float(c.load_factor[k])))
+            if with_times:
+                row.append(repr(float(c.times[k])))
             writer.writerow(row)
     return buf.getvalue()
 
@@ -91,6 +98,7 @@ def parse_crossings(text, sensors=None, *, source="data"):
     header = [h.strip() for h in rows[0]]
     sensor_cols = _check_header(header, sensors, source)
     col = {h: i for i, h in enumerate(header)}
+    extras = [h for h in EXTRA_COLUMNS if h in col]
     groups = {}
     for line, row in enumerate(rows[1:], start=2):
         if len(row) != len(header):
@@ -99,13 +107,11 @@ def parse_crossings(text, sensors=None, *, source="data"):
         if not label:
             raise DataError(f"{source}: row {line}, column 'crossing' is empty.")
         numbers = [_number(row[col[h]], source, line, h)
-                   for h in ["position_m", *sensor_cols]
-                   + (["load_factor"] if "load_factor" in col else [])]
+                   for h in ["position_m", *sensor_cols, *extras]]
         groups.setdefault(label, []).append(numbers)
     if not groups:
         raise DataError(f"{source}: the file has a header but no data rows.")
-    out = [_crossing(label, np.array(data), len(sensor_cols), "load_factor" in col, source)
-           for label, data in groups.items()]
+    out = [_crossing(label, np.array(data), len(sensor_cols), extras, source) for label, data in groups.items()]
     crossings = Crossings(tuple(sensor_cols), tuple(out))
     if sensors is not None:
         _check_magnitudes(crossings, sensors, source)
@@ -136,7 +142,7 @@ def _check_header(header, sensors, source):
     if len(set(header)) != len(header):
         dup = next(h for h in header if header.count(h) > 1)
         raise DataError(f"{source}: column '{dup}' appears twice.")
-    sensor_cols = [h for h in header if h not in ("crossing", "position_m", "load_factor")]
+    sensor_cols = [h for h in header if h not in ("crossing", "position_m", *EXTRA_COLUMNS)]
     if not sensor_cols:
         raise DataError(f"{source}: no sensor column; add one column per sensor name.")
     if sensors is not None:
@@ -147,20 +153,24 @@ def _check_header(header, sensors, source):
     return sensor_cols
 
 
-def _crossing(label, arr, n_s, with_factor, source):
-    """One crossing from its rows (position, ``n_s`` readings[, load factor]), positions increasing."""
+def _crossing(label, arr, n_s, extras, source):
+    """One crossing from its rows (position, ``n_s`` readings[, load factor][, time]), positions increasing."""
     pos = arr[:, 0]
     if np.any(np.diff(pos) <= 0.0):
         raise DataError(f"{source}: positions of crossing '{label}' must be strictly increasing; "
                         "sort the rows of each crossing by position_m.")
-    factor = arr[:, 1 + n_s] if with_factor else np.ones(pos.size)
+    times = arr[:, 1 + n_s + extras.index("time_s")] if "time_s" in extras else None
+    if times is not None and np.any(np.diff(times) <= 0.0):
+        raise DataError(f"{source}: column 'time_s' of crossing '{label}' must increase with position_m "
+                        "(one vehicle moving forward); check the time column.")
+    factor = arr[:, 1 + n_s] if "load_factor" in extras else np.ones(pos.size)
     if np.any(factor <= 0.0):
         raise DataError(f"{source}: column 'load_factor' of crossing '{label}' must be positive.")
     if np.any(factor < _LOAD_FACTOR[0]) or np.any(factor > _LOAD_FACTOR[1]):
         bad = float(factor[(factor < _LOAD_FACTOR[0]) | (factor > _LOAD_FACTOR[1])][0])
         raise DataError(f"{source}: column 'load_factor' of crossing '{label}' is {bad:g}; a load factor (vehicle "
                         f"weight / the case's vehicle) is {_LOAD_FACTOR[0]:g} to {_LOAD_FACTOR[1]:g}.")
-    return Crossing(label, pos, arr[:, 1:1 + n_s].T.copy(), factor)
+    return Crossing(label, pos, arr[:, 1:1 + n_s].T.copy(), factor, times=times)
 
 
 def _number(cell, source, line, column):

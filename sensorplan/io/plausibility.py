@@ -12,6 +12,11 @@ rotational spring          0 (pin), inf (clamp) or 1 to 1e16 N m/rad
 vertical spring            inf (rigid) or 1e2 to 1e16 N/m
 axle load                  1 N to 1e7 N; axle offsets at most 100 m
 noise correlation length   at most 1e4 m
+correlated noise std       as a white noise std of the sensor's kind
+correlation time           at most one day
+random walk                at most 1e-3 rad or 1e-2 m per sqrt(s)
+crossing speed             0.05 to 100 m/s
+logger sample rate         0.01 Hz to 1 MHz
 load sweep                 within 10 bridge lengths of the bridge,
                            at least one position with an axle on it
 predicted readings         at most 0.02 rad / 1 m (as the CSV reader)
@@ -37,6 +42,11 @@ BOUNDS = {
     "axle_load": (1.0, 1e7),
     "axle_offset": 100.0,
     "correlation_length": 1e4,
+    "correlation_time_s": 86400.0,
+    "random_walk": {"rotation": 1e-3, "deflection": 1e-2},
+    "speed": (0.05, 100.0),
+    "sample_rate": (1e-2, 1e6),
+    "correlated_std": {"rotation": 1e-3, "deflection": 5e-3},
 }
 READING_LIMITS = {"rotation": (0.02, "rad"), "deflection": (1.0, "m")}
 
@@ -85,10 +95,31 @@ def check_vehicle(vehicle):
                           f"{BOUNDS['axle_offset']:g} m long (offsets are in m).")
 
 
-def check_noise(noise):
-    if noise is not None and noise.correlation_length > BOUNDS["correlation_length"]:
+def check_noise(noise, kinds=None):
+    """The noise model's correlation and time parameters within what an instrument and a vehicle can have."""
+    if noise is None:
+        return
+    if noise.correlation_length > BOUNDS["correlation_length"]:
         raise ConfigError(f"'correlation_length' is {noise.correlation_length:g} m; at most "
                           f"{BOUNDS['correlation_length']:g} m is supported (use 0 for independent noise).")
+    if np.any(noise.correlation_time_s > BOUNDS["correlation_time_s"]):
+        raise ConfigError(f"'correlation_time_s' is {np.max(noise.correlation_time_s):g} s; at most one day "
+                          f"({BOUNDS['correlation_time_s']:g} s): slower changes are the random walk.")
+    low, high = BOUNDS["speed"]
+    if noise.speed is not None and _outside(noise.speed, low, high):
+        raise ConfigError(f"'speed' is {noise.speed:g} m/s; a crossing speed is {low:g} to {high:g} m/s "
+                          "(in m/s: 36 km/h = 10 m/s).")
+    low, high = BOUNDS["sample_rate"]
+    if noise.sample_rate is not None and _outside(noise.sample_rate, low, high):
+        raise ConfigError(f"'sample_rate' is {noise.sample_rate:g} Hz; a logger samples at {low:g} Hz to "
+                          f"{high:g} Hz (in Hz: 100 Hz, not 0.01 s).")
+    unit = {"rotation": "rad", "deflection": "m"}
+    for key in ("correlated_std", "random_walk"):
+        for kind, value in zip(kinds or ("rotation",) * noise.n_sensors, getattr(noise, key)):
+            if value > BOUNDS[key][kind]:
+                raise ConfigError(f"'{key}' is {value:g} {unit[kind]}{'/sqrt(s)' if key == 'random_walk' else ''} "
+                                  f"for a {kind} sensor, far above any instrument: give it in {unit[kind]}"
+                                  f"{' per sqrt(s)' if key == 'random_walk' else ''} (1 urad = 1e-6 rad).")
 
 
 def check_sweep(case):

@@ -94,16 +94,31 @@ class Case:
         return replace(self, mesh=mesh, ei=ei)
 
     def with_sensors(self, sensors, noise=None):
-        """The same case with other sensors.
-
-        The noise is ``noise`` if given, else ``sensors.noise_std`` (independent
-        noise), else, when the case has a noise model, each sensor gets
-        :meth:`noise_std_for` its kind (the median of the case's sensors of that
-        kind) with the case's correlation length.
-        """
-        if noise is None and sensors.noise_std is None and self.noise is not None:
-            noise = NoiseModel([self.noise_std_for(kind) for kind in sensors.kinds], self.noise.correlation_length)
+        """The same case with other sensors, and their noise by :meth:`noise_for` unless ``noise`` is given."""
+        if noise is None:
+            noise = self.noise_for(sensors)
         return replace(self, sensors=sensors, noise=noise)
+
+    def noise_for(self, sensors):
+        """The noise model of ``sensors`` under this case's noise: the one rule for sensors not in the case.
+
+        The white std of each sensor is its ``noise_std`` if the layout has
+        one, else :meth:`noise_std_for` its kind (the median of the case's
+        sensors of that kind); the correlation (length, or time model with
+        speed) is the case's (:meth:`NoiseModel.for_sensors`).  None when
+        neither the sensors nor the case know a noise level.
+        """
+        if sensors is self.sensors and self.noise is not None:
+            return self.noise
+        if sensors.noise_std is not None:
+            std = np.asarray(sensors.noise_std, dtype=float)
+        elif self.noise is not None:
+            std = np.array([self.noise_std_for(kind) for kind in sensors.kinds])
+        else:
+            return None
+        if self.noise is None:
+            return NoiseModel(std)
+        return self.noise.for_sensors(self.sensors.kinds, sensors.kinds, std)
 
     @property
     def default_kind(self):

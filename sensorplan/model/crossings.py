@@ -1,6 +1,6 @@
 """Measured or simulated crossings: readings per sensor and load position."""
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -22,12 +22,16 @@ class Crossing:
         Readings [rad or m] in the order of ``Crossings.sensor_names``.
     load_factor : ndarray (n_loads,)
         Multiplier of the configured axle loads at each row (1 if absent).
+    times : ndarray (n_loads,) or None
+        Time of each row [s] when known (a logger's crossing); the noise
+        model in time then uses them instead of positions / speed.
     """
 
     label: str
     positions: np.ndarray
     values: np.ndarray
     load_factor: np.ndarray
+    times: np.ndarray | None = field(default=None, kw_only=True)
 
     @property
     def n_loads(self):
@@ -76,4 +80,4 @@ class Crossings:
         """Only the sensors ``names`` (in that order)."""
         index = [self.sensor_names.index(n) for n in names]
         return Crossings(tuple(names), tuple(
-            Crossing(c.label, c.positions, c.values[index], c.load_factor) for c in self.crossings))
+            Crossing(c.label, c.positions, c.values[index], c.load_factor, times=c.times) for c in self.crossings))

@@ -4,8 +4,9 @@ For sensor i with Jacobian J_i (n_loads x n_params), noise standard
 deviation sigma_i and within-crossing correlation Gamma_i, the Fisher
 information of one crossing is I^(i) = J_i^T Gamma_i^{-1} J_i / sigma_i^2
 (paper eq. fisher-sum); n independent crossings multiply it by n.  Gamma_i^{-1}
-is applied through the bidiagonal AR(1) whitening of :class:`NoiseModel`,
-never as a dense inverse.  Parameterisations follow the paper's chain rule
+is applied through the whitening of :class:`NoiseModel` (a bidiagonal AR(1)
+recursion in x, or the Kalman filter of the time model at the crossing
+speed), never as a dense inverse.  Parameterisations follow the paper's chain rule
 (eq. fisher-ei): dy/dEI = -dy/dv / EI^2, dy/dlog EI = -dy/dv / EI.
 """
 
@@ -165,20 +166,14 @@ def fisher_blocks(case: "Case", *, sensors: "SensorLayout | None" = None, noise:
 
 
 def _resolve_noise(case, sensors, noise):
-    from .noise import NoiseModel
-
     if noise is not None:
         if noise.n_sensors != sensors.n_sensors:
             raise ConfigError(f"The noise model has {noise.n_sensors} entries for "
                               f"{sensors.n_sensors} sensors.")
         return noise
-    if sensors is case.sensors and case.noise is not None:
-        return case.noise
-    corr = 0.0 if case.noise is None else case.noise.correlation_length
-    if sensors.noise_std is not None:
-        return NoiseModel(sensors.noise_std, corr)
-    if case.noise is not None:  # new sensors: the median noise of the case's sensors of the same kind
-        return NoiseModel(np.array([case.noise_std_for(kind) for kind in sensors.kinds]), corr)
+    noise = case.noise_for(sensors)  # new sensors: the median noise of the case's sensors of the same kind
+    if noise is not None:
+        return noise
     raise ConfigError("No noise level is known for the sensors; set noise_std in [sensors].")
 
 

@@ -27,8 +27,10 @@ from .statespace import innovation_filter
 __all__ = ["NoiseModel"]
 
 MAX_RHO = 1.0 - 1e-9
-# Filters kept per noise model (one per time grid and sensor); crossings share grids in simulation.
-_FILTERS = 256
+# Filters of the time model, shared by every noise model: keyed by the values they depend on (a sensor's
+# four parameters and the readings' times), so subsets and copies reuse them.  Each may hold a dense
+# whitening matrix of up to 8 MB (statespace.DENSE_ROWS).
+FILTERS = Cache(maxsize=64)
 
 
 def _per_sensor(value, n, name, *, allow_zero=True):
@@ -69,6 +71,13 @@ class NoiseModel:
     speed : float, optional
         Crossing speed [m/s] mapping load positions to times; needed by the
         time model, ignored otherwise.
+    sample_rate : float, optional
+        The logger's sampling rate [Hz], to which ``std`` refers (time model
+        only).  Readings further apart in time than one sample stand for the
+        mean of the samples between them, whose white part has std
+        ``std / sqrt(rate * dt)`` (the correlated part and the wander do not
+        average out): so slower or denser crossings gain until wander caps
+        them.  None: every reading is one sample.
     """
 
     std: np.ndarray
@@ -77,6 +86,7 @@ class NoiseModel:
     correlation_time_s: np.ndarray | float = 0.0
     random_walk: np.ndarray | float = 0.0
     speed: float | None = None
+    sample_rate: float | None = None
 
     def __post_init__(self):
         std = as_float_array(self.std, "std", "NoiseModel")
@@ -91,10 +101,11 @@ class NoiseModel:
                                     low=0.0))
         for name in ("correlated_std", "correlation_time_s", "random_walk"):
             object.__setattr__(self, name, _per_sensor(getattr(self, name), std.size, name))
-        if self.speed is not None:
-            object.__setattr__(self, "speed", as_float(self.speed, "speed", "NoiseModel", low=0.0, low_open=True))
+        for name in ("speed", "sample_rate"):
+            if getattr(self, name) is not None:
+                object.__setattr__(self, name, as_float(getattr(self, name), name, "NoiseModel", low=0.0,
+                                                        low_open=True))
         self._check_time_model()
-        object.__setattr__(self, "_filters", Cache(maxsize=_FILTERS))
 
     def _check_time_model(self):
         from .._errors import ConfigError
@@ -121,7 +132,7 @@ class NoiseModel:
     @property
     def cache_key(self):
         return ("NoiseModel", value_key(self.std), self.correlation_length, value_key(self.correlated_std),
-                value_key(self.correlation_time_s), value_key(self.random_walk), self.speed)
+                value_key(self.correlation_time_s), value_key(self.random_walk), self.speed, self.sample_rate)
 
     @property
     def n_sensors(self):
@@ -130,7 +141,27 @@ class NoiseModel:
     def subset(self, index):
         index = np.atleast_1d(index)
         return NoiseModel(self.std[index], self.correlation_length, self.correlated_std[index],
-                          self.correlation_time_s[index], self.random_walk[index], self.speed)
+                          self.correlation_time_s[index], self.random_walk[index], self.speed, self.sample_rate)
+
+    def for_sensors(self, own_kinds, kinds, std):
+        """The noise of other sensors of ``kinds`` with white std ``std``, in this model's correlation.
+
+        Every time parameter of a new sensor is the median over this model's
+        sensors of the same kind (``own_kinds``); the correlation length and
+        the speed are shared.  This is the one rule by which a sensor that is
+        not in the case gets its noise.
+        """
+        own_kinds = tuple(own_kinds)
+        if not self.in_time:
+            return NoiseModel(std, self.correlation_length)
+
+        def median(values, kind):
+            same = [v for k, v in zip(own_kinds, values) if k == kind]
+            return float(np.median(same)) if same else 0.0
+
+        params = {name: [median(getattr(self, name), kind) for kind in kinds]
+                  for name in ("correlated_std", "correlation_time_s", "random_walk")}
+        return NoiseModel(std, **params, speed=self.speed, sample_rate=self.sample_rate)
 
     def at_speed(self, speed):
         """The same noise for crossings at ``speed`` [m/s] (unchanged without a time model)."""
@@ -139,21 +170,22 @@ class NoiseModel:
         return replace(self, speed=speed)
 
     def times(self, positions):
-        """Times [s] of readings at load ``positions`` [m] (time model only)."""
+        """Times [s] of readings at load ``positions`` [m] at the model's speed (time model only)."""
         return (np.asarray(positions, dtype=float) - float(np.asarray(positions)[0])) / self.speed
 
-    def filter(self, sensor, positions):
-        """The :class:`~.statespace.InnovationFilter` of one sensor on readings at ``positions``."""
-        positions = np.asarray(positions, dtype=float)
-        key = self._filters.key(("filter", int(sensor), positions))
-        found, filt = self._filters.lookup((), key=key)
-        if not found:
-            filt = innovation_filter(self.times(positions), white=float(self.std[sensor]),
-                                     correlated=float(self.correlated_std[sensor]),
-                                     correlation_time=float(self.correlation_time_s[sensor]),
-                                     random_walk=float(self.random_walk[sensor]))
-            self._filters.put(key, filt)
-        return filt
+    def filter(self, sensor, positions, times=None):
+        """The :class:`~.statespace.InnovationFilter` of one sensor on readings at ``positions`` (or ``times``)."""
+        t = self.times(positions) if times is None else np.asarray(times, dtype=float)
+        params = dict(white=float(self.std[sensor]) / self.averaging(t), correlated=float(self.correlated_std[sensor]),
+                      correlation_time=float(self.correlation_time_s[sensor]),
+                      random_walk=float(self.random_walk[sensor]))
+        return FILTERS.get(("filter", tuple(params.values()), t), lambda: innovation_filter(t, **params))
+
+    def averaging(self, times):
+        """sqrt of the logger samples a reading at ``times`` stands for (1 without a sample rate)."""
+        if self.sample_rate is None or np.size(times) < 2:
+            return 1.0
+        return float(np.sqrt(max(1.0, self.sample_rate * float(np.median(np.diff(times))))))
 
     def rho(self, positions):
         """Lag-one correlations between consecutive positions, shape (n_loads - 1,) (AR(1) in x only)."""
@@ -163,19 +195,20 @@ class NoiseModel:
         # Capped below 1: with a correlation length far beyond the load step, 1 - rho^2 would round to 0.
         return np.minimum(np.exp(-np.diff(positions) / self.correlation_length), MAX_RHO)
 
-    def whiten(self, values, positions, sensor_axis=0):
+    def whiten(self, values, positions, sensor_axis=0, *, times=None):
         """Apply Sigma^{-1/2} along the load axis (axis ``sensor_axis + 1``), sensor by sensor.
 
         ``values`` has the sensors on ``sensor_axis`` and the load positions
         right after it; any trailing axes (e.g. parameters) are carried along.
         The result r satisfies r^T r = y^T Sigma^{-1} y per sensor (with the
-        time model's offset marginalised).
+        time model's offset marginalised).  ``times`` [s], when the readings'
+        times are known, replace positions / speed in the time model.
         """
         values = np.asarray(values, dtype=float)
         load_axis = sensor_axis + 1
         moved = np.moveaxis(values, (sensor_axis, load_axis), (0, 1))
         if self.in_time:
-            out = np.stack([self.filter(i, positions).whiten(moved[i]) for i in range(moved.shape[0])])
+            out = np.stack([self.filter(i, positions, times).whiten(moved[i]) for i in range(moved.shape[0])])
             return np.moveaxis(out, (0, 1), (sensor_axis, load_axis))
         rho = self.rho(positions)
         out = moved.copy()
@@ -191,11 +224,11 @@ class NoiseModel:
         rho = self.rho(positions)
         return float(np.sum(np.log1p(-rho**2)))
 
-    def log_det(self, positions):
-        """log det of the noise covariance of all sensors in one crossing at ``positions``."""
+    def log_det(self, positions, *, times=None):
+        """log det of the noise covariance of all sensors in one crossing at ``positions`` (or ``times``)."""
         positions = np.asarray(positions, dtype=float)
         if self.in_time:
-            return float(sum(self.filter(i, positions).log_det() for i in range(self.n_sensors)))
+            return float(sum(self.filter(i, positions, times).log_det() for i in range(self.n_sensors)))
         return self.log_det_gamma(positions) * self.n_sensors + 2.0 * positions.size * float(np.sum(np.log(self.std)))
 
     def dof(self, n_loads):
@@ -223,7 +256,7 @@ class NoiseModel:
     def _sample_in_time(self, positions, rng, n_crossings):
         dt = np.diff(self.times(positions))
         shape = (n_crossings, self.n_sensors, positions.size)
-        out = rng.standard_normal(shape) * self.std[None, :, None]
+        out = rng.standard_normal(shape) * (self.std / self.averaging(self.times(positions)))[None, :, None]
         tau = np.where(self.correlation_time_s > 0.0, self.correlation_time_s, 1.0)[None, :]
         phi = np.exp(-dt[:, None] / tau)  # (n_loads - 1, sensors)
         ou = np.empty(shape)

@@ -30,6 +30,8 @@ import numpy as np
 
 __all__ = ["InnovationFilter", "innovation_filter"]
 
+DENSE_ROWS = 1000  # up to this many readings the whitening is applied as a dense triangular matrix (8 MB)
+
 
 @dataclass(frozen=True, eq=False)
 class InnovationFilter:
@@ -66,6 +68,21 @@ class InnovationFilter:
         if self.n_states == 0:
             return values / self.white
         flat = values.reshape(n, -1)
+        if n <= DENSE_ROWS:
+            return (self.matrix() @ flat).reshape(values.shape)
+        return self._recursion(flat).reshape(values.shape)
+
+    def matrix(self):
+        """L^{-1} as a dense lower-triangular matrix (formed once; grids up to ``DENSE_ROWS`` readings)."""
+        found = self.__dict__.get("_matrix")
+        if found is None:
+            found = self._recursion(np.eye(self.scale.size))
+            object.__setattr__(self, "_matrix", found)
+        return found
+
+    def _recursion(self, flat):
+        """The filter run over the readings, all columns at once: O(n) steps."""
+        n = flat.shape[0]
         out = np.empty_like(flat)
         state = np.zeros((self.n_states, flat.shape[1]))
         gain, scale, trans = self.gain, self.scale, self.transition
@@ -74,7 +91,7 @@ class InnovationFilter:
             out[k] = err / scale[k]
             state += gain[k][:, None] * err[None, :]
             state *= trans[k][:, None]
-        return out.reshape(values.shape)
+        return out
 
     def whiten(self, values):
         """Sigma^{-1/2} values along the first axis, the walk's offset marginalised when it has one."""
@@ -120,22 +137,22 @@ def innovation_filter(times, *, white, correlated=0.0, correlation_time=0.0, ran
     gain = np.zeros((n, d))
     scale = np.zeros(n)
     trans = np.ones((n, d))
-    p = np.zeros((d, d))  # predicted state covariance
     if ou:
-        p[0, 0] = correlated**2
         trans[:-1, 0] = phi_ou
+    # predicted covariance of (u, b) as scalars (a 2 x 2 symmetric matrix; absent states stay 0)
+    puu, pub, pbb = (correlated**2 if ou else 0.0), 0.0, 0.0
     r = white**2
+    f = trans[:, 0].tolist() if ou else [1.0] * n
+    qo = q_ou.tolist() if ou else [0.0] * n
+    qw = q_walk.tolist() if walk else [0.0] * n
     for k in range(n):
-        s = float(p.sum()) + r
-        kg = p.sum(axis=1) / s
-        gain[k] = kg
-        scale[k] = np.sqrt(s)
-        p = p - np.outer(kg, kg) * s
+        s = puu + 2.0 * pub + pbb + r
+        ku, kb = (puu + pub) / s, (pub + pbb) / s
+        gain[k] = [g for g, on in ((ku, ou), (kb, walk)) if on]
+        scale[k] = s
+        puu, pub, pbb = puu - ku * ku * s, pub - ku * kb * s, pbb - kb * kb * s
         if k + 1 < n:
-            f = trans[k]
-            p = p * np.outer(f, f)
-            if ou:
-                p[0, 0] += q_ou[k]
-            if walk:
-                p[-1, -1] += q_walk[k]
-    return InnovationFilter(gain=gain, scale=scale, transition=trans, offset=walk, white=float(white))
+            puu = f[k] * f[k] * puu + qo[k]
+            pub = f[k] * pub
+            pbb = pbb + qw[k]
+    return InnovationFilter(gain=gain, scale=np.sqrt(scale), transition=trans, offset=walk, white=float(white))

@@ -41,9 +41,17 @@ def model_section(case):
                       "a tiltmeter reads positive when the deck dips to its right.")
     text = (f"<p>{b.n_spans} span(s), total length {b.length:g} m; EI mesh of {case.n_elements} elements; "
             f"load sweep of {case.sweep.n_loads} reference-axle positions from {case.sweep.positions[0]:g} to "
-            f"{case.sweep.positions[-1]:g} m; noise correlation length {noise.correlation_length:g} m "
-            f"(0 = independent).</p>")
+            f"{case.sweep.positions[-1]:g} m; {_noise_text(noise)}.</p>")
     return "Bridge and load model", text + spans + supports + veh + sens + fig
+
+
+def _noise_text(noise):
+    """One phrase on the noise's correlation: in time (with its speed) or along the load position."""
+    if not noise.in_time:
+        return f"noise correlation length {noise.correlation_length:g} m (0 = independent)"
+    return (f"noise in time: white + a correlated part of {1e6 * float(np.median(noise.correlated_std)):.3g} "
+            f"(median, urad or um) over {float(np.median(noise.correlation_time_s)):.3g} s + wander of "
+            f"{1e6 * float(np.median(noise.random_walk)):.3g} per sqrt(s), at a crossing speed of {noise.speed:g} m/s")
 
 
 def informativeness_section(analysis):

@@ -156,10 +156,16 @@ SEED = 20250101
 FULL_REPLICATES = 200
 QUICK_REPLICATES = 40
 PRIOR = sp.GMRFPrior()
-CASES = {  # name: (noise std [rad], correlation length [m], crossings)
+# The noise in time of the real Munich inclinometer INC01 (issue #36: 21 urad white per sample, about
+# 9 urad correlated over 3 s, +-20-50 urad of minute-scale wander), scaled to the example's 5 urad white
+# noise, at a crawl of 1 m/s (3 s = 3 m of load position).
+TIME = dict(correlated_std=5e-6 * 9 / 21, correlation_time_s=3.0, random_walk=5e-6 * 2.5 / 21, speed=1.0)
+CASES = {  # name: (noise std [rad], correlation length [m], crossings[, time model, inverted as])
     "white": (5e-6, 0.0, 5),
     "ar1": (5e-6, 0.5, 5),
     "low-signal": (10e-6, 0.0, 1),
+    "time": (5e-6, 0.0, 5, TIME, "time"),
+    "time-as-white": (5e-6, 0.0, 5, TIME, "white"),  # the same data inverted as if the noise were white
 }
 METHODS = ("integrated", "evidence")
 FLAT_TAU = 1e8
@@ -167,9 +173,9 @@ TARGET_95 = (0.92, 0.98)
 TARGET_75 = (0.70, 0.80)
 
 
-def make_case(std, correlation_length):
+def make_case(std, correlation_length, time=None):
     base = example_case("openlab-like")
-    noise = sp.NoiseModel(np.full(base.sensors.n_sensors, std), correlation_length)
+    noise = sp.NoiseModel(np.full(base.sensors.n_sensors, std), correlation_length, **(time or {}))
     return dataclasses.replace(base, noise=noise)
 
 
@@ -245,8 +251,9 @@ def score(result, truth, seconds):
 
 def run_case(name, n_replicates, seed, draw_smoothness=False, methods=METHODS, hyperprior=None,
              truth_smoothness=None):
-    std, corr, n_crossings = CASES[name]
-    case = make_case(std, corr)
+    std, corr, n_crossings, *model = CASES[name]
+    case = make_case(std, corr, model[0] if model else None)
+    inverted = make_case(std, corr) if model and model[1] == "white" else case
     fine_mesh = truth_mesh(case)
     truth_prior = PRIOR if truth_smoothness is None else dataclasses.replace(PRIOR, smoothness_std=truth_smoothness)
     chol_cov = np.linalg.cholesky(np.linalg.inv(matched_fine_precision(case, fine_mesh, truth_prior)))
@@ -266,7 +273,7 @@ def run_case(name, n_replicates, seed, draw_smoothness=False, methods=METHODS, h
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", SensorplanWarning)
                 t0 = time.perf_counter()
-                result = invert(case, data, prior=PRIOR, hyper=method, hyperprior=hyperprior, screen=False,
+                result = invert(inverted, data, prior=PRIOR, hyper=method, hyperprior=hyperprior, screen=False,
                                 check_scale=False)
                 seconds = time.perf_counter() - t0
             records[method].append(score(result, truth, seconds))

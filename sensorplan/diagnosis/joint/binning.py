@@ -127,6 +127,8 @@ def choose_size(case, crossings, prior):
     if n_rows < MIN_ROWS or any(isinstance(c, BinnedCrossing) for c in crossings):
         return 1
     sensors, noise = data_sensors(case, crossings.sensor_names)
+    if noise.in_time:  # the bin map is the AR(1) whitening's; the time model's filter is not bidiagonal
+        return 1
     groups = {}  # crossings with the same positions and load factors have the same information
     for c in crossings:
         groups.setdefault(value_key(c.positions, c.load_factor), [c, 0])[1] += 1

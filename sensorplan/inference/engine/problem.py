@@ -39,7 +39,8 @@ class LinearisedProblem(Protocol):
     ``evaluate(theta, jacobian=True)`` returns the :class:`~.normal.Linearisation`
     of the whitened misfit at ``theta`` (``jtj`` and ``jtr`` None without the
     Jacobian), or None where the model is undefined (a rejected trial point);
-    ``n_data`` is the number of whitened rows and ``log_det_noise`` the log
+    ``n_data`` is the number of whitened rows that carry information (less one per marginalised offset of
+    a wandering sensor) and ``log_det_noise`` the log
     determinant of the noise covariance of the data (for the evidence).
     """
 
@@ -161,11 +162,9 @@ class WhitenedProblem:
         self.masks = [np.ones(c.n_loads, bool) for c in crossings] if masks is None else masks
         self.white_data = [self.noise.whiten(c.values[:, m], c.positions[m])
                            for c, m in zip(crossings, self.masks)]
-        self.n_data = sum(w.size for w in self.white_data)
-        n_sensors = self.sensors.n_sensors
-        self.log_det_noise = sum(
-            self.noise.log_det_gamma(c.positions[m]) * n_sensors + 2.0 * m.sum() * np.sum(np.log(self.noise.std))
-            for c, m in zip(crossings, self.masks) if m.any())
+        # readings that inform anything but the marginalised offsets of wandering sensors (all without wander)
+        self.n_data = sum(self.noise.dof(m.sum()) for m in self.masks)
+        self.log_det_noise = sum(self.noise.log_det(c.positions[m]) for c, m in zip(crossings, self.masks) if m.any())
         self.groups, self.group_of, self.position_sets = crossing_groups(crossings, self.masks)
         self.cache = Cache(maxsize=self.cache_size)
 
