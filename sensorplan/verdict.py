@@ -27,7 +27,9 @@ Statuses, in order of precedence (the first that applies is the verdict):
     bridge shows no departure at the stated level anywhere), without a
     localised loss the detector finds: where and by how much.
 ``insufficient_data``
-    The data cannot test for a change (the detector had no testable zone).
+    The data cannot test for a change (the detector had no testable zone:
+    every local-loss signature lies in the span of the nuisance, or no
+    residual degree of freedom is left).
 ``no_change``
     None of the above.
 
@@ -238,7 +240,7 @@ def _data_verdict(stretches: list, detection: Any, damage_probability: float | N
         return Verdict("no_change", "No change in the band: the nominal EI stays within the simultaneous 95 % band; "
                        "the damage detector was not run, so a local loss was not tested for."
                        + _pointwise_hint(evidence["band"]["outside_pointwise"]), evidence=evidence)
-    if detection is None:
+    if detection is None or not getattr(detection, "testable", True):
         return Verdict("insufficient_data", "Insufficient data: no zone of the bridge can be tested for a local "
                        "loss with these sensors and crossings, and the nominal EI stays within the simultaneous 95 % band.",
                        evidence=evidence, next_step="add crossings or sensors (`sensorplan recommend --target-power`)")

@@ -39,7 +39,9 @@ def test_linear_case_equals_closed_form_posterior(corr):
     res = invert(case, data, prior=prior, parameterisation="compliance", hyper="fixed", tau=tau)
     v0 = np.full(8, 1e-10)
     d = np.diff(np.eye(8), n=2, axis=0)  # second differences
-    q0 = (tau * d.T @ d + np.eye(8) / 0.4**2) / np.outer(v0, v0)
+    # log EI = level + field: covariance 0.4^2 I + level_std^2 1 1^T of the tau-free part, inverted directly
+    fixed = np.linalg.inv(0.4**2 * np.eye(8) + prior.level_std**2 * np.ones((8, 8)))
+    q0 = (tau * d.T @ d + fixed) / np.outer(v0, v0)
     # the forward map is linear in the compliance on a determinate bridge, so a central
     # difference with a large step is exact up to round-off: A = dy/dv
     kernel = np.empty((3, case.sweep.n_loads, 8))

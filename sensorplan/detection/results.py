@@ -1,11 +1,12 @@
-"""Result type of the detectability analysis: DetectabilityMap."""
+"""Result types of damage detection: DetectabilityMap (the design side) and DamageDetection (the scan on data)."""
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
 
-__all__ = ["DetectabilityMap", "POWER_TARGET", "BLIND_POWER"]
+__all__ = ["DetectabilityMap", "DamageDetection", "POWER_TARGET", "BLIND_POWER"]
 
 POWER_TARGET = 0.9  # power that defines the minimum detectable loss
 BLIND_POWER = 0.5  # below this power a stretch is reported as a blind spot
@@ -154,3 +155,131 @@ def _stretch_text(stretches):
     if not stretches:
         return "none"
     return ", ".join(f"{a:g}-{b:g} m" if a != b else f"{a:g} m" for a, b in stretches)
+
+
+@dataclass(frozen=True, eq=False)
+class DamageDetection:
+    """Outcome of :func:`detect_damage`.
+
+    Attributes
+    ----------
+    detected : bool
+        statistic > threshold.
+    false_alarm_rate : float
+        The nominal false-alarm rate the threshold was calibrated for.
+    statistic, threshold : float
+        max_h z_h and its null (1 - false_alarm_rate) quantile.
+    p_value : float
+        Null probability of a larger statistic (simulated).
+    centre_m, length_m : float or None
+        The zone's centre (the posterior mean within the most probable window of +- the
+        shortest scanned length) and the most probable length (when detected).
+    centre_ci95 : (float, float) or None
+        95 % interval of the centre over the zones' posterior weights.
+    loss, loss_ci95 : float, (float, float) or None
+        Fraction of EI lost (0-1) and its 95 % interval (when detected).
+    zones : ndarray (H, 2)
+        Scanned zones [start, stop] [m].
+    scores : ndarray (H,)
+        z_h per zone.
+    weights : ndarray (H,)
+        Posterior probability of each zone given a loss (sums to 1).
+    posterior_loss : ndarray (H, 2)
+        Posterior mean and std of the lost fraction s per zone.
+    nuisance : str
+    noise_scale : float
+        alpha of the null fit.
+    untestable : ndarray (U, 2)
+        Scanned zones [start, stop] [m] that cannot be tested: their signature lies in the span of the
+        nuisance, or no residual degree of freedom is left.
+    dof : int
+        Residual degrees of freedom of the null fit (readings minus the rank of the nuisance columns);
+        the noise scale is estimated from them and the threshold accounts for that.
+    n_nuisance : int
+        Number of nuisance parameters (columns; the rank may be lower).
+
+    With no testable zone (:attr:`testable` false) nothing is tested: ``detected`` is false and the
+    statistic, threshold and p-value are NaN (None in :meth:`to_dict`).
+    """
+
+    detected: bool
+    false_alarm_rate: float
+    statistic: float
+    threshold: float
+    p_value: float
+    centre_m: float | None
+    length_m: float | None
+    centre_ci95: tuple | None
+    loss: float | None
+    loss_ci95: tuple | None
+    zones: np.ndarray = field(repr=False)
+    scores: np.ndarray = field(repr=False)
+    weights: np.ndarray = field(repr=False)
+    posterior_loss: np.ndarray = field(repr=False)
+    nuisance: str = "smooth"
+    noise_scale: float = 1.0
+    untestable: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)), repr=False)
+    dof: int = 0
+    n_nuisance: int = 0
+
+    @property
+    def testable(self):
+        """Whether at least one zone could be tested."""
+        return len(self.zones) > 0
+
+    @property
+    def testable_stretches(self):
+        """The union of the testable zones as ((start, stop) [m], ...)."""
+        return _union(self.zones)
+
+    def not_testable_text(self):
+        """One line: why no zone could be tested."""
+        why = (f"the {self.n_nuisance} nuisance parameter(s) ({self.nuisance} EI trend per span and the "
+               f"elastic springs) explain every local-loss signature these readings can show"
+               if self.dof > 0 else f"the {self.n_nuisance} nuisance parameter(s) leave no residual degree "
+                                    f"of freedom in these readings")
+        return (f"Damage detection not possible: no zone of the bridge can be tested for a local loss: {why}; "
+                f"add sensors, crossings at other load positions, or use nuisance 'levels'.")
+
+    def summary(self):
+        if not self.testable:
+            return self.not_testable_text()
+        head = (f"Damage detection (scan over {len(self.scores)} zones, nuisance {self.nuisance}, false-alarm rate "
+                f"{self.false_alarm_rate:g}): statistic {self.statistic:.2f}, threshold {self.threshold:.2f}, "
+                f"p = {self.p_value:.3g}")
+        if len(self.untestable):
+            head += (f"\n  testable: {len(self.zones)} of {len(self.zones) + len(self.untestable)} zones, covering "
+                     + ", ".join(f"{a:.1f}-{b:.1f} m" for a, b in self.testable_stretches)
+                     + "; the others lie in the span of the nuisance")
+        if not self.detected:
+            return head + "\n  no local loss detected"
+        lo, hi = self.loss_ci95
+        clo, chi = self.centre_ci95
+        return (head + f"\n  DETECTED: loss of {100 * self.loss:.0f} % (95 % interval {100 * lo:.0f}-{100 * hi:.0f} %) "
+                f"over {self.length_m:.2f} m centred at {self.centre_m:.2f} m (95 % interval {clo:.2f}-{chi:.2f} m)")
+
+    def to_dict(self):
+        return {"detected": bool(self.detected), "false_alarm_rate": self.false_alarm_rate,
+                "statistic": _finite(self.statistic), "threshold": _finite(self.threshold),
+                "p_value": _finite(self.p_value), "testable": self.testable,
+                "testable_m": [list(z) for z in self.testable_stretches], "n_zones_tested": len(self.zones),
+                "n_zones_untestable": len(self.untestable), "dof": int(self.dof),
+                "centre_m": self.centre_m, "length_m": self.length_m,
+                "centre_ci95": None if self.centre_ci95 is None else list(self.centre_ci95),
+                "loss": self.loss, "loss_ci95": None if self.loss_ci95 is None else list(self.loss_ci95),
+                "nuisance": self.nuisance}
+
+
+def _finite(value):
+    return float(value) if math.isfinite(value) else None
+
+
+def _union(zones):
+    """The union of intervals ``zones`` (H, 2) as a tuple of (start, stop)."""
+    out: list = []
+    for a, b in sorted((float(a), float(b)) for a, b in zones):
+        if out and a <= out[-1][1] + 1e-9:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return tuple(out)

@@ -17,7 +17,19 @@ test of that zone; the scan statistic is max_h z_h.  Under the null, z is
 Gaussian with the correlation of the projected signatures (exactly so for
 the model linearised at the null fit), so the threshold for a false-alarm
 rate q is the (1 - q) quantile of the maximum of that Gaussian vector,
-computed by simulation with an explicit rng.
+computed by simulation with an explicit rng.  The noise scale alpha is
+estimated from the nu = N - rank(J) residual degrees of freedom of the null
+fit (floored at half the configured noise), so the simulation draws it too:
+alpha^2 = (||g||^2 + chi^2_(nu - r)) / nu with g the r normals that make up
+the scores; the threshold is then exact for the linearised model however
+few readings there are (a t-like maximum, not a Gaussian one).
+
+Testable zones.  A zone can be tested only when its compliance signature
+is not in the span of the nuisance columns (its projected norm is at least
+:data:`TESTABLE_RATIO` of its raw norm) and the fit leaves residual degrees
+of freedom.  A few static readings under the full nuisance often leave no
+such zone; the result then says so (:attr:`DamageDetection.testable` false,
+no statistic) instead of testing nothing.
 
 When the statistic exceeds the threshold, the zone, its length and the loss
 are estimated by Bayesian model averaging over the zones, with proper priors
@@ -33,91 +45,26 @@ the true one (only about r times the length is well determined), so the
 95 % interval of s is taken from the mixture over all zones and lengths
 (its 2.5 and 97.5 % quantiles), which carries that ambiguity.
 
-Owns: the scan of a fitted null model, the threshold, the estimates, :class:`DamageDetection`.
+Owns: the scan of a fitted null model, the threshold, the estimates (the result:
+:class:`~.results.DamageDetection`).
 May import: model and the foundations.
 """
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from .._errors import ConfigError
+from .results import DamageDetection
 
-__all__ = ["DamageDetection", "scan_lengths", "zone_lengths", "check_scan_options", "scan_null_fit"]
+__all__ = ["DamageDetection", "scan_lengths", "zone_lengths", "check_scan_options", "scan_null_fit",
+           "TESTABLE_RATIO"]
 
 _MIN_LENGTH = 0.5  # m, shortest zone scanned
-
-
-@dataclass(frozen=True, eq=False)
-class DamageDetection:
-    """Outcome of :func:`detect_damage`.
-
-    Attributes
-    ----------
-    detected : bool
-        statistic > threshold.
-    false_alarm_rate : float
-        The nominal false-alarm rate the threshold was calibrated for.
-    statistic, threshold : float
-        max_h z_h and its null (1 - false_alarm_rate) quantile.
-    p_value : float
-        Null probability of a larger statistic (simulated).
-    centre_m, length_m : float or None
-        The zone's centre (the posterior mean within the most probable window of +- the
-        shortest scanned length) and the most probable length (when detected).
-    centre_ci95 : (float, float) or None
-        95 % interval of the centre over the zones' posterior weights.
-    loss, loss_ci95 : float, (float, float) or None
-        Fraction of EI lost (0-1) and its 95 % interval (when detected).
-    zones : ndarray (H, 2)
-        Scanned zones [start, stop] [m].
-    scores : ndarray (H,)
-        z_h per zone.
-    weights : ndarray (H,)
-        Posterior probability of each zone given a loss (sums to 1).
-    posterior_loss : ndarray (H, 2)
-        Posterior mean and std of the lost fraction s per zone.
-    nuisance : str
-    noise_scale : float
-        alpha of the null fit.
-    """
-
-    detected: bool
-    false_alarm_rate: float
-    statistic: float
-    threshold: float
-    p_value: float
-    centre_m: float | None
-    length_m: float | None
-    centre_ci95: tuple | None
-    loss: float | None
-    loss_ci95: tuple | None
-    zones: np.ndarray = field(repr=False)
-    scores: np.ndarray = field(repr=False)
-    weights: np.ndarray = field(repr=False)
-    posterior_loss: np.ndarray = field(repr=False)
-    nuisance: str = "smooth"
-    noise_scale: float = 1.0
-
-    def summary(self):
-        head = (f"Damage detection (scan over {len(self.scores)} zones, nuisance {self.nuisance}, false-alarm rate "
-                f"{self.false_alarm_rate:g}): statistic {self.statistic:.2f}, threshold {self.threshold:.2f}, "
-                f"p = {self.p_value:.3g}")
-        if not self.detected:
-            return head + "\n  no local loss detected"
-        lo, hi = self.loss_ci95
-        clo, chi = self.centre_ci95
-        return (head + f"\n  DETECTED: loss of {100 * self.loss:.0f} % (95 % interval {100 * lo:.0f}-{100 * hi:.0f} %) "
-                f"over {self.length_m:.2f} m centred at {self.centre_m:.2f} m (95 % interval {clo:.2f}-{chi:.2f} m)")
-
-    def to_dict(self):
-        return {"detected": bool(self.detected), "false_alarm_rate": self.false_alarm_rate,
-                "statistic": self.statistic, "threshold": self.threshold, "p_value": self.p_value,
-                "centre_m": self.centre_m, "length_m": self.length_m,
-                "centre_ci95": None if self.centre_ci95 is None else list(self.centre_ci95),
-                "loss": self.loss, "loss_ci95": None if self.loss_ci95 is None else list(self.loss_ci95),
-                "nuisance": self.nuisance}
+#: a zone is testable when its signature, projected off the nuisance, keeps at least this share of its norm
+#: (far above the round-off of the projection, ~1e-8; below it the loss is indistinguishable from the nuisance)
+TESTABLE_RATIO = 1e-6
+_NOISE_FLOOR = 0.5  # the estimated noise scale is floored at half the configured noise
 
 
 def scan_lengths(bridge, mesh):
@@ -179,36 +126,58 @@ def scan_null_fit(case, residual, jacobian, compliance, *, false_alarm, nuisance
     the whitened residual, nuisance columns and compliance columns at the
     null fit; ``rng`` a Generator.
     """
-    m = residual.size
-    # noise scale of the null fit; floored at half the configured noise so that noise-free
-    # (simulated) data give finite scores (a conservative choice: a larger alpha lowers them)
-    alpha = max(math.sqrt(float(residual @ residual) / max(m - jacobian.shape[1], 1)), 0.5)
-    # Everything the scan needs lives in the element space: with K = C^T (I - P) C the projected Gram
-    # matrix of the whitened compliance columns C and c = C^T (I - P) e, a zone with element fractions o
-    # has ||u||^2 = o^T K o and u^T e = o^T c (P the projector onto the nuisance columns).
-    q, _ = np.linalg.qr(jacobian)
-    cq = compliance.T @ q
-    gram = compliance.T @ compliance - cq @ cq.T
-    c_res = compliance.T @ residual - cq @ (q.T @ residual)
-    zones, norms, proj = _signatures(case.mesh, _zones(case.bridge, case.mesh, lengths), gram, c_res)
+    basis = _column_basis(jacobian)
+    dof = residual.size - basis.shape[1]
+    # noise scale of the null fit from its residual degrees of freedom; floored at half the configured
+    # noise so that noise-free (simulated) data give finite scores (a larger alpha lowers them)
+    alpha = max(math.sqrt(float(residual @ residual) / max(dof, 1)), _NOISE_FLOOR)
+    # Everything the scan needs lives in the element space: with C_p = (I - P) C the whitened compliance
+    # columns projected off the nuisance (P the projector onto its columns), K = C_p^T C_p and
+    # c = C_p^T e, a zone with element fractions o has ||u||^2 = o^T K o and u^T e = o^T c.
+    projected = compliance - basis @ (basis.T @ compliance)
+    gram, raw_gram = projected.T @ projected, compliance.T @ compliance
+    c_res = projected.T @ residual
+    all_zones = _zones(case.bridge, case.mesh, lengths)
+    zones, norms, proj, untestable = _signatures(case.mesh, all_zones, gram, raw_gram, c_res, dof)
+    common = dict(nuisance=nuisance, noise_scale=float(alpha), untestable=untestable, dof=int(dof),
+                  n_nuisance=int(jacobian.shape[1]))
+    if not zones.size:
+        empty = np.zeros((0, 2))
+        return DamageDetection(False, float(false_alarm), math.nan, math.nan, math.nan, None, None, None, None,
+                               None, empty, np.zeros(0), np.zeros(0), empty, **common)
     scores = proj / (alpha * norms)
     statistic = float(scores.max())
-    null_max = _null_maxima(_overlap(case.mesh, zones) / norms[:, None], gram, n_null, rng)
+    null_max = _null_maxima(_overlap(case.mesh, zones) / norms[:, None], gram, n_null, rng, dof=dof)
     threshold = float(np.quantile(null_max, 1.0 - false_alarm))
     p_value = float((1 + np.sum(null_max >= statistic)) / (1 + null_max.size))
     weights, grid, density = _zone_posteriors(proj, norms, alpha, zones, max_loss)
     detected = statistic > threshold
     estimates = (None,) * 5
     if detected:
-        estimates = _fine_estimates(case, lengths, gram, c_res, alpha, max_loss)
+        estimates = _fine_estimates(case, lengths, gram, raw_gram, c_res, dof, alpha, max_loss)
     moments = np.column_stack([density @ grid, np.sqrt(np.clip(density @ grid**2 - (density @ grid) ** 2, 0, None))])
     return DamageDetection(bool(detected), float(false_alarm), statistic, threshold, p_value, *estimates,
-                           zones, scores, weights, moments, nuisance, float(alpha))
+                           zones, scores, weights, moments, **common)
 
 
-def _fine_estimates(case, lengths, gram, c_res, alpha, max_loss):
+def _column_basis(jacobian, rtol=1e-10):
+    """Orthonormal basis (N, rank) of the span of the nuisance columns (rank-revealing: an SVD, not a QR).
+
+    Columns the data cannot tell apart (more nuisance parameters than informative readings, an
+    unobservable spring) give a rank below P; a QR would then add arbitrary directions and project
+    off part of the data's own space.
+    """
+    if jacobian.shape[1] == 0:
+        return np.zeros((jacobian.shape[0], 0))
+    u, s, _ = np.linalg.svd(jacobian, full_matrices=False)
+    rank = int(np.sum(s > rtol * max(float(s[0]), 1e-300) * max(jacobian.shape))) if s.size else 0
+    return u[:, :rank]
+
+
+def _fine_estimates(case, lengths, gram, raw_gram, c_res, dof, alpha, max_loss):
     """Centre, length, centre interval, loss and loss interval on the finer family of zones (edges off the grid)."""
-    fine, n_fine, p_fine = _signatures(case.mesh, _estimate_zones(case.bridge, case.mesh, lengths), gram, c_res)
+    fine, n_fine, p_fine, _ = _signatures(case.mesh, _estimate_zones(case.bridge, case.mesh, lengths), gram,
+                                          raw_gram, c_res, dof)
     log_prior = _log_prior(fine)
     keep = _plausible(p_fine, n_fine, alpha, log_prior, max_loss)  # the rest carry < e^-40 of the weight
     return _estimates(fine[keep], *_zone_posteriors(p_fine[keep], n_fine[keep], alpha, fine[keep], max_loss,
@@ -216,24 +185,41 @@ def _fine_estimates(case, lengths, gram, c_res, alpha, max_loss):
                       half=float(np.min(fine[:, 1] - fine[:, 0])))
 
 
-def _signatures(mesh, zones, gram, c_res):
-    """Zones with a visible projected signature, its norms ||u_h|| and the projections u_h^T e."""
+def _signatures(mesh, zones, gram, raw_gram, c_res, dof):
+    """The testable zones, their projected norms ||u_h||, the projections u_h^T e, and the untestable zones.
+
+    A zone is testable when the fit leaves residual degrees of freedom and its projected signature keeps
+    at least :data:`TESTABLE_RATIO` of its raw norm.
+    """
     overlap = _overlap(mesh, zones)
     norms = np.sqrt(np.clip(np.einsum("he,ef,hf->h", overlap, gram, overlap), 0.0, None))
-    keep = norms > 1e-12 * max(float(norms.max()), 1e-300)
-    return zones[keep], norms[keep], overlap[keep] @ c_res
+    raw = np.sqrt(np.clip(np.einsum("he,ef,hf->h", overlap, raw_gram, overlap), 0.0, None))
+    keep = (norms > TESTABLE_RATIO * raw) & (raw > 0.0) & (dof > 0)
+    return zones[keep], norms[keep], overlap[keep] @ c_res, zones[~keep]
 
 
-def _null_maxima(weights, gram, n, rng, chunk=2000):
-    """Maxima over zones of z = W C^T (I - P) e, e ~ N(0, I): z ~ N(0, W K W^T), drawn through a factor of K."""
+def _null_maxima(weights, gram, n, rng, *, dof, chunk=2000):
+    """Null draws of max_h z_h with z = W C_p^T e / alpha, e ~ N(0, I), alpha estimated as the data's is.
+
+    W C_p^T e ~ N(0, W K W^T) is drawn through a factor of K from r normals g; the residual's other
+    dof - r directions add a chi^2 to ||g||^2 in the estimated scale alpha^2 (floored as in the scan).
+    The normals are drawn first, in the same order as without the scale, then the chi^2 terms.
+    """
     vals, vecs = np.linalg.eigh(0.5 * (gram + gram.T))
     keep = vals > 1e-12 * max(float(vals.max()), 1e-300)
     factor = weights @ (vecs[:, keep] * np.sqrt(vals[keep]))
     out = np.empty(int(n))
+    square = np.empty(int(n))
     for start in range(0, out.size, chunk):
         k = min(chunk, out.size - start)
-        out[start:start + k] = (rng.standard_normal((k, factor.shape[1])) @ factor.T).max(axis=1)
-    return out
+        g = rng.standard_normal((k, factor.shape[1]))
+        out[start:start + k] = (g @ factor.T).max(axis=1)
+        square[start:start + k] = np.einsum("ij,ij->i", g, g)
+    rest = max(int(dof) - factor.shape[1], 0)
+    if rest:
+        square += rng.chisquare(rest, size=out.size)
+    alpha = np.maximum(np.sqrt(square / max(int(dof), 1)), _NOISE_FLOOR)
+    return out / alpha
 
 
 _N_GRID = 2000  # midpoints of the grid over the lost fraction

@@ -98,7 +98,8 @@ def gap_verdict(gap, nominal_gap, ei: EIFit, *, causes: Sequence[str], unexplain
     }
     if not gap.testable:
         return Verdict("insufficient_data", "Insufficient data: the gap between the model and the data cannot be "
-                       "tested (a single crossing too short for the structure test).", evidence=evidence,
+                       "tested (a single crossing too short for the structure test, or no reading left to estimate the noise "
+                       "from once the model is fitted).", evidence=evidence,
                        next_step="record two crossings or more (`sensorplan recommend --target-power` for how many)")
     if gap.significant or causes or unexplained:
         return _model_error(causes, unexplained, in_case, evidence, gap.significant, findings)

@@ -212,8 +212,8 @@ def _verdict(problem, mixture, alpha, residual_p, detection, probability, *, det
 
 def _with_damage(mixture, problem, prior, detection, damage_prior, damage_log_std):
     """The posterior mixture extended by the local-loss hypotheses of the detector's zones."""
-    lin = problem.evaluate(mixture.mean)
-    if lin is None:  # the mixture mean is outside the model's domain: keep the undamaged posterior
+    lin = problem.evaluate(mixture.mean) if detection.testable else None
+    if lin is None:  # no testable zone, or the mixture mean is outside the model's domain: keep the undamaged posterior
         return mixture, None
     w, thetas, covs, comp, _, probability = damage_hypotheses(
         mixture.weights, mixture.thetas, mixture.covariances, mixture.taus, mixture.noise_scales, problem.theta0,

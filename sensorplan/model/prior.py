@@ -10,6 +10,18 @@ where the data are silent.  tau = 1 / smoothness_std^2 in the
 parameterisation below.  Spring log-stiffnesses get independent normal
 priors centred on the configured stiffness.
 
+The overall level of the field is an unknown of its own: eta = eta_0 +
+l 1 + delta with l ~ N(0, level_std^2) and delta of the GMRF above.  Without
+it the mean of n elements' log EI has the prior std marginal_std / sqrt(n)
+(0.09 for 30 elements at 0.5): a nominal EI off by 2x as a whole would be
+held near the nominal and the error pushed into springs or sensor gains.
+Marginalising l keeps one parameter per element; since D 1 = 0 the
+precision is, by Woodbury,
+
+    Q = tau D^T D + I / m^2 - c 1 1^T,  c = m^-4 / (level_std^-2 + n m^-2),
+
+(m = marginal_std), a rank-one change of the fixed part alone.
+
 :class:`HyperPrior` is the prior of the two hyperparameters of the
 inversion: a log-normal (or penalised-complexity) prior on the smoothness
 std sigma = tau^{-1/2} and a log-normal prior on the noise scale alpha.
@@ -56,12 +68,19 @@ class GMRFPrior:
         proper component; 0.5 means about a factor 1.65 either way).
     spring_std : float
         Standard deviation of each spring log-stiffness.
+    level_std : float
+        Standard deviation of the overall level of log EI, a factor common
+        to every element on top of ``marginal_std`` (1.0: the nominal EI as
+        a whole is right within a factor e at one standard deviation).  0
+        leaves the level to the elements' own prior (std
+        ``marginal_std / sqrt(n)`` for n elements).
     """
 
     order: int = 1
     smoothness_std: float = 0.1
     marginal_std: float = 0.5
     spring_std: float = 1.0
+    level_std: float = 1.0
 
     def __post_init__(self):
         if self.order not in (1, 2):
@@ -69,6 +88,7 @@ class GMRFPrior:
         for name in ("smoothness_std", "marginal_std", "spring_std"):
             object.__setattr__(self, name, as_float(getattr(self, name), name, "GMRFPrior",
                                                     low=0.0, low_open=True))
+        object.__setattr__(self, "level_std", as_float(self.level_std, "level_std", "GMRFPrior", low=0.0))
 
     @property
     def tau(self):
@@ -80,12 +100,19 @@ class GMRFPrior:
         d = difference_operator(n_elements, self.order)
         return (d.T @ d).toarray()
 
+    def ei_fixed_precision(self, n_elements):
+        """The tau-free part of log EI's prior precision: I / marginal_std^2 - c 1 1^T (the level, see the module)."""
+        inverse = 1.0 / self.marginal_std**2
+        q = np.eye(n_elements) * inverse
+        if self.level_std > 0.0 and n_elements:
+            q -= inverse**2 / (1.0 / self.level_std**2 + n_elements * inverse)
+        return q
+
     def precision(self, n_elements, n_springs=0, *, tau=None):
         """Prior precision of (log EI, log k), dense (n_params, n_params)."""
         tau = self.tau if tau is None else tau
         q = np.zeros((n_elements + n_springs, n_elements + n_springs))
-        q[:n_elements, :n_elements] = tau * self.structure(n_elements)
-        q[np.arange(n_elements), np.arange(n_elements)] += 1.0 / self.marginal_std**2
+        q[:n_elements, :n_elements] = tau * self.structure(n_elements) + self.ei_fixed_precision(n_elements)
         q[np.arange(n_elements, n_elements + n_springs), np.arange(n_elements, n_elements + n_springs)] = (
             1.0 / self.spring_std**2)
         return q

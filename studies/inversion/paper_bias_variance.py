@@ -47,7 +47,7 @@ SIGMA = 0.01e-3                 # rad (0.01 mm/m)
 STEP = 0.5                      # m, K = 41 load positions
 N_FINE = 400
 N_REF = 21
-PRIOR = GMRFPrior(order=2)
+PRIOR = GMRFPrior(order=2, level_std=0.0)  # the paper's GMRF: no separate level of log EI (issue 36 added it)
 FULL = {"ns": (5, 7, 9, 11, 15, 21, 31, 41, 51, 61, 81), "rs": (1, 2, 4, 8), "seeds": 30}
 QUICK = {"ns": (5, 11, 21, 41, 81), "rs": (2, 8), "seeds": 6}
 CALIBRATION_SEED = 10_000

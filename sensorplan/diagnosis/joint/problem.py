@@ -134,15 +134,16 @@ class JointProblem(WhitenedProblem, LineSource):
             self.places.append(places)
 
     def _set_prior(self, case, prior):
-        """The prior mean ``theta0``, the rough (GMRF) and fixed (diagonal) precisions, the parameters' names."""
+        """The prior mean ``theta0``, the rough (GMRF) and fixed precisions, the parameters' names."""
         self.theta0 = np.concatenate([np.log(case.ei)] + [b.mean for b in self.blocks])
         self.param_names = [f"log_ei_{j}" for j in range(self.n_elements)] + [
             f"{b.name}:{n}" for b in self.blocks for n in b.names]
         self.rough = np.zeros((self.n_params, self.n_params))
         self.rough[:self.n_elements, :self.n_elements] = prior.structure(self.n_elements)
-        diag = np.concatenate([np.full(self.n_elements, 1.0 / prior.marginal_std**2)]
-                              + [1.0 / b.std**2 for b in self.blocks])
+        # log EI: the elements' marginal prior and the overall level (GMRFPrior.ei_fixed_precision); effects: diagonal
+        diag = np.concatenate([np.zeros(self.n_elements)] + [1.0 / b.std**2 for b in self.blocks])
         self.fixed = np.diag(diag)
+        self.fixed[:self.n_elements, :self.n_elements] = prior.ei_fixed_precision(self.n_elements)
 
     def block(self, name):
         """The block and parameter slice of effect ``name``."""
