@@ -127,3 +127,31 @@ def test_a_reading_stands_for_the_mean_of_the_logger_samples_between_readings():
     assert all(a < b for a, b in zip(info, info[1:]))
     for v, i in zip(speeds, info):
         assert float(np.sum(one.at_speed(v).whiten(ones, x)**2)) < i < float(np.sum(cap.at_speed(v).whiten(ones, x)**2))
+
+
+def test_crossings_at_their_own_speeds_are_whitened_at_their_own_times(tmp_path):
+    import dataclasses
+
+    import sensorplan as sp
+    from sensorplan.inference.ei_problem import EIProblem
+    from sensorplan.io.csvio import read_crossings, write_crossings
+
+    base = sp.example_case("openlab-like")
+    noise = NoiseModel(base.noise.std, correlated_std=2e-6, correlation_time_s=3.0, random_walk=5e-7, speed=1.0)
+    case = dataclasses.replace(base, noise=noise)
+    data = sp.simulate_crossings(case, 2, noise=True, rng=3)
+    speeds = (0.8, 2.5)
+    timed = sp.Crossings(data.sensor_names, tuple(
+        dataclasses.replace(c, times=100.0 * k + c.positions / v) for k, (c, v) in enumerate(zip(data, speeds))))
+    write_crossings(tmp_path / "timed.csv", timed)
+    back = read_crossings(tmp_path / "timed.csv", case.sensors)
+    np.testing.assert_allclose(back[1].times, timed[1].times)
+    problem = EIProblem(case, back, estimate_springs=False, parameterisation="log_ei")
+    for c, (crossing, v) in enumerate(zip(data, speeds)):
+        # reference: the same readings whitened by a model at that crossing's speed
+        want = noise.at_speed(v).whiten(crossing.values, crossing.positions)
+        np.testing.assert_allclose(problem.white_data[c], want, rtol=1e-6, atol=1e-9)
+    assert len(problem.groups) == 2  # equal positions, different times: whitened apart
+    pred, _ = problem.whitened_model(problem.theta0, jacobian=False)[1]
+    np.testing.assert_allclose(pred, noise.at_speed(2.5).whiten(
+        case.influence_lines().predictions, case.sweep.positions), rtol=1e-6, atol=1e-9)

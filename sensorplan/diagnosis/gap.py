@@ -146,7 +146,7 @@ def _ljung_box(problem, residuals, i, alpha, lags=10):
     """(p-value, degrees of freedom) of the Ljung-Box test of sensor ``i``'s whitened residuals (p = 1 untested)."""
     q, dof = 0.0, 0
     for c, r in zip(problem.crossings, residuals):
-        w = problem.noise.subset([i]).whiten(r[i:i + 1], c.positions)[0]
+        w = problem.noise.subset([i]).whiten(r[i:i + 1], c.positions, times=c.times)[0]
         n = w.size
         if n <= lags + 2:
             continue
@@ -174,7 +174,8 @@ def systematic_f_test(problem, theta, *, rtol=1e-9):
     first = crossings.crossings[0].positions
     n_s, n_g = problem.noise.n_sensors, first.size
     if (len(crossings) < 2 or n_s * n_g > EXACT_MAX_COLUMNS
-            or any(c.positions.shape != first.shape or not np.array_equal(c.positions, first) for c in crossings)):
+            or any(c.positions.shape != first.shape or not np.array_equal(c.positions, first) for c in crossings)
+            or any(c.times is not None for c in crossings)):  # readings at their own times: whitened apart
         return None
     residual, jacobian = problem.rows(theta)[:2]
     # the systematic columns in whitened rows: W_i e_g for sensor i, position g, repeated in every crossing

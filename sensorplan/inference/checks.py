@@ -43,7 +43,7 @@ def residual_p_values(noise, fits, noise_scale):
         n = fit.positions.size
         if n < MIN_LOADS:
             continue
-        r = noise.whiten(fit.data - fit.model, fit.positions) / noise_scale  # (n_sensors, n_loads)
+        r = noise.whiten(fit.data - fit.model, fit.positions, times=fit.times) / noise_scale  # (n_sensors, n_loads)
         h = max(1, min(5, n // 10))
         square += np.sum(r * r, axis=1)
         count += n

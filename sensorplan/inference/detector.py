@@ -57,12 +57,13 @@ class NullProblem(WhitenedProblem):
         out = []
         for group in self.groups:
             ln, lf = lines[group.position_set], group.load_factor[None, :]
-            pred = self.noise.whiten(ln.predictions * lf, group.positions)
+            t = group.times
+            pred = self.noise.whiten(ln.predictions * lf, group.positions, times=t)
             cols = [(ln.jacobian("log_ei") * lf[..., None]) @ self.p_ei]
             if self.n_springs:
                 cols.append(ln.spring_log_jacobian * lf[..., None])
-            jac = self.noise.whiten(np.concatenate(cols, axis=2), group.positions).reshape(-1, self.n_params)
-            comp = self.noise.whiten(ln.kernel * (lf[..., None] / ei), group.positions).reshape(-1, ei.size)
+            jac = self.noise.whiten(np.concatenate(cols, axis=2), group.positions, times=t).reshape(-1, self.n_params)
+            comp = self.noise.whiten(ln.kernel * (lf[..., None] / ei), group.positions, times=t).reshape(-1, ei.size)
             out.append((pred, jac, comp))
         return out
 

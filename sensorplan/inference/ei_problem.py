@@ -98,11 +98,11 @@ class EIProblem(WhitenedProblem):
         out = []
         for group in self.groups:
             ln, lf = lines[group.position_set], group.load_factor
-            white_pred = self.noise.whiten(ln.predictions * lf[None, :], group.positions)
+            white_pred = self.noise.whiten(ln.predictions * lf[None, :], group.positions, times=group.times)
             white_jac = None
             if jacobian:
                 jac = self.raw_jacobian(ln) * lf[None, :, None]
-                white_jac = self.noise.whiten(jac, group.positions).reshape(-1, self.n_params)
+                white_jac = self.noise.whiten(jac, group.positions, times=group.times).reshape(-1, self.n_params)
             out.append((white_pred, white_jac))
         return out
 
@@ -122,7 +122,7 @@ class EIProblem(WhitenedProblem):
             j = self.raw_jacobian(ln) * lf[None, :, None]
             var = np.sum((j @ covariance) * j, axis=-1)
             spread.append((pred, np.sqrt(np.clip(var, 0.0, None))))
-        return tuple(CrossingFit(c.label, c.positions, c.values, *spread[g], alpha * self.noise.std)
+        return tuple(CrossingFit(c.label, c.positions, c.values, *spread[g], alpha * self.noise.std, times=c.times)
                      for c, g in zip(self.crossings, self.group_of))
 
 

@@ -42,7 +42,8 @@ class CrossingFit:
     """Data and model of one crossing after the inversion.
 
     ``model_std`` is the posterior standard deviation of the prediction
-    (parameter uncertainty); ``noise_std`` is per sensor.
+    (parameter uncertainty); ``noise_std`` is per sensor; ``times`` the
+    readings' times when the crossing carries them.
     """
 
     label: str
@@ -51,6 +52,7 @@ class CrossingFit:
     model: np.ndarray
     model_std: np.ndarray
     noise_std: np.ndarray
+    times: np.ndarray | None = field(default=None, kw_only=True)
 
     def predictive_band(self, level=0.95):
         """Posterior predictive band of the readings, shape (2, n_sensors, n_loads)."""

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..._cache import value_key
 from ..._errors import ConfigError
-from ...inference.engine import NormalEquations, WhitenedProblem
+from ...inference.engine import NormalEquations, WhitenedProblem, rows_of
 from ..effects.base import State
 from ..effects.springs import CaseSprings
 from .assembly import assemble
@@ -69,7 +69,7 @@ class JointProblem(WhitenedProblem, LineSource):
         self._set_layout()
         self._set_prior(case, prior)
         # the crossings whose fitted rows are the same (whitened together; their Jacobians may share J^T J)
-        self.row_keys = [value_key(c.positions[m], m) for c, m in zip(crossings, self.masks)]
+        self.row_keys = [value_key(c.positions[m], m, c.times) for c, m in zip(crossings, self.masks)]
         self.row_groups = {}
         for c, m in enumerate(self.masks):
             if m.any():
@@ -243,16 +243,16 @@ class JointProblem(WhitenedProblem, LineSource):
         """The whitened predictions of every crossing with rows (those with the same rows whitened together)."""
         white = {}
         for members in self.row_groups.values():
-            m = self.masks[members[0]]
-            stacked = self.noise.whiten(np.stack([preds[c][0][:, m] for c in members]),
-                                        self.crossings[members[0]].positions[m], sensor_axis=1)
+            m, first = self.masks[members[0]], self.crossings[members[0]]
+            stacked = self.noise.whiten(np.stack([preds[c][0][:, m] for c in members]), first.positions[m],
+                                        sensor_axis=1, times=rows_of(first.times, m))
             white.update(zip(members, stacked))
         return white
 
     def _add_crossing(self, equations, c, r, jac, factor, shared, terms):
         """Add crossing ``c``'s share (its whitened residuals ``r``) to the normal equations, on its own columns."""
         m = self.masks[c]
-        x = self.crossings[c].positions[m]
+        x, t = self.crossings[c].positions[m], rows_of(self.crossings[c].times, m)
         cols = self.columns[c]
         if factor is not None:
             cols = cols[self.n_elements:]
@@ -263,7 +263,7 @@ class JointProblem(WhitenedProblem, LineSource):
         else:
             # whitened bins (binning.py) are their own whitened rows: no copy of the Jacobian
             wj = ((jac if m.all() else jac[:, m]) if self.unit_noise
-                  else self.noise.whiten(jac[:, m], x)).reshape(r.size, cols.size)
+                  else self.noise.whiten(jac[:, m], x, times=t)).reshape(r.size, cols.size)
             block = wj.T @ wj
             shared[key] = (cols, jac, wj, block)
         equations.add_residual(r, wj, columns=cols)
@@ -282,10 +282,10 @@ class JointProblem(WhitenedProblem, LineSource):
         preds = self.predict(theta)
         res, jacs, cross, load, sensor = [], [], [], [], []
         for c, (y, jac) in enumerate(preds):
-            x = self.crossings[c].positions
+            x, t = self.crossings[c].positions, self.crossings[c].times
             s, k = y.shape
-            res.append((self.noise.whiten(self.crossings[c].values, x) - self.noise.whiten(y, x)).ravel())
-            jacs.append(self.noise.whiten(jac, x).reshape(-1, self.n_params))
+            res.append((self.noise.whiten(self.crossings[c].values, x, times=t) - self.noise.whiten(y, x, times=t)).ravel())
+            jacs.append(self.noise.whiten(jac, x, times=t).reshape(-1, self.n_params))
             cross.append(np.full(s * k, c))
             load.append(np.tile(np.arange(k), s))
             sensor.append(np.repeat(np.arange(s), k))

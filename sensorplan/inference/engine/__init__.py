@@ -16,9 +16,9 @@ May import: model and the foundations.
 
 from .normal import Linearisation, NormalEquations
 from .problem import (DEFAULT_STD, CrossingGroup, LinearisedProblem, Stacked, StackedProblem, WhitenedProblem,
-                      crossing_groups, data_sensors)
+                      crossing_groups, data_sensors, rows_of)
 from .steps import LOG_NOISE_FLOOR, STALL_STEPS, SecantCurvature, log_evidence, ridge_gauss_newton, solve_map
 
 __all__ = ["Linearisation", "NormalEquations", "LinearisedProblem", "CrossingGroup", "WhitenedProblem",
            "crossing_groups", "data_sensors", "DEFAULT_STD", "LOG_NOISE_FLOOR", "STALL_STEPS", "SecantCurvature",
-           "log_evidence", "solve_map", "Stacked", "StackedProblem", "ridge_gauss_newton"]
+           "log_evidence", "solve_map", "Stacked", "StackedProblem", "ridge_gauss_newton", "rows_of"]

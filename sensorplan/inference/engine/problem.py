@@ -28,7 +28,7 @@ from ...model.noise import NoiseModel
 from .normal import Linearisation, NormalEquations
 
 __all__ = ["LinearisedProblem", "StackedProblem", "Stacked", "CrossingGroup", "WhitenedProblem", "crossing_groups",
-           "data_sensors", "DEFAULT_STD"]
+           "rows_of", "data_sensors", "DEFAULT_STD"]
 
 DEFAULT_STD = {"rotation": 1e-6, "deflection": 1e-4}  # noise std [rad, m] of data sensors without one
 
@@ -94,7 +94,9 @@ class CrossingGroup:
 
     ``members`` are the crossings' indices (in the data's order);
     ``position_set`` indexes the distinct position arrays
-    (:attr:`WhitenedProblem.position_sets`), on which the lines are computed.
+    (:attr:`WhitenedProblem.position_sets`), on which the lines are computed;
+    ``times`` the readings' times when the crossings carry them (equal in a
+    group: the noise model in time whitens with them).
     """
 
     members: tuple
@@ -102,11 +104,17 @@ class CrossingGroup:
     load_factor: np.ndarray
     mask: np.ndarray
     position_set: int
+    times: np.ndarray | None = None
 
     @property
     def rows(self):
         """The load positions of the selected rows."""
         return self.positions[self.mask]
+
+
+def rows_of(times, mask):
+    """The selected rows of a crossing's reading ``times`` (None when the crossing has none)."""
+    return None if times is None else np.asarray(times)[mask]
 
 
 def crossing_groups(crossings, masks):
@@ -117,14 +125,14 @@ def crossing_groups(crossings, masks):
     sets, groups, group_of = {}, {}, []
     for c, (crossing, mask) in enumerate(zip(crossings, masks)):
         set_index = sets.setdefault(value_key(crossing.positions), len(sets))
-        key = value_key(crossing.positions, crossing.load_factor, mask)
+        key = value_key(crossing.positions, crossing.load_factor, mask, crossing.times)
         if key not in groups:
             groups[key] = (len(groups), [c], crossing, mask, set_index)
         else:
             groups[key][1].append(c)
         group_of.append(groups[key][0])
-    ordered = tuple(CrossingGroup(tuple(members), crossing.positions, crossing.load_factor, mask, set_index)
-                    for _, members, crossing, mask, set_index in groups.values())
+    ordered = tuple(CrossingGroup(tuple(members), crossing.positions, crossing.load_factor, mask, set_index,
+                                  crossing.times) for _, members, crossing, mask, set_index in groups.values())
     firsts = {}
     for crossing in crossings:
         firsts.setdefault(value_key(crossing.positions), crossing.positions)
@@ -160,11 +168,12 @@ class WhitenedProblem:
         self.crossings = crossings
         self.sensors, self.noise = data_sensors(case, crossings.sensor_names)
         self.masks = [np.ones(c.n_loads, bool) for c in crossings] if masks is None else masks
-        self.white_data = [self.noise.whiten(c.values[:, m], c.positions[m])
+        self.white_data = [self.noise.whiten(c.values[:, m], c.positions[m], times=rows_of(c.times, m))
                            for c, m in zip(crossings, self.masks)]
         # readings that inform anything but the marginalised offsets of wandering sensors (all without wander)
         self.n_data = sum(self.noise.dof(m.sum()) for m in self.masks)
-        self.log_det_noise = sum(self.noise.log_det(c.positions[m]) for c, m in zip(crossings, self.masks) if m.any())
+        self.log_det_noise = sum(self.noise.log_det(c.positions[m], times=rows_of(c.times, m))
+                                 for c, m in zip(crossings, self.masks) if m.any())
         self.groups, self.group_of, self.position_sets = crossing_groups(crossings, self.masks)
         self.cache = Cache(maxsize=self.cache_size)
 
