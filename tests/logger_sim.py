@@ -19,11 +19,14 @@ x = speed * (t - entry_time) - offset, summed over axles.
 """
 
 import math
+import sys
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
-from fe_reference import fe_response
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from fe_reference import fe_response  # noqa: E402
 
 # Measured on INC01 (issue #36): rad and s.
 MUNICH_LIKE = dict(white=21e-6, correlated=9e-6, tau=3.0, walk=2.5e-6, burst_rate=1.0 / 3600.0,
