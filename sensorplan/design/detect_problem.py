@@ -33,9 +33,10 @@ from ..model.noise import NoiseModel
 from .criteria.detect import RIDGE, DetectCriterion
 from .criteria.detect_algebra import PackedLayout
 
-__all__ = ["DetectionTarget", "detection_information", "centres_inside", "detection_memory", "GROUP_BYTES"]
+__all__ = ["DetectionTarget", "detection_information", "centres_inside", "detection_memory", "GROUP_BYTES", "MEMORY_LIMIT"]
 
 GROUP_BYTES = 2**27  # bytes of one group's signatures or influence-line kernel (128 MiB)
+MEMORY_LIMIT = 4 * 2**30  # bytes a detect problem may take (issue 38: <= 4 GiB at 3,000 candidates)
 
 
 @dataclass(frozen=True)
@@ -90,24 +91,26 @@ def _centres(case, target, region):
 
 
 def _packed_group(model, centres, severity):
-    """(rows (S, n_centres, 1 + n), nuisance blocks (S, n, n)) of the model's sensors, per crossing, a
-    group of centres at a time."""
+    """(rows (S, n_centres, 1 + n), nuisance blocks (S, n, n)) of the model's sensors, per crossing, one
+    centre at a time (its signatures (S, K) are contiguous, so whitening and the products stream)."""
     nuis = model.nuisance  # (S, K, n), whitened
-    s_count, k_count, n = nuis.shape
+    s_count, _, n = nuis.shape
     rows = np.empty((s_count, centres.size, 1 + n))
-    per_centre = max(1, GROUP_BYTES // (8 * s_count * k_count))
-    for start in range(0, centres.size, per_centre):
-        part = slice(start, start + per_centre)
-        signal = model.damage(centres[part], severity)  # (n_part, S, K)
-        rows[:, part, 0] = np.einsum("csk,csk->sc", signal, signal)
-        rows[:, part, 1:] = np.einsum("csk,skn->scn", signal, nuis)
+    for c in range(centres.size):
+        signal = model.damage(centres[c:c + 1], severity)[0]  # (S, K)
+        rows[:, c, 0] = np.einsum("sk,sk->s", signal, signal)
+        rows[:, c, 1:] = np.matmul(signal[:, None, :], nuis)[:, 0]
     return rows, np.einsum("skm,skn->smn", nuis, nuis)
 
 
-def detection_memory(n_candidates, n_centres, n_nuisance, n_loads):
-    """Bytes the detect criterion needs for ``n_candidates`` (whatever the mesh): the packed blocks and
-    their copies while they are assembled, the candidates' influence lines and nuisance Jacobian (raw and
-    whitened), and a few groups of GROUP_BYTES."""
+def detection_memory(case, n_candidates, *, length=2.0, step=0.5, nuisance="smooth"):
+    """Bytes the detect criterion needs for ``n_candidates`` on ``case`` (whatever its mesh): the packed
+    blocks and their copies while they are assembled, the candidates' influence lines and nuisance Jacobian
+    (raw and whitened), and a few groups of GROUP_BYTES.  Compare with :data:`MEMORY_LIMIT`."""
+    n_centres = len(centre_grid(case.bridge.length, length, step))
+    per_span = 1 if nuisance == "levels" else 3
+    n_nuisance = per_span * case.bridge.n_spans + len(case.bridge.spring_names)
+    n_loads = case.sweep.positions.size
     per_candidate = 3 * PackedLayout(n_centres, n_nuisance).size + n_loads * (2 * n_nuisance + 1)
     return 8 * n_candidates * per_candidate + 4 * GROUP_BYTES
 

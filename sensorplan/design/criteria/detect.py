@@ -31,6 +31,13 @@ relative.  Certificate: for any distribution mu over the centres,
 feasible set bounds the relaxation; :func:`certificate` minimises that bound
 over mu by one LP (the linear-programming dual of the inner maximum).
 
+The relaxation's bound can be far above the best layout (a few sensors
+cannot see a 2 m zone everywhere, fractional weights spread over many
+candidates can); on small problems (up to ``EXACT_UP_TO`` candidates and
+sensors) :meth:`DetectCriterion.integer_bound` therefore proves a bound on
+the layouts themselves by exhaustive branch and bound
+(:mod:`.detect_search`), which also finds a better layout if one exists.
+
 Owns: the detect criterion, its exact value, bounds and certificate.
 May import: errors, detection, design.criteria.
 """

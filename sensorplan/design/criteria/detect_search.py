@@ -32,7 +32,13 @@ time (about 5-10 microseconds per layout on the embedded examples).
 down the same tree (Knuth, Estimating the efficiency of backtrack
 programs, Math. Comp. 29, 1975), so that a hopeless search is not started.
 
-Owns: the exact search.  May import: errors, design.criteria.
+:func:`certify` turns the search into a certificate for a given layout:
+it searches for a layout better than the given one (by a relative 1e-9,
+or, when that search is estimated too large, better than value / 0.99,
+0.95, ...), adopts any it finds, and when a search completes empty, the
+threshold bounds every layout.
+
+Owns: the exact search and the integer certificate.  May import: errors, design.criteria.
 """
 
 from dataclasses import dataclass
