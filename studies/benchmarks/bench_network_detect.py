@@ -29,7 +29,25 @@ memory <= 4 GiB.  Nothing is asserted.  Run from the repository root::
 
     python studies/benchmarks/bench_network_detect.py [--sizes 400:3000:20,120:800:20] [--curve]
 
-Last run: see the end of this docstring (updated by hand after a run).
+Runs (2026-11-27, 2-core machine shared with 5 other helpers' tests and
+benchmarks, load average 10-15 throughout, i.e. 5-7 runnable processes per
+core: CPU seconds are inflated by cache and memory-bandwidth contention;
+wall times are meaningless):
+
+* commit 7a08a21 (packed information, active centres, chunked nuisance;
+  before the zone integrals went through weighted_products and the
+  signatures were streamed per centre), N = 400, C = 3,000, R = 20:
+  build_problem 68.9 s CPU, peak 1.08 GiB (packed blocks 3000 x 5937, 136
+  MiB); recommend() 170.0 s CPU, peak 1.10 GiB: target 120 s NOT MET;
+  relaxation certified gap 3.4e-8 (239 of 357 centres active, working set
+  250 candidates); worst-case d^2 265.0 against the relaxation bound 485.4:
+  certified efficiency 54.6 % (bound method: relaxation; the exhaustive
+  certificate is only tried up to 200 candidates and 8 sensors); layout by
+  randomised rounding + exchange, worst centre 1.0 m; best baseline
+  best_of_100_random 35.0, effective_independence 28.2.
+* N = 400, C = 300: build_problem 9.2 s CPU, peak 0.76 GiB.
+* Before issue 38 (commit 0e3817a): N = 120, C = 800 did not finish in
+  1,800 s; building alone 36 s and 3.5 GiB.
 """
 
 import os
