@@ -45,6 +45,10 @@ wall times are meaningless):
   certificate is only tried up to 200 candidates and 8 sensors); layout by
   randomised rounding + exchange, worst centre 1.0 m; best baseline
   best_of_100_random 35.0, effective_independence 28.2.
+* commit f27d8a6 (zone integrals by weighted_products, signatures streamed
+  per centre), N = 400, C = 3,000: build_problem 39.3 s CPU, peak 0.95 GiB
+  (recommend() not finished when the session ended; expected about 140 s
+  CPU at this load: 170 s - (68.9 - 39.3) s).
 * N = 400, C = 300: build_problem 9.2 s CPU, peak 0.76 GiB.
 * Before issue 38 (commit 0e3817a): N = 120, C = 800 did not finish in
   1,800 s; building alone 36 s and 3.5 GiB.
