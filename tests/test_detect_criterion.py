@@ -29,12 +29,8 @@ from test_detectability import _case, _fe_difference, _FEReference, _whiten
 
 import sensorplan as sp
 from sensorplan.cli import main
-from sensorplan.design.criteria.detect import (
-    RIDGE,
-    centre_gradients,
-    centre_hessian_roots,
-    smooth_parts,
-)
+from sensorplan.design.criteria.detect import RIDGE
+from sensorplan.design.criteria.detect_algebra import gradients, hessian_roots, hessian_rows, ridged_parts
 from sensorplan.design.recommend import DetectionTarget, build_problem
 from sensorplan.design.relaxation import solve_relaxation
 from sensorplan.design.selection import exchange, greedy
@@ -148,20 +144,20 @@ def test_ridged_gradient_and_hessian_match_finite_differences(fe):
     ridge = problem.criterion.ridge
     rng = np.random.default_rng(3)
     w = rng.uniform(0.05, 0.3, problem.n_candidates)
-    _, u, chol = smooth_parts(problem.precision(w), ridge)
-    grad = centre_gradients(problem.blocks, u)
-    rows = np.einsum("icab,cb->ica", problem.blocks, u)[:, :, 1:]
-    roots = centre_hessian_roots(rows, chol)
+    packing = problem.criterion.packing
+    _, x, chol = ridged_parts(packing, problem.precision(w), ridge)
+    grad = gradients(packing, problem.blocks, x)
+    roots = hessian_roots(hessian_rows(packing, problem.blocks, x), chol)
     hess = -2.0 * np.einsum("cni,cnj->cij", roots, roots)
     for i in rng.choice(problem.n_candidates, 4, replace=False):
         h = 1e-5
         up, down = w.copy(), w.copy()
         up[i] += h
         down[i] -= h
-        f_up, u_up, _ = smooth_parts(problem.precision(up), ridge)
-        f_down, u_down, _ = smooth_parts(problem.precision(down), ridge)
+        f_up, x_up, _ = ridged_parts(packing, problem.precision(up), ridge)
+        f_down, x_down, _ = ridged_parts(packing, problem.precision(down), ridge)
         np.testing.assert_allclose(grad[i], (f_up - f_down) / (2 * h), rtol=1e-6, atol=1e-9 * np.abs(grad).max())
-        fd = (centre_gradients(problem.blocks, u_up) - centre_gradients(problem.blocks, u_down)) / (2 * h)
+        fd = (gradients(packing, problem.blocks, x_up) - gradients(packing, problem.blocks, x_down)) / (2 * h)
         np.testing.assert_allclose(hess[:, :, i].T, fd, rtol=1e-5, atol=1e-8 * np.abs(fd).max())
 
 

@@ -261,12 +261,28 @@ def check_grid(case, args):
     if _count(length, args.spacing) > MAX_CANDIDATES:
         raise ConfigError(f"--spacing {args.spacing:g} m gives more than {MAX_CANDIDATES} candidates; "
                           f"use --spacing >= {length / MAX_CANDIDATES:.3g}.")
+    if getattr(args, "criterion", None) == "detect":  # no Fisher blocks: its own packed Gram information
+        from ..design.detect_problem import MEMORY_LIMIT, detection_memory
+
+        needed = detection_memory(case, int(length / args.spacing + 1.0), length=getattr(args, "length", None) or 2.0,
+                                  step=getattr(args, "step", None) or 0.5,
+                                  nuisance=getattr(args, "nuisance", None) or "smooth")
+        if needed > MEMORY_LIMIT:
+            raise ConfigError(f"--spacing {args.spacing:g} m gives about {length / args.spacing + 1:.0f} candidates "
+                              f"whose detection information needs about {needed / 2**30:.2g} GiB, more than "
+                              f"{MEMORY_LIMIT / 2**30:g} GiB; use a larger --spacing or --step.")
+        return _check_fixed(case, args, length)
     n_params = case.n_elements + (len(case.bridge.spring_parameters) if getattr(args, "springs", False) else 0)
     needed = (length / args.spacing + 1.0) * n_params**2 * 8.0
     if needed > MAX_FISHER_BYTES:
         raise ConfigError(f"--spacing {args.spacing:g} m gives about {length / args.spacing + 1:.0f} candidates whose "
                           f"Fisher blocks ({n_params} parameters) need {needed / 2**30:.2g} GiB, more than "
                           f"{MAX_FISHER_BYTES / 2**30:g} GiB; use a larger --spacing or fewer elements.")
+    _check_fixed(case, args, length)
+
+
+def _check_fixed(case, args, length):
+    """--min-spacing, --exclude and --fixed against the bridge and each other."""
     if args.min_spacing > length:
         raise ConfigError(f"--min-spacing {args.min_spacing:g} m is longer than the bridge ({length:g} m).")
     zones = tuple(args.exclude or ())

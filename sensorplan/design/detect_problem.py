@@ -1,4 +1,4 @@
-"""What a candidate sensor adds to the detect criterion: per-centre Gram matrices of its signatures.
+"""What a candidate sensor adds to the detect criterion: its packed Gram information over the centres.
 
 For the candidates and the existing (fixed) sensors at once, the whitened
 exact damage signatures of a loss of ``severity`` over ``length`` centred at
@@ -6,9 +6,18 @@ every damage centre (from length/2 to L - length/2 every ``step``, restricted
 to ``region``) and the whitened nuisance Jacobian come from
 :class:`~sensorplan.detection.signatures.SignatureModel`, exactly as
 ``sensorplan detectability`` computes them; their Gram matrices, times the
-number of crossings, are the blocks of the placement problem.
+number of crossings, packed with the centre-independent nuisance block
+stored once (:mod:`.criteria.detect_algebra`), are the blocks of the
+placement problem.
 
-Owns: DetectionTarget, the detection blocks of a placement problem.
+The damage signatures are formed a group of centres at a time (and the
+nuisance Jacobian a group of sensors at a time, in SignatureModel), so that
+no readings x sensors x centres (or x elements) array is ever held whole:
+the memory is the packed blocks (``n_centres (1 + n) + n^2`` numbers per
+candidate), the whitened nuisance Jacobian (loads x n per candidate) and
+one group's arrays of at most :data:`GROUP_BYTES` (:func:`detection_memory`).
+
+Owns: DetectionTarget, the detection blocks of a placement problem and their memory estimate.
 May import: model, detection, errors, design.
 """
 
@@ -18,12 +27,16 @@ import numpy as np
 
 from .._errors import ConfigError
 from ..detection.detectability import check_detection_options
-from ..detection.signatures import SignatureModel, centre_grid, gram_matrices
+from ..detection.signatures import SignatureModel, centre_grid
 from ..model.fisher import fisher_blocks
 from ..model.noise import NoiseModel
 from .criteria.detect import RIDGE, DetectCriterion
+from .criteria.detect_algebra import PackedLayout
 
-__all__ = ["DetectionTarget", "detection_information", "centres_inside"]
+__all__ = ["DetectionTarget", "detection_information", "centres_inside", "detection_memory", "GROUP_BYTES", "MEMORY_LIMIT"]
+
+GROUP_BYTES = 2**27  # bytes of one group's signatures or influence-line kernel (128 MiB)
+MEMORY_LIMIT = 4 * 2**30  # bytes a detect problem may take (issue 38: <= 4 GiB at 3,000 candidates)
 
 
 @dataclass(frozen=True)
@@ -77,6 +90,31 @@ def _centres(case, target, region):
     return inside, (a, b)
 
 
+def _packed_group(model, centres, severity):
+    """(rows (S, n_centres, 1 + n), nuisance blocks (S, n, n)) of the model's sensors, per crossing, one
+    centre at a time (its signatures (S, K) are contiguous, so whitening and the products stream)."""
+    nuis = model.nuisance  # (S, K, n), whitened
+    s_count, _, n = nuis.shape
+    rows = np.empty((s_count, centres.size, 1 + n))
+    for c in range(centres.size):
+        signal = model.damage(centres[c:c + 1], severity)[0]  # (S, K)
+        rows[:, c, 0] = np.einsum("sk,sk->s", signal, signal)
+        rows[:, c, 1:] = np.matmul(signal[:, None, :], nuis)[:, 0]
+    return rows, np.einsum("skm,skn->smn", nuis, nuis)
+
+
+def detection_memory(case, n_candidates, *, length=2.0, step=0.5, nuisance="smooth"):
+    """Bytes the detect criterion needs for ``n_candidates`` on ``case`` (whatever its mesh): the packed
+    blocks and their copies while they are assembled, the candidates' influence lines and nuisance Jacobian
+    (raw and whitened), and a few groups of GROUP_BYTES.  Compare with :data:`MEMORY_LIMIT`."""
+    n_centres = len(centre_grid(case.bridge.length, length, step))
+    per_span = 1 if nuisance == "levels" else 3
+    n_nuisance = per_span * case.bridge.n_spans + len(case.bridge.spring_names)
+    n_loads = case.sweep.positions.size
+    per_candidate = 3 * PackedLayout(n_centres, n_nuisance).size + n_loads * (2 * n_nuisance + 1)
+    return 8 * n_candidates * per_candidate + 4 * GROUP_BYTES
+
+
 def detection_information(case, cands, *, n_crossings, region, target, prior, springs, functionals):
     """(blocks, q0, criterion, posterior_of) of the detect criterion for the candidates ``cands``
     (a CandidateSet: positions, kinds and noise of each candidate, plus the existing sensors)."""
@@ -92,17 +130,22 @@ def detection_information(case, cands, *, n_crossings, region, target, prior, sp
     correlation = 0.0 if case.noise is None else case.noise.correlation_length
     model = SignatureModel(case, sensors, NoiseModel(np.asarray(sensors.noise_std, dtype=float), correlation),
                            target.nuisance, length)
-    grams = gram_matrices(model.damage(centres, severity), model.nuisance) * n_crossings
+    rows, nn = _packed_group(model, centres, severity)
+    rows *= n_crossings
+    nn *= n_crossings
+    names = model.nuisance_names
     # nuisance columns no sensor sees do not change d^2: drop them
-    seen = np.concatenate([[True], np.einsum("snn->n", grams[:, 0, 1:, 1:]) > 0.0])
-    grams = np.ascontiguousarray(grams[:, :, seen][:, :, :, seen])
+    seen = np.einsum("snn->n", nn) > 0.0
+    rows = rows[:, :, np.concatenate([[True], seen])]
+    nn = nn[:, seen][:, :, seen]
+    packing = PackedLayout(centres.size, int(seen.sum()))
+    grams = packing.pack(rows, nn)
     n_cand = cands.n_candidates
     blocks, q0 = grams[:n_cand], grams[n_cand:].sum(axis=0)
-    ridge = RIDGE * np.einsum("snn->sn", blocks[:, 0, 1:, 1:]).mean(axis=0)
+    ridge = RIDGE * np.einsum("snn->sn", nn[:n_cand]).mean(axis=0)
     crit = DetectCriterion(centres.size, centres=centres, ridge=ridge, false_alarm=false_alarm,
                            n_crossings=n_crossings, severity=severity, length=length, nuisance=target.nuisance,
-                           region=region, step=step,
-                           nuisance_names=[n for n, k in zip(model.nuisance_names, seen[1:]) if k])
+                           region=region, step=step, nuisance_names=[n for n, k in zip(names, seen) if k])
     n_el = case.n_elements
 
     def posterior_of(index):

@@ -268,6 +268,8 @@ class Search:
     method: str
     layout: list
     utility: float
+    bound: float | None = None  # a bound on the integer layouts tighter than the relaxation's, if proven
+    bound_method: str = "relaxation"
 
 
 def search_layout(problem, case, *, solver, n_random, rng):
@@ -281,7 +283,12 @@ def search_layout(problem, case, *, solver, n_random, rng):
         g_start = None
     relaxation = solve_relaxation(problem, solver, start_layout=g_start)
     method, layout, utility = best_layout(problem, relaxation.weights, base, greedy_layout=g_start, rng=rng)
-    return Search(base, relaxation, method, layout, utility)
+    proof = problem.criterion.integer_bound(problem, layout, utility, length=case.bridge.length)
+    if proof is None or proof.bound >= relaxation.bound:
+        return Search(base, relaxation, method, layout, utility)
+    if proof.value > utility:
+        method, layout, utility = "exact search (branch and bound)", list(proof.layout), proof.value
+    return Search(base, relaxation, method, layout, utility, proof.bound, proof.method)
 
 
 def design_result(case, problem, search, curve, *, n_crossings, support_margin=0.0):
@@ -289,7 +296,8 @@ def design_result(case, problem, search, curve, *, n_crossings, support_margin=0
     posterior std, details, and the notes on sensors that sit on a support."""
     crit = problem.criterion
     sign = 1.0 if crit.maximise else -1.0
-    value, bound = sign * search.utility, sign * search.relaxation.bound
+    value = sign * search.utility
+    bound = sign * (search.relaxation.bound if search.bound is None else search.bound)
     count = problem.count
     curve = tuple(replace(c, value=float(value)) if c.count == count and not c.failed and sign * c.value < sign * value
                   else c for c in curve)
@@ -307,7 +315,7 @@ def design_result(case, problem, search, curve, *, n_crossings, support_margin=0
                         count=int(count), n_params=crit.n_effective, layout_m=layout_m, value=float(value),
                         bound=float(bound), efficiency=crit.efficiency(value, bound), method=search.method,
                         baselines=_baseline_results(problem, search.baselines, value),
-                        solver=_solver_stats(search.relaxation), candidates_m=problem.positions,
+                        solver=_solver_stats(search.relaxation, search.bound_method), candidates_m=problem.positions,
                         weights=search.relaxation.weights, fixed_m=fixed_m, curve=curve, kind="+".join(kinds),
                         layout_index=tuple(order), edges=case.mesh.edges.copy(),
                         supports_m=tuple(float(x) for x in case.bridge.support_positions),
@@ -337,9 +345,10 @@ def _baseline_results(problem, base, value):
     return tuple(out)
 
 
-def _solver_stats(relaxation):
-    """SolverStats of a relaxation: solver, status, certified gap, time, and the other counters as details."""
-    stats = dict(relaxation.stats)
+def _solver_stats(relaxation, bound_method="relaxation"):
+    """SolverStats of a relaxation: solver, status, certified gap, time, and the other counters as details
+    (with how the layout's bound was proven)."""
+    stats = {**relaxation.stats, "bound_method": bound_method}
     return SolverStats(str(stats.pop("solver", "?")), str(stats.pop("status", "?")), float(relaxation.relative_gap),
                        float(stats.pop("time_s", 0.0)), relaxation.method, stats)
 

@@ -215,8 +215,11 @@ class DesignResult:
             lines.append(f"  candidates kept at least {self.support_margin_m:g} m from every support")
         lines += [f"  {note}" for note in self.support_notes]
         gap = self.value - self.bound
-        lines.append(f"  criterion {self.value:.6g}; relaxation bound {self.bound:.6g}; gap {gap:.3g}; "
+        how = "relaxation" if self.solver.details.get("bound_method", "relaxation") == "relaxation" else "exact"
+        lines.append(f"  criterion {self.value:.6g}; {how} bound {self.bound:.6g}; gap {gap:.3g}; "
                      f"certified efficiency >= {100 * self.efficiency:.2f} %  (method: {self.method})")
+        if how == "exact":
+            lines.append(f"  bound: {self.solver.details['bound_method']}")
         if self.detail_line:
             lines.append(self.detail_line)
         s = self.solver

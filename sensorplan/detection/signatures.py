@@ -51,6 +51,7 @@ __all__ = ["NUISANCES", "Signatures", "SignatureModel", "whitened_signatures", "
 # from the layout and are not projected out (pseudo-inverse cut-off).
 IDENTIFIABLE_RTOL = 1e-6
 _CENTRES_PER_SOLVE = 64  # centres whose zone edges share one mesh for the unit signatures
+_KERNEL_BYTES = 2**27  # influence-line kernel of one group of sensors (128 MiB) when the nuisance is formed
 _LABELS = ("level", "slope", "curvature")
 
 
@@ -273,10 +274,18 @@ class SignatureModel:
     def __init__(self, case, sensors, noise, nuisance, length):
         self.case, self.sensors, self.noise, self.length = case, sensors, noise, float(length)
         self.positions = case.sweep.positions
-        lines = influence_lines(case.bridge, case.mesh, case.ei, sensors, case.vehicle, self.positions)
-        self.reference = lines.predictions
-        columns, self.nuisance_names = nuisance_jacobian(case, lines, nuisance)
-        self.nuisance = noise.whiten(columns, self.positions)
+        # a group of sensors at a time: their influence-line kernel (sensors x loads x elements) is the
+        # largest array here, and only its nuisance columns are kept
+        group = max(1, _KERNEL_BYTES // (8 * self.positions.size * case.n_elements))
+        reference, columns = [], []
+        for start in range(0, sensors.n_sensors, group):
+            part = sensors.subset(range(start, min(start + group, sensors.n_sensors)))
+            lines = influence_lines(case.bridge, case.mesh, case.ei, part, case.vehicle, self.positions)
+            reference.append(lines.predictions)
+            cols, self.nuisance_names = nuisance_jacobian(case, lines, nuisance)
+            columns.append(cols)
+        self.reference = np.concatenate(reference)
+        self.nuisance = noise.whiten(np.concatenate(columns), self.positions)
         self.basis = _nuisance_basis(self.nuisance.reshape(-1, self.nuisance.shape[2]))
 
     def _zones(self, centres):

@@ -42,6 +42,7 @@ from .diagrams import (
     STEP,
     Diagrams,
     element_products,
+    weighted_products,
 )
 from .force_method import ForceMethod, shared_force_method
 from .loads import LoadSweep, Vehicle
@@ -248,8 +249,7 @@ def response_change(bridge: Bridge, mesh: Mesh, ei: "ArrayLike", changed_ei: "Ar
     j0, j1 = int(changed[0]), int(changed[-1]) + 1
     loads, _ = ForceMethod(bridge, mesh, 1.0 / (v0 + dv)).solve(*_load_actions(bridge, vehicle, at))
     units, _ = ForceMethod(bridge, mesh, 1.0 / v0).solve(*sensor_actions(sensors))
-    products = element_products(mesh.edges[j0:j1 + 1], _restrict(units, j0, j1), _restrict(loads, j0, j1))
-    return products @ dv[j0:j1]
+    return weighted_products(mesh.edges[j0:j1 + 1], _restrict(units, j0, j1), _restrict(loads, j0, j1), dv[j0:j1])
 
 
 def _restrict(diagrams, j0, j1):

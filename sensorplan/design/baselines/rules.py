@@ -59,9 +59,10 @@ def effective_independence(problem, context):
     remaining = list(range(problem.n_candidates))
     while len(remaining) > problem.count:
         q = problem.layout_precision(remaining)
-        # a stack of blocks (the detect criterion): the precision is their block diagonal
-        inv = np.linalg.inv(q) if q.ndim == 3 else scipy.linalg.cho_solve((np.linalg.cholesky(q), True),
-                                                                          np.eye(q.shape[0]))
+        # a criterion with its own information layout (detect) says how to weigh it
+        own = getattr(problem.criterion, "information_share", None)
+        inv = own(q) if own is not None else scipy.linalg.cho_solve((np.linalg.cholesky(q), True),
+                                                                    np.eye(q.shape[0]))
         share = problem.flat_blocks[remaining] @ inv.ravel()
         n_drop = max(1, (len(remaining) - problem.count) // 10)
         drop = set(np.argsort(share)[:n_drop].tolist())

@@ -134,6 +134,12 @@ class Criterion(ABC):
         best, _ = problem.linear_max(g)
         return self.utility(q) + max(0.0, best - float(g @ w))
 
+    def integer_bound(self, problem, layout, utility, *, length):
+        """A bound on the integer layouts tighter than the relaxation's, for ``layout`` of ``utility`` on a
+        bridge of ``length`` [m]: an object with ``layout`` and ``value`` (the best layout met, perhaps
+        better), ``bound`` and ``method`` (how it was proven), or None (the default: no such proof)."""
+        return None
+
     # -- cvxpy -----------------------------------------------------------------------------
     def cvxpy_precision(self, cp, problem, w, idx):
         """Q(w) as a cvxpy expression (weights ``w`` on the candidates ``idx``)."""

@@ -1,10 +1,11 @@
 """The ``detect`` criterion: the worst case over damage centres of the detectability d^2.
 
-The "precision" of this criterion is a stack A (n_centres, 1 + n, 1 + n) of
-summed per-sensor Gram matrices G_i(c) = [s_i(c) N_i]^T [s_i(c) N_i] of the
-whitened exact damage signature s_i(c) of a local loss centred at c and the
-whitened nuisance Jacobian N_i (:mod:`sensorplan.detection.signatures`),
-times the number of crossings.  For each centre
+The "precision" of this criterion sums per-sensor Gram matrices
+G_i(c) = [s_i(c) N_i]^T [s_i(c) N_i] of the whitened exact damage signature
+s_i(c) of a local loss centred at c and the whitened nuisance Jacobian N_i
+(:mod:`sensorplan.detection.signatures`), times the number of crossings,
+packed over the centres with their common nuisance block stored once
+(:mod:`.detect_algebra`).  For each centre
 
     d^2_c(A) = A_ss - A_sN A_NN^+ A_Ns = min_x [1; -x]^T A_c [1; -x],
 
@@ -30,6 +31,13 @@ relative.  Certificate: for any distribution mu over the centres,
 feasible set bounds the relaxation; :func:`certificate` minimises that bound
 over mu by one LP (the linear-programming dual of the inner maximum).
 
+The relaxation's bound can be far above the best layout (a few sensors
+cannot see a 2 m zone everywhere, fractional weights spread over many
+candidates can); on small problems (up to ``EXACT_UP_TO`` candidates and
+sensors) :meth:`DetectCriterion.integer_bound` therefore proves a bound on
+the layouts themselves by exhaustive branch and bound
+(:mod:`.detect_search`), which also finds a better layout if one exists.
+
 Owns: the detect criterion, its exact value, bounds and certificate.
 May import: errors, detection, design.criteria.
 """
@@ -38,96 +46,28 @@ import math
 
 import numpy as np
 import scipy.optimize
+import scipy.sparse
 from scipy.special import ndtr, ndtri
 
 from ..._errors import ConfigError, SolverError
-from ...detection.signatures import schur_d_squared
 from .base import Criterion
+from .detect_algebra import PackedLayout, exact_d_squared, exact_solution, gradients, ridged_parts
+from .detect_search import certify
 from .registry import register_criterion
 
-__all__ = ["DetectCriterion", "RIDGE", "centre_d_squared", "centre_solution", "smooth_parts", "centre_gradients",
-           "centre_hessian_roots", "certificate"]
+__all__ = ["DetectCriterion", "RIDGE", "certificate", "ALL_CENTRES_UP_TO"]
 
 RIDGE = 1e-10  # ridge on A_NN in the relaxation, relative to the mean single-candidate diagonal
+EXACT_UP_TO = (200, 8)  # candidates and sensors up to which the integer certificate's search is tried
+ALL_CENTRES_UP_TO = 120  # more centres: the certificate's distribution uses the nearly binding ones only
+NEAR_BINDING = 0.25  # ... those within 25 % of the worst ridged d^2 (any subset gives a valid bound)
 
 
-def _unit_diagonal(stack):
-    """The stack scaled to unit diagonal (unseen directions: identity rows) and the scales."""
-    diag = np.diagonal(stack, axis1=-2, axis2=-1)
-    seen = diag > 0.0
-    scale = np.where(seen, 1.0 / np.sqrt(np.where(seen, diag, 1.0)), 0.0)
-    scaled = stack * scale[..., :, None] * scale[..., None, :]
-    idx = np.arange(diag.shape[-1])
-    scaled[..., idx, idx] = 1.0
-    return scaled, scale, diag
-
-
-def centre_d_squared(stack):
-    """Exact d^2 per centre of ``stack`` (..., n_centres, m, m), as :func:`schur_d_squared` computes it.
-
-    Fast path: the Cholesky factor of the unit-diagonal matrix with the
-    signature ordered last; its last pivot is d^2 / A_ss.  Where a nuisance
-    pivot is below 1e-8 (the nuisance block may then have eigenvalues near
-    the pseudo-inverse cut-off of 1e-12) or the factorisation fails, the
-    value is that of :func:`schur_d_squared` itself (eigen-decomposition,
-    cut-off).
-    """
-    diag = np.diagonal(stack, axis1=-2, axis2=-1)
-    m = diag.shape[-1]
-    order = np.roll(np.arange(m), -1)  # the signature last
-    seen = diag[..., order] > 0.0
-    scale = np.where(seen, 1.0 / np.sqrt(np.where(seen, diag[..., order], 1.0)), 0.0)
-    full = stack[..., order[:, None], order[None, :]] * scale[..., :, None] * scale[..., None, :]
-    full[..., np.arange(m), np.arange(m)] = 1.0
-    full[..., m - 1, m - 1] += 1e-13  # keeps d^2 = 0 factorisable; subtracted below
-    try:
-        piv = np.diagonal(np.linalg.cholesky(full), axis1=-2, axis2=-1) ** 2
-    except np.linalg.LinAlgError:
-        piv = np.zeros(full.shape[:-1])
-    d2 = np.maximum(piv[..., -1] - 1e-13, 0.0) * diag[..., 0]
-    bad = np.any(piv[..., :-1] < 1e-8, axis=-1)
-    if bad.any():
-        d2[bad] = schur_d_squared(stack[bad][None])
-    return d2
-
-
-def centre_solution(stack):
-    """(d^2, x) per centre: d^2 as :func:`centre_d_squared`, x the nuisance coefficients with
-    d^2 = [1; -x]^T A [1; -x] (pseudo-inverse with the cut-off of :func:`schur_d_squared`)."""
-    scaled, scale, _ = _unit_diagonal(stack)
-    vals, vecs = np.linalg.eigh(scaled[..., 1:, 1:])
-    keep = vals > 1e-12 * vals.max(axis=-1, keepdims=True)
-    p = np.einsum("...nm,...n->...m", vecs, stack[..., 1:, 0] * scale[..., 1:])
-    coef = np.where(keep, p / np.where(keep, vals, 1.0), 0.0)
-    return centre_d_squared(stack), np.einsum("...nm,...m->...n", vecs, coef) * scale[..., 1:]
-
-
-def smooth_parts(stack, ridge):
-    """Ridged d^2 (n_centres,), u = [1; -x] (n_centres, m) and the Cholesky factor of A_NN + ridge."""
-    a_nn = stack[:, 1:, 1:] + np.diag(ridge)
-    try:
-        chol = np.linalg.cholesky(a_nn)
-    except np.linalg.LinAlgError:
-        return None, None, None
-    x = np.linalg.solve(a_nn, stack[:, 1:, 0:1])[..., 0]
-    f = stack[:, 0, 0] - np.einsum("cn,cn->c", stack[:, 1:, 0], x)
-    u = np.concatenate([np.ones((x.shape[0], 1)), -x], axis=1)
-    return f, u, chol
-
-
-def centre_gradients(blocks, u):
-    """d d^2_c / d w_i = u_c^T G_i(c) u_c for every block: (n_blocks, n_centres)."""
-    uu = (u[:, :, None] * u[:, None, :]).reshape(u.shape[0], -1)
-    return np.einsum("icq,cq->ic", blocks.reshape(blocks.shape[0], u.shape[0], -1), uu)
-
-
-def centre_hessian_roots(rows, chol):
-    """Y (n_centres, n, n_blocks) with d^2 d^2_c / dw_i dw_j = -2 (Y_c^T Y_c)_ij (ridged d^2).
-
-    ``rows`` (n_blocks, n_centres, n): the nuisance rows of G_i(c) u_c; ``chol`` the Cholesky
-    factor of A_NN + ridge per centre (from :func:`smooth_parts`).
-    """
-    return np.linalg.solve(chol, rows.transpose(1, 2, 0))
+def certificate_centres(f):
+    """The centres the certificate's distribution may use: all, or the nearly binding ones (see above)."""
+    if f.size <= ALL_CENTRES_UP_TO:
+        return np.arange(f.size)
+    return np.nonzero(f <= f.min() + NEAR_BINDING * abs(f.min()))[0]
 
 
 def certificate(problem, weights, *, with_maximiser=False):
@@ -135,28 +75,34 @@ def certificate(problem, weights, *, with_maximiser=False):
 
     minimise over mu in the simplex: sum_c mu_c (f_c - g_c^T w) + max_{s feasible} (sum_c mu_c g_c)^T s,
     with the inner maximum replaced by its LP dual (y for s <= 1, nu for sum s = R, pi for the side
-    constraints): one LP, solved by HiGHS; ``s`` (the inner maximiser) is read from its duals.
+    constraints): one sparse LP, solved by HiGHS; ``s`` (the inner maximiser) is read from its duals.
+    mu is restricted to :func:`certificate_centres` (a restriction can only raise the bound, so it stays
+    valid); ``mu`` is returned over all centres.
     """
     crit = problem.criterion
     w = np.asarray(weights, dtype=float)
-    f, u, _ = smooth_parts(problem.precision(w), crit.ridge)
+    f, x, _ = ridged_parts(crit.packing, problem.precision(w), crit.ridge)
     if f is None:
         raise SolverError("The ridged nuisance block is not positive definite; the relaxation is ill-posed.")
-    g = centre_gradients(problem.blocks, u)  # (C, n_centres)
-    n_c, c = f.size, problem.n_candidates
+    sub = certificate_centres(f)
+    g = gradients(crit.packing, problem.blocks, x[sub], sub)  # (C, n_sub)
+    n_c, c = sub.size, problem.n_candidates
     a_ub, b_ub = problem.inequalities
     k = a_ub.shape[0]
     # variables: mu (n_c), y (C), nu (free), pi (k)
-    cost = np.concatenate([f - w @ g, np.ones(c), [problem.count], b_ub])
+    cost = np.concatenate([f[sub] - w @ g, np.ones(c), [problem.count], b_ub])
     # g mu - y - nu 1 - A^T pi <= 0
-    lhs = np.hstack([g, -np.eye(c), -np.ones((c, 1)), -a_ub.T])
+    lhs = scipy.sparse.hstack([scipy.sparse.csr_matrix(g), -scipy.sparse.identity(c, format="csr"),
+                               -np.ones((c, 1)), scipy.sparse.csr_matrix(-a_ub.T)], format="csr")
     eq = np.concatenate([np.ones(n_c), np.zeros(c + 1 + k)])[None, :]
     bounds = [(0.0, None)] * (n_c + c) + [(None, None)] + [(0.0, None)] * k
     res = scipy.optimize.linprog(cost, A_ub=lhs, b_ub=np.zeros(c), A_eq=eq, b_eq=[1.0], bounds=bounds,
                                  method="highs")
     if res.status != 0:
         raise SolverError(f"The certificate LP of the detect criterion failed ({res.message}).")
-    out = (float(res.fun), np.clip(res.x[:n_c], 0.0, None), float(f.min()))
+    mu = np.zeros(f.size)
+    mu[sub] = np.clip(res.x[:n_c], 0.0, None)
+    out = (float(res.fun), mu, float(f.min()))
     return (*out, -res.ineqlin.marginals) if with_maximiser else out
 
 
@@ -181,6 +127,7 @@ class DetectCriterion(Criterion):
         super().__init__(n_params)
         self.centres = np.zeros(self.n_params) if centres is None else np.asarray(centres, dtype=float)
         self.ridge = np.asarray(ridge, dtype=float) if ridge is not None else None
+        self.packing = PackedLayout(self.n_params, len(nuisance_names))
         self.false_alarm, self.n_crossings, self.severity, self.length = false_alarm, n_crossings, severity, length
         self.nuisance, self.region, self.step, self.nuisance_names = nuisance, region, step, tuple(nuisance_names)
         self.description = (f"worst-case detectability d^2 of a {100 * severity:g} % EI loss over {length:g} m, "
@@ -192,39 +139,54 @@ class DetectCriterion(Criterion):
                           "not by make_criterion().")
 
     def value(self, q):
-        return float(centre_d_squared(q).min())
+        return float(exact_d_squared(self.packing, q).min())
 
     def utilities(self, q, blocks):
-        return centre_d_squared(q[None] + blocks).min(axis=-1)
+        return exact_d_squared(self.packing, q[None] + blocks).min(axis=-1)
 
     def gradient_matrix(self, q):
-        """Supergradient: u u^T at the worst centre, u = [1; -x]."""
-        d2, x = centre_solution(q)
+        """Supergradient in packed form: u u^T at the worst centre, u = [1; -x] (the a_sN entries once,
+        so their coefficient is -2x)."""
+        d2, x = exact_solution(self.packing, q)
         c = int(np.argmin(d2))
-        out = np.zeros_like(q)
-        u = np.concatenate([[1.0], -x[c]])
-        out[c] = np.outer(u, u)
-        return out
+        rows = np.zeros((self.packing.n_centres, 1 + self.packing.n_nuisance))
+        rows[c] = np.concatenate([[1.0], -2.0 * x[c]])
+        return self.packing.pack(rows, np.outer(x[c], x[c]))
 
     def upper_bounds(self, problem, q):
         # d^2_c(A + G) <= u_c^T (A + G) u_c for any u_c = [1; -x]; the minimum over the centres
-        d2, x = centre_solution(q)
-        u = np.concatenate([np.ones((x.shape[0], 1)), -x], axis=1)
-        base = np.einsum("ca,cab,cb->c", u, q, u)
-        return float(d2.min()), (base[None, :] + centre_gradients(problem.blocks, u)).min(axis=1)
+        d2, x = exact_solution(self.packing, q)
+        rows, nn = self.packing.rows(q), self.packing.nuisance(q)
+        base = rows[:, 0] - 2.0 * np.einsum("cn,cn->c", rows[:, 1:], x) + np.einsum("cn,nm,cm->c", x, nn, x)
+        return float(d2.min()), (base[None, :] + gradients(self.packing, problem.blocks, x)).min(axis=1)
 
     def bound(self, problem, w):
         return certificate(problem, w)[0]
 
+    def integer_bound(self, problem, layout, utility, *, length):
+        """The exhaustive branch and bound of :mod:`.detect_search` on small problems (see EXACT_UP_TO)."""
+        if problem.n_candidates > EXACT_UP_TO[0] or problem.count > EXACT_UP_TO[1]:
+            return None
+        return certify(problem, layout, utility, length=length)
+
+    def information_share(self, q):
+        """W (packed) with <W, I_i> = sum_c tr(Q_c^-1 G_i(c)): Effective Independence on the block
+        diagonal of the centres' Gram matrices."""
+        inv = np.linalg.inv(self.packing.dense(q))
+        rows = np.concatenate([inv[:, 0, :1], 2.0 * inv[:, 0, 1:]], axis=1)
+        return self.packing.pack(rows, inv[:, 1:, 1:].sum(axis=0))
+
     # -- cvxpy: one LMI per centre ------------------------------------------------------------
     def cvxpy_precision(self, cp, problem, w, idx):
-        m = problem.q0.shape[1]
+        m = 1 + self.packing.n_nuisance
         ridge = np.zeros((m, m))
         ridge[1:, 1:] = np.diag(self.ridge)
+        q0 = self.packing.dense(problem.q0)
+        dense = self.packing.dense(problem.blocks[idx])
         out = []
         for c in range(self.n_params):
-            flat = problem.blocks[idx, c].reshape(idx.size, m * m).T
-            a = problem.q0[c] + ridge + cp.reshape(flat @ w, (m, m), order="C")
+            flat = dense[:, c].reshape(idx.size, m * m).T
+            a = q0[c] + ridge + cp.reshape(flat @ w, (m, m), order="C")
             out.append(0.5 * (a + a.T))
         return out
 
@@ -241,13 +203,13 @@ class DetectCriterion(Criterion):
 
     def relaxed_utility(self, problem, w):
         """min_c of the ridged d^2 at relaxed weights (what the relaxation maximises)."""
-        f, _, _ = smooth_parts(problem.precision(w), self.ridge)
+        f, _, _ = ridged_parts(self.packing, problem.precision(w), self.ridge)
         return -math.inf if f is None else float(f.min())
 
     # -- reporting -------------------------------------------------------------------------------
     def describe(self, q):
         """JSON details and one summary line: worst centre, d, power."""
-        d2 = centre_d_squared(q)
+        d2 = exact_d_squared(self.packing, q)
         c = int(np.argmin(d2))
         d = math.sqrt(d2[c])
         power = float(ndtr(d + ndtri(self.false_alarm)))  # -ndtri(a): exact for tiny a, unlike ndtri(1 - a)

@@ -12,7 +12,10 @@ candidates.  The certificate over *all* candidates is
 distribution mu of the centres); candidates whose mu-weighted gradient
 beats the multiplier of the count constraint, or that the LP's maximiser
 uses, join the working set (:mod:`.column_generation`) until the certified
-relative gap is below the tolerance.
+relative gap is below the tolerance.  With many centres (above
+``ALL_CENTRES_UP_TO``) the constraints are an active set too
+(:class:`CentreSet`): the worst centres at the start, and every centre the
+restricted solution violates, until none is.
 
 Owns: the detect relaxation's fast path.  May import: errors, design.criteria, design.relaxation.
 """
@@ -22,13 +25,54 @@ from functools import partial
 
 import numpy as np
 
-from ..criteria.detect import centre_gradients, centre_hessian_roots, certificate, smooth_parts
+from ..criteria.detect import ALL_CENTRES_UP_TO, certificate
+from ..criteria.detect_algebra import PackedLayout, gradients, hessian_roots, hessian_rows, ridged_parts
 from .base import Relaxation, repair_weights
 from .column_generation import Round, WorkingSet, column_generation, initial_size
 from .interior_point import RestrictedPolytope, boundary_step, solve_kkt
 from .registry import register_fast_method
 
-__all__ = ["solve_detect_epigraph", "epigraph_interior_point"]
+__all__ = ["solve_detect_epigraph", "epigraph_interior_point", "CentreSet"]
+
+FIRST_CENTRES = 24  # centres of a first active set: the worst at the uniform and at the start weights
+ADDED_CENTRES = 48  # at most this many centres join the active set per restricted solve
+NEAR = 0.02  # centres within 2 % of the restricted optimum join with the violated ones
+
+
+class CentreSet:
+    """The damage centres whose constraints d^2_c >= t enter the restricted problem.
+
+    All of them up to :data:`~sensorplan.design.criteria.detect.ALL_CENTRES_UP_TO` centres; above, the
+    worst ones, and every centre that the restricted solution violates joins (a constraint left out can
+    only raise the restricted optimum, so a solution that meets every centre is optimal).
+    """
+
+    def __init__(self, n_centres, *values):
+        if n_centres <= ALL_CENTRES_UP_TO:
+            self.members = set(range(n_centres))
+        else:
+            self.members = set()
+            for f in values:
+                if f is not None:
+                    self.members |= set(np.argsort(f, kind="stable")[:FIRST_CENTRES].tolist())
+        self.n_centres = n_centres
+
+    def index(self):
+        return np.array(sorted(self.members))
+
+    def violated(self, f):
+        """None if no centre outside the set is below the set's own minimum of ``f``; else the centres
+        outside it below that minimum plus NEAR of it, worst first (at most ADDED_CENTRES)."""
+        idx = self.index()
+        floor = float(f[idx].min())
+        outside = np.setdiff1d(np.arange(self.n_centres), idx)
+        if not np.any(f[outside] < floor):
+            return np.zeros(0, dtype=int)
+        near = outside[f[outside] < floor + NEAR * abs(floor)]
+        return near[np.argsort(f[near], kind="stable")][:ADDED_CENTRES]
+
+    def add(self, centres):
+        self.members |= set(int(c) for c in centres)
 
 
 @register_fast_method("detect-epigraph")
@@ -38,72 +82,92 @@ def solve_detect_epigraph(problem, *, tol=1e-7, start_layout=None, max_rounds=50
     crit = problem.criterion
     c = problem.n_candidates
     uniform = np.full(c, problem.count / c)
-    f, u, _ = smooth_parts(problem.precision(uniform), crit.ridge)
+    f, x, _ = ridged_parts(crit.packing, problem.precision(uniform), crit.ridge)
     scale = float(f.min()) if f is not None and f.min() > 0 else 1.0
+    f_start = None
     if start_layout is not None:
         start = np.zeros(c)
         start[list(start_layout)] = 1.0
-        fs, _, _ = smooth_parts(problem.precision(start), crit.ridge)
-        scale = float(fs.min()) if fs is not None and fs.min() > 0 else scale
+        f_start, _, _ = ridged_parts(crit.packing, problem.precision(start), crit.ridge)
+        scale = float(f_start.min()) if f_start is not None and f_start.min() > 0 else scale
+    centres = CentreSet(crit.packing.n_centres, f, f_start)
     # working set: the best candidates for a soft minimum over the centres at uniform weights
     soft = np.exp(-(f - f.min()) / (0.1 * abs(f.min()) + 1e-300))
-    grad = centre_gradients(problem.blocks, u)
-    score = grad @ (soft / soft.sum())
+    near = np.nonzero(soft > 1e-12)[0]
+    grad = gradients(crit.packing, problem.blocks, x[near], near)
+    score = grad @ (soft[near] / soft.sum())
     first = set(np.argsort(-score, kind="stable")[:initial_size(c, problem.count, 8)].tolist())
-    first |= set(np.argmax(grad, axis=0).tolist())  # the best candidate of every centre
+    first |= set(np.argmax(grad, axis=0).tolist())  # the best candidate of the nearly worst centres
     working = WorkingSet(c, first, start_layout=start_layout)
-    scaled = (problem.blocks / scale, problem.q0 / scale, crit.ridge / scale)
-    last, rounds, newton = column_generation(problem, working, partial(_solve_round, problem, scaled, scale),
+    last, rounds, newton = column_generation(problem, working, partial(_solve_round, problem, scale, centres),
                                              tol=tol, max_rounds=max_rounds)
     stats = {"solver": "epigraph-interior-point+column-generation",
              "status": "optimal" if last.gap <= tol else "gap above tolerance", "rounds": rounds,
-             "working_set": len(working), "newton_iterations": newton, "time_s": time.perf_counter() - t0}
+             "working_set": len(working), "active_centres": len(centres.members), "newton_iterations": newton,
+             "time_s": time.perf_counter() - t0}
     return Relaxation(last.weights, last.utility, max(last.bound, last.utility), "fast", stats)
 
 
-def _solve_round(problem, scaled, scale, working, idx, w_prev, inner):
-    """The barrier method on ``idx`` and the LP certificate over all candidates."""
-    x, nu, it = epigraph_interior_point(problem, idx, scaled, w_prev, tol=inner)
-    weights = np.zeros(problem.n_candidates)
-    weights[idx] = x
-    weights = repair_weights(problem, weights)
+def _solve_round(problem, scale, centres, working, idx, w_prev, inner):
+    """The barrier method on ``idx`` (and the active centres, grown until none is violated) and the LP
+    certificate over all candidates."""
+    crit = problem.criterion
+    iterations = 0
+    while True:
+        x, nu, it = epigraph_interior_point(problem, idx, centres.index(), scale, w_prev, tol=inner)
+        iterations += it
+        weights = repair_weights(problem, np.bincount(idx, weights=x, minlength=problem.n_candidates))
+        if len(centres.members) == crit.packing.n_centres:
+            break
+        f, _, _ = ridged_parts(crit.packing, problem.precision(weights), crit.ridge)
+        enter = centres.violated(f)
+        if enter.size == 0:
+            break
+        centres.add(enter)
+        w_prev = weights
     bound, mu, utility, s = certificate(problem, weights, with_maximiser=True)
     gap = (bound - utility) / max(abs(bound), 1e-300)
 
     def entry_gradient():  # the mu-weighted gradient of the centres' d^2
-        _, u, _ = smooth_parts(problem.precision(weights), problem.criterion.ridge)
-        return centre_gradients(problem.blocks, u) @ mu
+        _, xs, _ = ridged_parts(crit.packing, problem.precision(weights), crit.ridge)
+        used = np.nonzero(mu > 0.0)[0]
+        return gradients(crit.packing, problem.blocks, xs[used], used) @ mu[used]
 
     return Round(idx=idx, x=x, weights=weights, utility=utility, bound=bound, gap=gap, threshold=nu * scale,
-                 maximiser=s, iterations=it, entry_gradient=entry_gradient)
+                 maximiser=s, iterations=iterations, entry_gradient=entry_gradient)
 
 
 class _Barrier:
-    """phi(x, t) = -tau t - sum_c log(d^2_c(x) - t) - sum_j log(slack_j(x)) on the working set ``idx``.
+    """phi(x, t) = -tau t - sum_c log(d^2_c(x) - t) - sum_j log(slack_j(x)) on the working set ``idx``
+    and the active ``centres``.
 
-    The blocks, prior and ridge of ``scaled`` are divided once more so that
-    the worst centre at the start is 1 (d^2 is homogeneous in the blocks and
-    the ridge); ``rescale`` is that factor.
+    The packed information is restricted to the working set and the active
+    centres and divided by ``scale`` and once more so that the worst centre
+    at the start is 1 (d^2 is homogeneous in the blocks and the ridge);
+    ``rescale`` is that second factor.
     """
 
-    def __init__(self, problem, idx, scaled, w_prev):
-        blocks_all, q0, ridge = scaled
-        m = idx.size
-        blocks = blocks_all[idx]
+    def __init__(self, problem, idx, centres, scale, w_prev):
+        crit = problem.criterion
+        full = crit.packing
+        self.layout = PackedLayout(centres.size, full.n_nuisance)
+
+        def restrict(q):
+            return self.layout.pack(full.rows(q)[..., centres, :], full.nuisance(q)) / scale
+
+        blocks, q0, ridge = restrict(problem.blocks[idx]), restrict(problem.q0), crit.ridge / scale
         self.poly = RestrictedPolytope.for_working_set(problem, idx)
         self.start = self.poly.interior_start(w_prev, idx)
-        f, _, _ = smooth_parts(q0 + (self.start @ blocks.reshape(m, -1)).reshape(q0.shape), ridge)
+        f, _, _ = ridged_parts(self.layout, q0 + self.start @ blocks, ridge)
         self.rescale = float(f.min()) if f is not None and f.min() > 0 else 1.0
         self.blocks, self.q0, self.ridge = blocks / self.rescale, q0 / self.rescale, ridge / self.rescale
-        self.flat = self.blocks.reshape(m, -1)
 
     def evaluate(self, x):
-        """(d^2 per centre, its gradient (m, n_centres), the nuisance rows R, Cholesky factors), or None."""
-        f, u, chol = smooth_parts(self.q0 + (x @ self.flat).reshape(self.q0.shape), self.ridge)
+        """(d^2 per centre, its gradient (m, n_centres), the nuisance rows R, Cholesky factor), or None."""
+        f, xs, chol = ridged_parts(self.layout, self.q0 + x @ self.blocks, self.ridge)
         if f is None:
             return None
-        bu = np.einsum("icab,cb->ica", self.blocks, u)
-        return f, np.einsum("ica,ca->ic", bu, u), bu[:, :, 1:], chol
+        return (f, gradients(self.layout, self.blocks, xs), hessian_rows(self.layout, self.blocks, xs), chol)
 
     @staticmethod
     def phi(f, t, sig, tau):
@@ -118,7 +182,7 @@ class _Barrier:
         f, g, r, chol = parts
         m = x.size
         s = f - t
-        y = centre_hessian_roots(r, chol)
+        y = hessian_roots(r, chol)
         z = (y * np.sqrt(2.0 / s)[:, None, None]).reshape(-1, m)
         gs = g / s  # (m, n_centres)
         hxx = self.poly.add_barrier_hessian(z.T @ z + gs @ gs.T, 1.0 / sig**2)
@@ -149,7 +213,7 @@ class _Barrier:
         return step, trial
 
 
-def epigraph_interior_point(problem, idx, scaled, w_prev, *, tol, max_iter=300):
+def epigraph_interior_point(problem, idx, centres, scale, w_prev, *, tol, max_iter=300):
     """max t s.t. d^2_c(x) >= t, x in the restricted polytope: barrier method (Boyd & Vandenberghe, 11.3).
 
     Newton steps on phi = -tau t - sum_c log(d^2_c(x) - t) - sum_j log(slack_j(x)) with sum(x) = R,
@@ -157,7 +221,7 @@ def epigraph_interior_point(problem, idx, scaled, w_prev, *, tol, max_iter=300):
     (n_constraints / tau) is below ``tol`` relative.  Returns (x, nu, Newton steps), nu the
     multiplier of sum(x) = R.
     """
-    barrier = _Barrier(problem, idx, scaled, w_prev)
+    barrier = _Barrier(problem, idx, centres, scale, w_prev)
     x = barrier.start
     parts = barrier.evaluate(x)
     f = parts[0]
