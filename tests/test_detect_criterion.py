@@ -23,9 +23,10 @@ import sys
 
 import numpy as np
 import pytest
+from scipy import stats as scipy_stats
 
 sys.path.insert(0, str(pathlib.Path(__file__).parent))
-from test_detectability import _case, _fe_difference, _FEReference, _whiten
+from test_detectability import _case, _fe_difference, _FEReference, _whiten, _whiten_restricted
 
 import sensorplan as sp
 from sensorplan.cli import main
@@ -55,20 +56,34 @@ def fe_schur(total):
     return total[..., 0, 0] - np.einsum("...n,...nm,...m->...", b, pinv, b)
 
 
-@pytest.fixture(scope="module")
-def fe():
+# the same problem under the noise model in time (white + 3 s Ornstein-Uhlenbeck + wander at 1.2 m/s); the FE
+# reference whitens with the dense covariance of its definition and treats the wander's level as a nuisance column
+SPEC_TIME = dict(SPEC, correlation=0.0,
+                 time=dict(relative_correlated=0.5, correlation_time_s=3.0, relative_walk=0.15, speed=1.2))
+
+
+def fe_grams(spec):
     """Per-sensor Gram matrices of the FE reference at every grid position, and the case."""
-    ref = _FEReference(SPEC)
-    n_s, k = len(GRID), len(SPEC["positions"])
+    # in time, the wander's level is projected out per sensor (columns of ones for all 19 candidates would make
+    # the normal equations too ill-conditioned for the pseudo-inverse of fe_schur)
+    timed = "time" in spec
+    ref = _FEReference(spec, offsets=not timed)
+    whiten = _whiten_restricted if timed else _whiten
+    n_s, k = len(GRID), len(spec["positions"])
     columns = ref.columns.reshape(n_s, k, -1)
-    total = sum(SPEC["spans"])
-    centres = SPEC["length"] / 2 + SPEC["step"] * np.arange(int((total - SPEC["length"]) / SPEC["step"]) + 1)
+    total = sum(spec["spans"])
+    centres = spec["length"] / 2 + spec["step"] * np.arange(int((total - spec["length"]) / spec["step"]) + 1)
     grams = np.empty((n_s, centres.size, 1 + columns.shape[2], 1 + columns.shape[2]))
     for c, centre in enumerate(centres):
-        signal = _whiten(SPEC, _fe_difference(SPEC, centre, ref.undamaged))
+        signal = whiten(spec, _fe_difference(spec, centre, ref.undamaged))
         stacked = np.concatenate([signal[:, :, None], columns], axis=2)
         grams[:, c] = np.einsum("ska,skb->sab", stacked, stacked)
-    return _case(SPEC), grams * SPEC["crossings"], centres
+    return _case(spec), grams * spec["crossings"], centres
+
+
+@pytest.fixture(scope="module")
+def fe():
+    return fe_grams(SPEC)
 
 
 def fe_brute_force(problem, grams, fixed_index=()):
@@ -121,6 +136,25 @@ def test_bound_and_efficiency_against_fe_brute_force(fe, name):
     # the claimed efficiency never exceeds the true one, and the optimum is (near) 100 % efficient
     assert result.efficiency <= result.value / best_value + 1e-12
     assert crit.efficiency(best_value, best_value) == pytest.approx(1.0)
+
+
+def test_detect_criterion_under_the_noise_model_in_time_against_fe_brute_force():
+    case, grams, centres = fe_grams(SPEC_TIME)
+    assert case.noise.in_time
+    problem = build_problem(case, 3, "detect", grid=sp.CandidateGrid(spacing=1.0), n_crossings=SPEC["crossings"],
+                            target=TARGET)
+    np.testing.assert_allclose(problem.criterion.centres, centres, rtol=0, atol=1e-12)
+    best, best_value, values = fe_brute_force(problem, grams)
+    for layout in list(values)[:: max(1, len(values) // 40)] + [best]:
+        assert problem.value_of(layout) == pytest.approx(values[layout], rel=1e-6)
+    result = sp.recommend(case, 3, "detect", grid=sp.CandidateGrid(spacing=1.0), n_crossings=SPEC["crossings"],
+                          target=TARGET, curve_max=0, n_random=10)
+    assert result.bound >= best_value * (1 - 1e-9)
+    # the worst-case power of the recommended layout: the design's own against the FE reference's
+    layout = tuple(int(np.argmin(np.abs(GRID - x))) for x in result.layout_m)
+    z = scipy_stats.norm.ppf(1 - 0.05)
+    fe_power = scipy_stats.norm.cdf(np.sqrt(values[tuple(sorted(layout))]) - z)
+    assert scipy_stats.norm.cdf(np.sqrt(result.value) - z) == pytest.approx(fe_power, abs=0.02)
 
 
 def test_four_sensors_against_fe_brute_force(fe):

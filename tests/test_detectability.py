@@ -184,12 +184,33 @@ def _whiten(spec, values):
     return np.array(out)
 
 
+def _whiten_restricted(spec, values):
+    """:func:`_whiten` with each sensor's wander level projected out (the flat-prior marginal, written densely).
+
+    For a walk with an unknown level the marginal precision is Sigma^-1 - Sigma^-1 1 1^T Sigma^-1 / 1^T Sigma^-1 1
+    (Harville 1974); in whitened coordinates that is the projection off L^-1 1.
+    """
+    white = _whiten(spec, values)
+    ones = _whiten(spec, np.ones(values.shape[:2]))
+    out = []
+    for w, u in zip(white, ones):
+        u = u / np.linalg.norm(u)
+        out.append(w - np.multiply.outer(u, np.tensordot(u, w, axes=(0, 0))))
+    return np.array(out)
+
+
 class _FEReference:
     """The definition of issue 14 computed with the FE readings, dense whitening and least squares."""
 
-    def __init__(self, spec):
+    def __init__(self, spec, offsets=True):
         self.spec = spec
         columns, names = _fe_nuisance(spec)
+        if "time" in spec and not offsets:  # the wander's level marginalised by the dense projection instead
+            self.columns = _whiten_restricted(spec, columns).reshape(-1, columns.shape[2])
+            self.keep = {"smooth": list(range(len(names))),
+                         "levels": [i for i, n in enumerate(names) if n in ("level", "spring")]}
+            self.undamaged = _fe_lines(spec, _mesh_edges(spec), np.array(spec["ei"], dtype=float))
+            return
         if "time" in spec:  # the wander's unknown level in each sensor: a nuisance column of ones per sensor
             n_s, n_x = columns.shape[:2]
             offsets = np.zeros((n_s, n_x, n_s))

@@ -29,7 +29,6 @@ from .._errors import ConfigError
 from ..detection.detectability import check_detection_options
 from ..detection.signatures import SignatureModel, centre_grid
 from ..model.fisher import fisher_blocks
-from ..model.noise import NoiseModel
 from .criteria.detect import RIDGE, DetectCriterion
 from .criteria.detect_algebra import PackedLayout
 
@@ -127,8 +126,7 @@ def detection_information(case, cands, *, n_crossings, region, target, prior, sp
         n_crossings=n_crossings, nuisance=target.nuisance, step=target.step)
     centres, region = _centres(case, target, region)
     sensors = cands.layout()
-    correlation = 0.0 if case.noise is None else case.noise.correlation_length
-    model = SignatureModel(case, sensors, NoiseModel(np.asarray(sensors.noise_std, dtype=float), correlation),
+    model = SignatureModel(case, sensors, case.noise_for(sensors),
                            target.nuisance, length)
     rows, nn = _packed_group(model, centres, severity)
     rows *= n_crossings

@@ -37,7 +37,6 @@ from scipy.special import ndtr, ndtri
 from .._errors import ConfigError, SensorplanError
 from .._threads import single_threaded
 from ..detection.detectability import detectability
-from ..model.noise import NoiseModel
 from .candidates import sensor_layout
 from .detect_problem import DetectionTarget, centres_inside
 from .exact import MAX_NODES, estimate_nodes, exact_search
@@ -77,8 +76,7 @@ class _Requirement:
         positions = np.concatenate([p.positions[index], [] if fixed is None else fixed.positions])
         kinds = tuple(p.kinds[i] for i in index) + (() if fixed is None else tuple(fixed.kinds))
         stds = np.concatenate([p.noise_std[index], [] if fixed is None else fixed.noise_std])
-        correlation = 0.0 if self.case.noise is None else self.case.noise.correlation_length
-        case = self.case.with_sensors(sensor_layout(positions, kinds, stds), NoiseModel(stds, correlation))
+        case = self.case.with_sensors(sensor_layout(positions, kinds, stds))
         t = self.target
         return detectability(case, severity=t.severity, length=t.length, false_alarm=t.false_alarm,
                              n_crossings=self.n_crossings if n_crossings is None else n_crossings,
