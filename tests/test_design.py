@@ -65,11 +65,14 @@ def true_efficiency(criterion, q, q_opt, n_springs=0):
     return np.linalg.eigvalsh(q)[0] / np.linalg.eigvalsh(q_opt)[0]
 
 
-def reference_prior(n_elements, n_springs, tau=100.0, marginal_std=0.5, spring_std=1.0):
-    """The default GMRF prior precision, tau D^T D + I / marginal_std^2 (first differences), springs 1/spring_std^2."""
+def reference_prior(n_elements, n_springs, tau=100.0, marginal_std=0.5, spring_std=1.0, level_std=1.0):
+    """The default GMRF prior precision, tau D^T D + (marginal_std^2 I + level_std^2 1 1^T)^-1 (first
+    differences; the proper part is the covariance of independent elements plus a common level, inverted
+    densely here), springs 1/spring_std^2."""
     d = np.diff(np.eye(n_elements), axis=0)
     q = np.zeros((n_elements + n_springs,) * 2)
-    q[:n_elements, :n_elements] = tau * d.T @ d + np.eye(n_elements) / marginal_std**2
+    proper = np.linalg.inv(marginal_std**2 * np.eye(n_elements) + level_std**2 * np.ones((n_elements, n_elements)))
+    q[:n_elements, :n_elements] = tau * d.T @ d + proper
     q[n_elements:, n_elements:] = np.eye(n_springs) / spring_std**2
     return q
 
@@ -179,7 +182,9 @@ def test_fast_path_equals_cvxpy_clarabel(criterion, constraints):
     # same relaxed optimum; the fast path's certificate is at least as tight
     assert abs(fast.utility - ref.utility) <= 1e-6 * scale
     assert ref.utility - 1e-9 * scale <= fast.bound <= ref.bound + 1e-9 * scale
-    assert fast.relative_gap <= 1e-6 and ref.relative_gap <= 1e-5
+    # the generic reference's own certificate at Clarabel's default tolerances: ~1e-5 (1.07e-5 measured on Ds with
+    # the prior's common level, whose constant direction is weakly informed)
+    assert fast.relative_gap <= 1e-6 and ref.relative_gap <= 2e-5
 
 
 @pytest.mark.parametrize("seed", range(4))
