@@ -9,11 +9,15 @@ axles 3.6 and 4.95 m behind the front one), about 0.3 mrad at the tiltmeters.  T
 """
 
 import json
+import pathlib
+import sys
 
 import numpy as np
 import pytest
-from logger_sim import MUNICH_LIKE, Bridge, Channel, Crossing, record
-from realdata_munich import available, munich_inc01
+
+sys.path.insert(0, str(pathlib.Path(__file__).parent))
+from logger_sim import MUNICH_LIKE, Bridge, Channel, Crossing, record  # noqa: E402
+from realdata_munich import available, munich_inc01  # noqa: E402
 
 from sensorplan.acquisition import ChannelNoise, Template, extract_crossings
 from sensorplan.acquisition.calibration import calibrate, null_scan
