@@ -55,6 +55,8 @@ class Policy:
     report_per_day : candidates below the threshold are listed down to the level chance reaches
         this often (24: about once an hour), so a rejected event says how close it came.
     max_rms : a significant event whose whitened residual rms exceeds this is not a clean vehicle.
+    min_rms : below this the noise model overstates the noise there (rms 1 +- 1/sqrt(2n) when it is
+        right), so its test cannot be trusted: rejected as "noise model does not fit".
     share : a second vehicle, or the channels' disagreement on the load, counts when it carries this
         share of the event's GLR (below it, at high signal-to-noise, it is the template's mismatch).
     n_null, seed : null samples simulated for the calibration, and their seed.
@@ -63,6 +65,7 @@ class Policy:
     false_events_per_day: float = 1.0
     report_per_day: float = 24.0
     max_rms: float = 2.0
+    min_rms: float = 0.7
     share: float = 0.1
     n_null: int = 2**19
     seed: int = 0
@@ -217,6 +220,8 @@ def _judge(ctx, fit, z):
         return "overlapping vehicles"
     if _disagreement(ctx, fit) > max(DISAGREEMENT, ctx.policy.share * glr):
         return "channels disagree"
+    if fit.rms < ctx.policy.min_rms:
+        return "noise model does not fit"
     if fit.rms > ctx.policy.max_rms:
         return "poor fit"
     return ""

@@ -8,7 +8,7 @@ import numpy as np
 __all__ = ["CrossingEvent", "ExtractedCrossings", "REASONS"]
 
 REASONS = ("not significant", "overlapping vehicles", "implausible speed", "poor fit", "cut by the record's edge",
-           "channels disagree")
+           "channels disagree", "noise model does not fit")
 
 
 def _eng(value, kind):
