@@ -20,6 +20,15 @@ EPILOG = """example:
 The logger file has a column time_s and one column per sensor name (units as
 in the case's [logger] section, default rad / m); temperature columns named
 in [logger] temperature_columns are averaged per crossing.
+
+An event is accepted only when the case's vehicle explains it significantly
+better than wander + noise (a generalised likelihood ratio test whose
+threshold lets chance through --false-events-per-day times per day of record,
+default once).  The noise model in time is the case's [noise] section
+(correlated_std, correlation_time_s, random_walk); without it the noise is
+estimated from the record and the output says so (run 'sensorplan noise
+--write-case' on a quiet record for a better one).  A record with no vehicle
+ends with one line naming its strongest candidate and the threshold (exit 1).
 """
 
 
@@ -34,8 +43,10 @@ def add_arguments(p):
     p.add_argument("--max-speed", type=SPEED, default=40.0, help="fastest plausible speed in m/s (default 40)")
     p.add_argument("--quiet-gap", type=real(0.0, 86400.0, what="a time in s", low_open=True), default=3.0,
                    help="minimum quiet time between two vehicles in s (default 3)")
-    p.add_argument("--max-rms", type=real(0.0, 1e6, what="a ratio to the noise std", low_open=True), default=2.0,
-                   help="largest accepted fit rms in noise std (default 2)")
+    p.add_argument("--max-rms", type=real(1.0, 1e6, what="a ratio to the noise std"), default=2.0,
+                   help="largest accepted whitened fit rms, 1 = the noise model (default 2)")
+    p.add_argument("--false-events-per-day", type=real(0.0, 1e6, what="a rate per day", low_open=True),
+                   default=1.0, help="false events the test lets through per day of record (default 1)")
     p.add_argument("--out", type=output_file, required=True, help="crossings CSV to write (crossing,position_m,...)")
     p.add_argument("--json", type=output_file, help="events JSON (default: OUT with suffix .json)")
     p.add_argument("--figure", type=output_file,
@@ -65,11 +76,10 @@ def run(args, out, files):
         axle_times, axle_speeds = read_axle_times(args.axle_times)
     result = extract_crossings(case, series, speed=args.speed, axle_times=axle_times, axle_speeds=axle_speeds,
                                speed_range=(args.min_speed, args.max_speed), quiet_gap=args.quiet_gap,
-                               max_rms=args.max_rms)
+                               max_rms=args.max_rms, false_events_per_day=args.false_events_per_day)
     if result.crossings is None:
-        reasons = ", ".join(f"{e.label}: {e.reason}" for e in result.events) or "no event above the noise floor"
-        raise DataError(f"{args.timeseries}: no crossing accepted ({reasons}); check the units in [logger], "
-                        "the speed range (--min-speed, --max-speed) or --max-rms.")
+        raise DataError(f"{args.timeseries}: {result.verdict()}; check the units in [logger] and the speed range "
+                        "(--min-speed, --max-speed) if vehicles did cross.")
     csv_path = files.write_text(args.out, format_crossings(result.crossings))
     json_path = stage_json(files, args.json or args.out.with_suffix(".json"), result.to_dict())
     figure = stage_figure(files, plotting.plot_crossing_events(result, series)[0],
