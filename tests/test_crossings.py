@@ -18,6 +18,8 @@ import json
 import pathlib
 import sys
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -28,6 +30,7 @@ from sensorplan.cli import main
 from sensorplan.inference.inversion import invert
 from sensorplan.io.config import case_from_toml
 from sensorplan.model.crossings import Crossing, Crossings
+from sensorplan.model.noise import NoiseModel
 from sensorplan.model.timeseries import TimeSeries
 
 CASE = """
@@ -150,8 +153,6 @@ def test_sign_flipped_channel_is_named(case, record):
 # since issue #36; the time-correlated noise model of inference takes it): invert under the white model
 # warns about it, and the band comparison below is what this test checks.
 @pytest.mark.filterwarnings("ignore:systematic residuals:sensorplan._errors.SensorplanWarning")
-@pytest.mark.xfail(strict=True, reason="invert under the white model: the wander left in the crossings since "
-                   "issue #36 moves EI by up to 6 %; passes again once invert whitens in time (issue #36)")
 def test_invert_on_extracted_matches_invert_on_true_positions(case, record, extracted):
     time, noisy, drift, _ = record
     true = []
@@ -161,7 +162,11 @@ def test_invert_on_extracted_matches_invert_on_true_positions(case, record, extr
         # the same readings at their true positions, the true offsets and drift removed
         true.append(Crossing(f"t{t0:g}", z[keep], (noisy - drift)[:, keep], np.ones(int(keep.sum()))))
     reference = invert(case, Crossings(("PE1", "PE2"), tuple(true)), detect=False)
-    result = invert(case, extracted.crossings, detect=False)
+    # the extracted crossings keep the record's wander: inverted under the noise model in time (the wander a
+    # random walk whose level per crossing is marginalised), at the readings' own times
+    timed = dataclasses.replace(case, noise=NoiseModel(case.noise.std, random_walk=0.5e-6, speed=1.4))
+    assert all(c.times is not None for c in extracted.crossings)
+    result = invert(timed, extracted.crossings, detect=False)
     ci_ref, ci_res = reference.credible_interval(0.95), result.credible_interval(0.95)
     inside_ref = (result.ei_mean >= ci_ref[:, 0]) & (result.ei_mean <= ci_ref[:, 1])
     inside_res = (reference.ei_mean >= ci_res[:, 0]) & (reference.ei_mean <= ci_res[:, 1])
@@ -186,7 +191,7 @@ def test_cli_writes_csv_json_and_figure(tmp_path, record):
     assert code == 0
     events = json.loads(out.with_suffix(".json").read_text())["events"]
     assert len(events) == 1 and events[0]["accepted"] and abs(events[0]["speed_m_s"] / 2.0 - 1) < 0.02
-    assert out.read_text().startswith("crossing,position_m,PE1,PE2\n")
+    assert out.read_text().startswith("crossing,position_m,PE1,PE2,time_s\n")  # the readings keep their times
     assert out.with_suffix(".png").stat().st_size > 10_000
     # the same with the speed given: only the entry time is fitted
     code = main(["crossings", "--config", str(tmp_path / "case.toml"), "--timeseries", str(tmp_path / "log.csv"),

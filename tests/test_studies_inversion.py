@@ -47,7 +47,7 @@ def test_calibration_integrated_quick(tmp_path, monkeypatch, capsys):
     out = run("studies/inversion/calibration_integrated.py", tmp_path, monkeypatch, capsys, "--quick")
     assert "40 replicates per case" in out
     results = json.loads((tmp_path / "calibration_integrated.json").read_text())
-    assert set(results) == {"white", "ar1", "low-signal"}
+    assert set(results) == {"white", "ar1", "low-signal", "time"}
     for name, case in results.items():
         integrated, evidence = case["summary"]["integrated"], case["summary"]["evidence"]
         assert integrated["n"] == evidence["n"] == 40

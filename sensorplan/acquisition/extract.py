@@ -174,4 +174,4 @@ def _crossing(series, candidate, label, length, quiet_gap, exit_time):
     z = candidate.speed * (t - candidate.entry_time)
     keep = (z >= 0.0) & (z <= length)
     values = (series.values[:, candidate.window] - level)[:, keep]
-    return Crossing(label, z[keep], values, np.ones(int(keep.sum())))
+    return Crossing(label, z[keep], values, np.ones(int(keep.sum())), times=t[keep])
