@@ -1,5 +1,7 @@
 """Figure of a logger's estimated noise: the Allan deviation of the quiet data against the fitted model."""
 
+import textwrap
+
 import numpy as np
 
 from ..acquisition.noise import allan_variance_model
@@ -36,6 +38,7 @@ def plot_allan_deviation(result, *, axes=None, attribution=""):
         shown = shown[np.isfinite(shown) & (shown > 0)]
         if shown.size:
             ax.set_ylim(0.3 * shown.min(), 2.0 * shown.max())  # a part far below the data would squash the plot
+        _plain_ticks(ax.yaxis)
         ax.set_xlabel("averaging time tau [s]")
         ax.set_ylabel(f"Allan deviation [{unit}]")
         ax.set_title(f"{c.name}: white {scale * c.white_std.value:.3g}, OU {scale * c.correlated_std.value:.3g} {unit}"
@@ -45,6 +48,15 @@ def plot_allan_deviation(result, *, axes=None, attribution=""):
         ax.legend(fontsize=7)
     for ax in axes[n:]:
         ax.set_visible(False)
-    if attribution:
-        axes[0].figure.text(0.01, 0.0, attribution, fontsize=6, color="0.4", ha="left", va="bottom")
+    if attribution:  # below everything, in the space constrained layout keeps for it
+        axes[0].figure.supxlabel("\n".join(textwrap.wrap(attribution, 120)), fontsize=6, color="0.4")
     return axes
+
+
+def _plain_ticks(axis):
+    """Log-axis ticks as plain numbers (5, 10, 20), not 2 x 10^1."""
+    from matplotlib.ticker import FuncFormatter
+
+    plain = FuncFormatter(lambda v, _: f"{v:g}")
+    axis.set_major_formatter(plain)
+    axis.set_minor_formatter(plain)
