@@ -97,10 +97,15 @@ def _check_estimates(seed, rate):
     assert abs(c.random_walk.value / MUNICH_LIKE["walk"] - 1.0) < 0.5
     short = c.allan.tau_s <= 60.0  # longer averages have few terms and scatter
     assert np.allclose(c.allan.model[short], c.allan.data[short], rtol=0.15)
+    return result
 
 
 def test_estimates_within_30_percent_at_20_hz():
-    _check_estimates(21, 20.0)
+    result = _check_estimates(21, 20.0)
+    model = result.noise_model(speed=1.5)  # what the other layers compute under
+    c = result.channels[0]
+    assert model.std[0] == c.white_std.value and model.correlation_time_s[0] == c.correlation_time_s.value
+    assert model.random_walk[0] == c.random_walk.value and model.speed == 1.5 and model.in_time
 
 
 @pytest.mark.slow

@@ -119,6 +119,17 @@ class NoiseEstimate:
     def channel(self, name):
         return self.channels[self.names.index(name)]
 
+    def noise_model(self, *, speed):
+        """The :class:`~sensorplan.model.noise.NoiseModel` of the channels, in their order, at ``speed`` [m/s]."""
+        from ...model.noise import NoiseModel
+
+        def values(name):
+            return [getattr(c, name).value for c in self.channels]
+
+        return NoiseModel(values("white_std"), correlated_std=values("correlated_std"),
+                          correlation_time_s=values("correlation_time_s"), random_walk=values("random_walk"),
+                          speed=speed)
+
     def to_dict(self):
         return {"channels": [c.to_dict() for c in self.channels], "quiet_fraction": self.quiet_fraction,
                 "segments_s": [list(s) for s in self.segments_s], "sample_interval_s": self.sample_interval,
