@@ -97,6 +97,7 @@ def _check_estimates(seed, rate):
     assert abs(c.random_walk.value / MUNICH_LIKE["walk"] - 1.0) < 0.5
     short = c.allan.tau_s <= 60.0  # longer averages have few terms and scatter
     assert np.allclose(c.allan.model[short], c.allan.data[short], rtol=0.15)
+    assert c.allan.misfit()[0] < 0.15 and "note:" not in result.summary()
     return result
 
 
@@ -113,6 +114,16 @@ def test_estimates_within_30_percent_at_20_hz():
 def test_estimates_within_30_percent_of_the_simulator(seed):
     # the acceptance: records at the logger's 100 Hz
     _check_estimates(seed, 100.0)
+
+
+def test_a_vibration_the_model_lacks_is_noted():
+    # white + OU + a 7 Hz oscillation (a bridge mode): the fit cannot follow the oscillation and says so
+    channel = Channel("INC", 5.0, walk=0.0)
+    time, values, _ = record(600.0, 100.0, [channel], rng=4)
+    values = values + 20e-6 * np.sin(2 * np.pi * 7.0 * time)
+    result = estimate_noise(TimeSeries(time, ("INC",), values))
+    worst, at = result.channels[0].allan.misfit()
+    assert worst > 0.2 and at < 1.0 and "(--rate)" in result.summary()
 
 
 def test_a_record_without_quiet_part_is_refused():

@@ -8,6 +8,10 @@ import numpy as np
 __all__ = ["Estimate", "AllanDeviation", "ChannelNoise", "NoiseEstimate"]
 
 PARAMETERS = ("white_std", "correlated_std", "correlation_time_s", "random_walk")
+# A model Allan deviation this far from the data's where the data are precise is a misfit worth a note (fits of the
+# simulator's records stay within 0.15: tests/test_noise_estimate.py).
+MISFIT = 0.2
+PRECISE_PAIRS = 50  # independent pairs for a data Allan deviation within about 10 %
 
 
 @dataclass(frozen=True)
@@ -51,6 +55,19 @@ class AllanDeviation:
     def to_dict(self):
         return {"tau_s": self.tau_s.tolist(), "data": self.data.tolist(), "model": self.model.tolist(),
                 "n_terms": self.n_terms.tolist()}
+
+    def misfit(self):
+        """(largest |model / data - 1|, its tau [s]) over the averaging times where the data's Allan deviation is
+        precise (about ``PRECISE_PAIRS`` independent pairs of means or more: n_terms / 2m); (0, nan) without any."""
+        if not self.tau_s.size:
+            return 0.0, math.nan
+        m = self.tau_s / self.tau_s[0]
+        precise = (self.n_terms / (2.0 * m) >= PRECISE_PAIRS) & np.isfinite(self.data)
+        if not np.any(precise):
+            return 0.0, math.nan
+        ratio = np.abs(self.model[precise] / self.data[precise] - 1.0)
+        k = int(np.argmax(ratio))
+        return float(ratio[k]), float(self.tau_s[precise][k])
 
     def floor(self, low=1.0, high=30.0):
         """Smallest Allan deviation of the data for averaging times in [low, high] s (nan if none)."""
@@ -152,4 +169,11 @@ class NoiseEstimate:
             lines.append("  Allan deviation [" + unit + "]:   tau [s]     data    model")
             for tau, d, m in zip(c.allan.tau_s, c.allan.data, c.allan.model):
                 lines.append(f"  {'':<30}{tau:8.3g} {scale * d:8.3g} {scale * m:8.3g}")
+            worst, at = c.allan.misfit()
+            if worst > MISFIT:
+                why = ("fast structure white + OU + walk lacks (vibration?); fitting at a rate below it (--rate) folds "
+                       "it into the white part" if at < 1.0 else
+                       "slow structure the model lacks, or too few quiet minutes to tell correlated noise from wander")
+                lines.append(f"  note: the model misses the data's Allan deviation by {100 * worst:.0f} % at {at:.3g} s: "
+                             + why)
         return "\n".join(lines)
