@@ -61,7 +61,8 @@ def test_data_allan_variance_is_the_overlapping_estimator():
     segments = [rng.standard_normal(50), rng.standard_normal(31)]
     avar, counts = allan_variance_data(segments, [1, 3, 20])
     for i, m in enumerate((1, 3, 20)):  # Riley (NIST SP 1065) eq. 11, written out
-        terms = [(y[j + m:j + 2 * m].mean() - y[j:j + m].mean())**2 for y in segments for j in range(y.size - 2 * m + 1)]
+        terms = [(y[j + m:j + 2 * m].mean() - y[j:j + m].mean())**2
+                 for y in segments for j in range(y.size - 2 * m + 1)]
         assert counts[i] == len(terms) and avar[i] == pytest.approx(0.5 * np.mean(terms))
 
 
@@ -124,6 +125,16 @@ def test_a_vibration_the_model_lacks_is_noted():
     result = estimate_noise(TimeSeries(time, ("INC",), values))
     worst, at = result.channels[0].allan.misfit()
     assert worst > 0.2 and at < 1.0 and "(--rate)" in result.summary()
+
+
+def test_coarsely_quantised_readings_are_fitted():
+    # a logger resolution of 1e-4 rad, five times the noise: most differences are 0 (the robust scale is 0)
+    time, values, _ = record(300.0, 20.0, [Channel("INC", 5.0, walk=0.0)], rng=2)
+    coarse = np.round((values + 3e-4 * np.sin(2 * np.pi * time / 200.0)) / 1e-4) * 1e-4
+    c = estimate_noise(TimeSeries(time, ("INC",), coarse)).channels[0]
+    # quantisation noise of a uniform rounding error is 1e-4 / sqrt(12) = 29 urad; white + OU together near it
+    total = math.hypot(c.white_std.value, c.correlated_std.value)
+    assert 1e-5 < total < 1e-4
 
 
 def test_a_record_without_quiet_part_is_refused():

@@ -92,6 +92,8 @@ def fit_channel(segments, dt, *, name="", kind="rotation"):
     segments = [np.asarray(y, dtype=float) for y in segments]
     pooled = np.concatenate([np.diff(y) for y in segments])
     scale = float(1.4826 * np.median(np.abs(pooled - np.median(pooled))) / math.sqrt(2.0))
+    if not scale > 0.0:  # coarsely quantised readings: most differences are 0
+        scale = float(np.std(pooled) / math.sqrt(2.0))
     if not scale > 0.0:
         raise DataError(f"channel '{name}' does not vary in its quiet parts (constant readings); no noise to "
                         "estimate.")

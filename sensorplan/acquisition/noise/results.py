@@ -174,6 +174,6 @@ class NoiseEstimate:
                 why = ("fast structure white + OU + walk lacks (vibration?); fitting at a rate below it (--rate) folds "
                        "it into the white part" if at < 1.0 else
                        "slow structure the model lacks, or too few quiet minutes to tell correlated noise from wander")
-                lines.append(f"  note: the model misses the data's Allan deviation by {100 * worst:.0f} % at {at:.3g} s: "
-                             + why)
+                lines.append(f"  note: the model misses the data's Allan deviation by {100 * worst:.0f} % "
+                             f"at {at:.3g} s: {why}")
         return "\n".join(lines)
