@@ -60,7 +60,7 @@ def test_data_allan_variance_is_the_overlapping_estimator():
     rng = np.random.default_rng(0)
     segments = [rng.standard_normal(50), rng.standard_normal(31)]
     avar, counts = allan_variance_data(segments, [1, 3, 20])
-    for i, m in enumerate((1, 3, 20)):  # Riley (NIST SP 1065) eq. 11, written out
+    for i, m in enumerate((1, 3, 20)):  # the overlapping estimator (Riley, NIST SP 1065), written out
         terms = [(y[j + m:j + 2 * m].mean() - y[j:j + m].mean())**2
                  for y in segments for j in range(y.size - 2 * m + 1)]
         assert counts[i] == len(terms) and avar[i] == pytest.approx(0.5 * np.mean(terms))

@@ -2,7 +2,7 @@
 
 The Allan variance at averaging time tau = m tau0 is half the mean square
 difference of adjacent m-sample means (Riley, *Handbook of Frequency
-Stability Analysis*, NIST SP 1065 (2008), eq. 11 for the overlapping
+Stability Analysis*, NIST SP 1065 (2008), with the overlapping
 estimator; IEEE Std 952-1997, Annex C).  White noise falls as 1/tau, a
 random walk rises as tau, a correlated (OU) part peaks near its correlation
 time: the curve shows where averaging stops helping.
@@ -15,7 +15,7 @@ the sampled process):
 * OU, std c, correlation time T, phi = exp(-tau0 / T) (AR(1) samples):
   c^2 / m^2 [m (1 + phi) / (1 - phi) - 2 phi (1 - phi^m) / (1 - phi)^2 - phi (1 - phi^m)^2 / (1 - phi)^2];
   its limit tau0 -> 0 is c^2 T^2 / tau^2 (2 x - 3 + 4 e^-x - e^-2x), x = tau / T, the first-order
-  Gauss-Markov result of El-Sheimy, Hou & Niu, IEEE Trans. Instrum. Meas. 57 (2008) 140, Table I;
+  Gauss-Markov result of El-Sheimy, Hou & Niu, IEEE Trans. Instrum. Meas. 57 (2008) 140;
 * random walk, q per sqrt(s): q^2 tau0 (2 m^2 + 1) / (6 m); its limit q^2 tau / 3 is IEEE 952's rate
   random walk K^2 tau / 3.
 
@@ -42,8 +42,9 @@ def allan_variance_data(segments, factors):
     """Overlapping Allan variance pooled over ``segments`` for each factor m, and its number of terms.
 
     Each segment (evenly sampled) contributes its N - 2m + 1 overlapping
-    differences of adjacent m-sample means (Riley eq. 11); segments shorter
-    than 2m contribute none.  Returns (avar, n_terms), nan where no term.
+    differences of adjacent m-sample means (Riley's overlapping estimator);
+    segments shorter than 2m contribute none.  Returns (avar, n_terms), nan
+    where no term.
     """
     factors = np.asarray(factors, dtype=int)
     sums = np.zeros(factors.size)

@@ -12,10 +12,10 @@ filter, so the result equals the dense computation to rounding
 (tests/test_noise_estimate.py checks it against the InnovationFilter).
 
 Reference: Durbin & Koopman, *Time Series Analysis by State Space Methods*
-(2nd ed., 2012), sections 4.3 (filter), 7.2 (the likelihood by the
-prediction-error decomposition) and 5.7 (diffuse initial level); Harvey,
-*Forecasting, Structural Time Series Models and the Kalman Filter* (1989),
-section 3.3.4 (convergence to the steady-state filter).
+(2nd ed., 2012), section 4.3 (the filter), chapter 7 (the likelihood by the
+prediction-error decomposition) and chapter 5 (a diffuse initial level);
+Harvey, *Forecasting, Structural Time Series Models and the Kalman Filter*
+(1989), chapter 3 (the steady-state filter of a time-invariant model).
 """
 
 import math
@@ -75,7 +75,7 @@ def gains(white, correlated, tau, walk, dt, n_max):
 def _steady_filter(g):
     """(b, a) of the time-invariant map from readings to (unscaled) innovations."""
     phi, k0, k1 = g.phi, float(g.k0[-1]), float(g.k1[-1])
-    # a_{k+1} = A a_k + B y_k, e_k = y_k - H a_k with H = [1, 1] (Durbin & Koopman eq. 4.24 in innovation form)
+    # the filter in innovation form: a_{k+1} = A a_k + B y_k, e_k = y_k - H a_k, H = [1, 1], A = F (I - K H), B = F K
     a00, a01, a10, a11 = phi * (1.0 - k0), -phi * k0, -k1, 1.0 - k1
     b0, b1 = phi * k0, k1
     trace, det = a00 + a11, a00 * a11 - a01 * a10
