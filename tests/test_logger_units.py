@@ -105,6 +105,20 @@ def test_iso_timestamps_naive_and_aware(tmp_path, sim):
         _read(tmp_path, tmp_path / "mixed.csv")
 
 
+def test_a_time_column_named_time(tmp_path, sim):
+    time, values = sim
+    start = datetime(2022, 3, 7, 16, 35, 15, 600000)
+    _iso_log(tmp_path / "iso.csv", time, values, lambda t: (start + timedelta(seconds=t)).isoformat())
+    text = (tmp_path / "iso.csv").read_text().replace("time_s,", "time,", 1)
+    (tmp_path / "iso.csv").write_text(text)
+    assert np.allclose(_read(tmp_path, tmp_path / "iso.csv").time, time, atol=1e-6)
+    write_csv(tmp_path / "num.csv", time, [TILT, DEFLECTION], values, time_scale=1e-3)
+    (tmp_path / "num.csv").write_text((tmp_path / "num.csv").read_text().replace("time_s,", "time,", 1))
+    assert np.allclose(_read(tmp_path, tmp_path / "num.csv", 'time_unit = "ms"\n').time, time)
+    with pytest.raises(DataError, match="column 'time' holds numbers without a unit; name it time_s or time_ms"):
+        _read(tmp_path, tmp_path / "num.csv")
+
+
 def test_a_time_column_in_ms_declared_as_s_is_caught(tmp_path, sim):
     time, values = sim
     write_csv(tmp_path / "log.csv", time, [TILT, DEFLECTION], values, time_scale=1e-3)

@@ -29,7 +29,8 @@ if TYPE_CHECKING:
 
 __all__ = ["read_timeseries", "read_axle_times"]
 
-TIME_COLUMNS = {"time_s": "s", "time_ms": "ms"}  # the time column's names and the unit each implies
+# the time column's names and the unit each implies ("time": ISO timestamps, or numbers in [logger] time_unit)
+TIME_COLUMNS = {"time_s": "s", "time_ms": "ms", "time": None}
 
 
 def _rows(path):
@@ -74,17 +75,19 @@ def _table(path, header, rows, *, skip=None):
 
 def _time_column(path, header, fmt):
     """The name of the time column and its factor to s (None: ISO timestamps are decided by the cells)."""
-    found = [h for h in TIME_COLUMNS if h in header]
+    # 'time' only without time_s / time_ms (a sensor may be called "time")
+    found = [h for h in ("time_s", "time_ms") if h in header] or [h for h in ("time",) if h in header]
     if not found:
-        raise DataError(f"{path}: missing column 'time_s' (or 'time_ms'); the header must be 'time_s' followed by "
-                        "one column per sensor name.")
+        raise DataError(f"{path}: missing column 'time_s' (or 'time_ms', or 'time' with timestamps); the header "
+                        "must be 'time_s' followed by one column per sensor name.")
     if len(found) > 1:
-        raise DataError(f"{path}: both 'time_s' and 'time_ms' columns; keep one time column.")
+        raise DataError(f"{path}: time columns {', '.join(repr(h) for h in found)}; keep one time column.")
     name = found[0]
     if name == "time_ms" and fmt.time_unit == "s":
         raise DataError(f"{path}: the time column is 'time_ms' but [logger] time_unit is \"s\"; rename the "
                         "column time_s or set time_unit = \"ms\".")
-    return name, TIME_UNITS[fmt.time_unit or TIME_COLUMNS[name]]
+    unit = fmt.time_unit or TIME_COLUMNS[name]
+    return name, None if unit is None else TIME_UNITS[unit]
 
 
 def _timestamps(path, name, cells):
@@ -115,6 +118,11 @@ def _read_time(path, name, factor, rows, col):
     except ValueError:
         if any(ch.isdigit() for ch in cells[0]) and "-" in cells[0]:
             return _timestamps(path, name, cells)
+    else:
+        if factor is None:
+            raise DataError(f"{path}: column '{name}' holds numbers without a unit; name it time_s or time_ms, or "
+                            "set [logger] time_unit.")
+    factor = 1.0 if factor is None else factor  # the first cell is no number: _number names it
     return np.array([_number(path, k, name, c) for k, c in enumerate(cells)]) * factor, ""
 
 
