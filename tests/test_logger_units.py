@@ -205,3 +205,19 @@ def test_cli_noise_write_case_needs_a_speed(degree_log, tmp_path, capsys):
                  "--json", str(tmp_path / "noise.json"), "--write-case", str(tmp_path / "c.toml")])
     err = capsys.readouterr().err
     assert code == 1 and "--speed" in err and not (tmp_path / "noise.json").exists()
+
+
+def test_cli_noise_reads_a_ms_time_base_and_catches_it_declared_as_s(tmp_path, capsys):
+    time, values, _ = record(240.0, 20.0, [TILT, DEFLECTION], rng=3)
+    write_csv(tmp_path / "log.csv", time, [TILT, DEFLECTION], values, time_scale=1e-3)  # ms under 'time_s'
+    (tmp_path / "ms.csv").write_text((tmp_path / "log.csv").read_text().replace("time_s,", "time_ms,", 1))
+    case = _case(tmp_path)
+    code = main(["noise", "--config", str(case), "--timeseries", str(tmp_path / "ms.csv"), "--rate", "5",
+                 "--json", str(tmp_path / "ok.json"), "--quiet"])
+    assert code == 0
+    assert json.loads((tmp_path / "ok.json").read_text())["sample_interval_s"] == pytest.approx(0.2)
+    code = main(["noise", "--config", str(case), "--timeseries", str(tmp_path / "log.csv"), "--json",
+                 str(tmp_path / "slip.json")])
+    err = capsys.readouterr().err
+    assert code == 1 and len(err.strip().splitlines()) == 1 and "time_unit = \"ms\"" in err
+    assert not (tmp_path / "slip.json").exists()
