@@ -181,6 +181,10 @@ def test_cli_noise_prints_writes_json_figure_and_case(degree_log, tmp_path, caps
     case = load_case(tmp_path / "case-noise.toml")
     assert case.noise.std[0] == pytest.approx(tilt["white_std"]["value"])
     assert case.noise.std[1] == pytest.approx(data["channels"][1]["white_std"]["value"])
+    if "correlated_std" in (tmp_path / "case-noise.toml").read_text():  # a case writer with the [noise] time keys
+        for key in ("correlated_std", "correlation_time_s", "random_walk"):
+            assert getattr(case.noise, key)[0] == pytest.approx(tilt[key]["value"])
+        assert case.noise.speed == 1.5
 
 
 @pytest.mark.parametrize("logger, message", [
