@@ -99,6 +99,14 @@ def _check_estimates(seed, rate):
     short = c.allan.tau_s <= 60.0  # longer averages have few terms and scatter
     assert np.allclose(c.allan.model[short], c.allan.data[short], rtol=0.15)
     assert c.allan.misfit()[0] < 0.15 and "note:" not in result.summary()
+    # the floor between 1 and 30 s, data and model, near the simulator's (closed form at the true parameters)
+    factors = np.round(c.allan.tau_s / c.allan.tau_s[0]).astype(int)
+    inside = (c.allan.tau_s >= 1.0) & (c.allan.tau_s <= 30.0)
+    true = np.sqrt(allan_variance_model(factors[inside], 1.0 / rate, white=MUNICH_LIKE["white"],
+                                        correlated=MUNICH_LIKE["correlated"], correlation_time=MUNICH_LIKE["tau"],
+                                        random_walk=MUNICH_LIKE["walk"])).min()
+    assert c.allan.floor() == pytest.approx(true, rel=0.15)
+    assert c.allan.floor(model=True) == pytest.approx(true, rel=0.15)
     return result
 
 

@@ -69,10 +69,12 @@ class AllanDeviation:
         k = int(np.argmax(ratio))
         return float(ratio[k]), float(self.tau_s[precise][k])
 
-    def floor(self, low=1.0, high=30.0):
-        """Smallest Allan deviation of the data for averaging times in [low, high] s (nan if none)."""
-        inside = (self.tau_s >= low) & (self.tau_s <= high) & np.isfinite(self.data)
-        return float(np.min(self.data[inside])) if inside.any() else math.nan
+    def floor(self, low=1.0, high=30.0, *, model=False):
+        """Smallest Allan deviation of the data (of the model) for averaging times in [low, high] s (nan if none):
+        what averaging over that range cannot remove."""
+        values = self.model if model else self.data
+        inside = (self.tau_s >= low) & (self.tau_s <= high) & np.isfinite(values)
+        return float(np.min(values[inside])) if inside.any() else math.nan
 
 
 @dataclass(frozen=True, eq=False)
@@ -169,6 +171,8 @@ class NoiseEstimate:
             lines.append("  Allan deviation [" + unit + "]:   tau [s]     data    model")
             for tau, d, m in zip(c.allan.tau_s, c.allan.data, c.allan.model):
                 lines.append(f"  {'':<30}{tau:8.3g} {scale * d:8.3g} {scale * m:8.3g}")
+            lines.append(f"  Allan floor between 1 and 30 s: data {scale * c.allan.floor():.3g}, model "
+                         f"{scale * c.allan.floor(model=True):.3g} {unit}")
             worst, at = c.allan.misfit()
             if worst > MISFIT:
                 why = ("fast structure white + OU + walk lacks (vibration?); fitting at a rate below it (--rate) folds "
