@@ -242,6 +242,6 @@ def test_cli_quiet_record_is_an_error_without_files(tmp_path, capsys):
 
 def test_logger_section_is_validated():
     with pytest.raises(ValueError, match="tilt_unit"):
-        case_from_toml(CASE.replace('tilt_unit = "urad"', 'tilt_unit = "deg"'))
+        case_from_toml(CASE.replace('tilt_unit = "urad"', 'tilt_unit = "gon"'))
     with pytest.raises(ValueError, match="temperature_columns"):
         case_from_toml(CASE.replace('temperature_columns = ["T_deck"]', 'temperature_columns = "T_deck"'))

@@ -27,6 +27,7 @@ from . import (
     diagnose,
     informativeness,
     invert,
+    noise,
     recommend,
     report,
     simulate,
@@ -36,7 +37,7 @@ from ._common import document_defaults
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
-COMMANDS = (simulate, crossings, informativeness, detectability, invert, recommend, verify, diagnose, report)
+COMMANDS = (simulate, crossings, noise, informativeness, detectability, invert, recommend, verify, diagnose, report)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -36,7 +36,7 @@ _KEYS = {
     "loads": {"start", "stop", "step"},
     "noise": {"correlation_length", *TIME_KEYS},
     "case": {"name"},
-    "logger": {"temperature_columns", "tilt_unit", "deflection_unit"},
+    "logger": {"temperature_columns", "tilt_unit", "deflection_unit", "time_unit"},
 }
 _REQUIRED = {"bridge": {"spans", "ei"}, "vehicle": {"axle_offsets", "axle_loads"},
              "sensors": {"positions"}}
@@ -99,7 +99,7 @@ def load_logger_format(path: "str | os.PathLike[str] | None") -> LoggerFormat:
 def _logger_format(data, source):
     lg = _section(data, "logger", source)
     return LoggerFormat(lg.get("temperature_columns", ()), lg.get("tilt_unit", "rad"),
-                        lg.get("deflection_unit", "m"))
+                        lg.get("deflection_unit", "m"), lg.get("time_unit"))
 
 
 def _section(data, name, source):

@@ -1,5 +1,6 @@
 """A logger's continuous record: time, one channel per sensor, optional temperatures."""
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -13,8 +14,10 @@ MIN_SAMPLE_INTERVAL = 1e-6
 MAX_SAMPLE_INTERVAL = 60.0
 
 # Units a logger may write, as factors to SI (rad or m).
-TILT_UNITS = {"rad": 1.0, "mm/m": 1e-3, "urad": 1e-6}
+TILT_UNITS = {"rad": 1.0, "deg": math.pi / 180.0, "mdeg": math.pi / 180.0e3, "mm/m": 1e-3, "urad": 1e-6}
 DEFLECTION_UNITS = {"m": 1.0, "mm": 1e-3}
+# Time bases of a numeric time column, as factors to s.
+TIME_UNITS = {"s": 1.0, "ms": 1e-3}
 
 
 @dataclass(frozen=True)
@@ -25,15 +28,19 @@ class LoggerFormat:
     ----------
     temperature_columns : tuple of str
         Columns holding temperatures [deg C]; read and averaged per crossing.
-    tilt_unit : {"rad", "mm/m", "urad"}
+    tilt_unit : {"rad", "deg", "mdeg", "mm/m", "urad"}
         Unit of the tiltmeter columns.
     deflection_unit : {"m", "mm"}
         Unit of the deflection columns.
+    time_unit : {"s", "ms"} or None
+        Unit of a numeric time column; None: from the column's name
+        (``time_s`` in s, ``time_ms`` in ms).  ISO 8601 timestamps need none.
     """
 
     temperature_columns: tuple = ()
     tilt_unit: str = "rad"
     deflection_unit: str = "m"
+    time_unit: str | None = None
 
     def __post_init__(self):
         cols = self.temperature_columns
@@ -45,10 +52,17 @@ class LoggerFormat:
             if getattr(self, key) not in units:
                 raise ConfigError(f"The '{key}' parameter of [logger] must be one of "
                                   f"{', '.join(repr(u) for u in units)}. Got {getattr(self, key)!r} instead.")
+        if self.time_unit is not None and self.time_unit not in TIME_UNITS:
+            raise ConfigError("The 'time_unit' parameter of [logger] must be one of "
+                              f"{', '.join(repr(u) for u in TIME_UNITS)}. Got {self.time_unit!r} instead.")
 
     def factor(self, kind):
         """Factor from the logger's unit of a ``kind`` sensor to SI."""
         return TILT_UNITS[self.tilt_unit] if kind == "rotation" else DEFLECTION_UNITS[self.deflection_unit]
+
+    def unit(self, kind):
+        """The logger's unit of a ``kind`` sensor and the [logger] key that states it."""
+        return (self.tilt_unit, "tilt_unit") if kind == "rotation" else (self.deflection_unit, "deflection_unit")
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,12 +79,15 @@ class TimeSeries:
         Readings [rad or m].
     temperatures : dict of str -> ndarray (n_samples,)
         Temperature channels [deg C].
+    start : str
+        ISO 8601 timestamp of time 0 when the record had timestamps ('' otherwise).
     """
 
     time: np.ndarray
     names: tuple
     values: np.ndarray
     temperatures: dict = field(default_factory=dict)
+    start: str = ""
 
     def __post_init__(self):
         time = np.asarray(self.time, dtype=float)
@@ -103,3 +120,8 @@ class TimeSeries:
     def sample_interval(self):
         """Median time between samples [s]."""
         return float(np.median(np.diff(self.time)))
+
+    @property
+    def duration(self):
+        """Time from the first to the last sample [s]."""
+        return float(self.time[-1] - self.time[0])
