@@ -75,3 +75,20 @@ def test_without_a_time_model_new_sensors_keep_the_correlation_length():
     case = dataclasses.replace(base, noise=NoiseModel(base.noise.std, 0.5))
     new = SensorLayout([3.0], ("rotation",), None, [1e-6])
     assert case.with_sensors(new).noise.correlation_length == 0.5
+
+
+def test_a_written_case_keeps_its_logger_section():
+    from sensorplan.io.config import load_logger_format
+    from sensorplan.model.timeseries import LoggerFormat
+
+    logger = LoggerFormat(temperature_columns=("T_deck",), tilt_unit="deg", time_unit="ms")
+    case = case_from_toml(case_text())
+    text = case_to_toml(case, logger=logger)
+    import pathlib
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = pathlib.Path(folder) / "case.toml"
+        path.write_text(text)
+        assert load_logger_format(path) == logger
+    assert "[logger]" not in case_to_toml(case, logger=LoggerFormat())

@@ -79,6 +79,9 @@ def run(args, out, files):
         kept_out = [] if result.corrected_model is None else list(result.corrected_model.not_in_case)
         header = (f"{case.name} corrected by `sensorplan diagnose` ({result.statement})"
                   + (f"\nnot in the case (properties of the data): {', '.join(kept_out)}" if kept_out else ""))
-        path = files.write_text(args.write_case, case_to_toml(corrected_case(case, result), header=header))
+        from ..io.config import load_logger_format
+
+        text = case_to_toml(corrected_case(case, result), header=header, logger=load_logger_format(args.config))
+        path = files.write_text(args.write_case, text)
         out(f"corrected case written to {path}" + (f" (not in it: {', '.join(kept_out)})" if kept_out else ""))
     return 0

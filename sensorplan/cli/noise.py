@@ -79,7 +79,8 @@ def run(args, out, files):
 
     case = load_case(args)
     speed = _speed(case, args.speed) if args.write_case is not None else None
-    series = read_timeseries(args.timeseries, case.sensors, load_logger_format(args.config))
+    logger = load_logger_format(args.config)
+    series = read_timeseries(args.timeseries, case.sensors, logger)
     kinds = [case.sensors.kinds[case.sensors.names.index(name)] for name in series.names]
     result = estimate_noise(series, kinds, max_rate=args.rate, min_segment_s=args.min_quiet)
     out(result.summary())
@@ -93,7 +94,8 @@ def run(args, out, files):
         from ..io.case_writer import case_to_toml
 
         header = f"{case.name} with the noise estimated by `sensorplan noise` from {args.timeseries}"
-        path = files.write_text(args.write_case, case_to_toml(_noise_case(case, result, speed), header=header))
+        path = files.write_text(args.write_case, case_to_toml(_noise_case(case, result, speed), header=header,
+                                                                  logger=logger))
         written.append(f"case: {path}")
     if written:
         out("written: " + "; ".join(written))

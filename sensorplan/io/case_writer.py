@@ -35,8 +35,24 @@ def _noise_lines(noise):
     return lines + ([] if noise.sample_rate is None else [f"sample_rate = {_num(noise.sample_rate)}"])
 
 
-def case_to_toml(case, *, header=""):
-    """TOML text of ``case``; reading it back gives the same case (uniform meshes and sweeps only)."""
+def _logger_lines(logger):
+    """The [logger] section of a :class:`~sensorplan.model.timeseries.LoggerFormat` (none for the defaults)."""
+    if logger is None or logger == type(logger)():
+        return []
+    lines = ["", "[logger]", f'tilt_unit = "{logger.tilt_unit}"', f'deflection_unit = "{logger.deflection_unit}"']
+    if logger.temperature_columns:
+        lines.append("temperature_columns = [" + ", ".join(f'"{c}"' for c in logger.temperature_columns) + "]")
+    if logger.time_unit is not None:
+        lines.append(f'time_unit = "{logger.time_unit}"')
+    return lines
+
+
+def case_to_toml(case, *, header="", logger=None):
+    """TOML text of ``case``; reading it back gives the same case (uniform meshes and sweeps only).
+
+    ``logger`` (a ``LoggerFormat``) is written as the ``[logger]`` section, so that a case
+    written from a case file keeps how its logger exports are read.
+    """
     bridge, mesh = case.bridge, case.mesh
     n = mesh.n_elements
     if not np.allclose(Mesh.uniform(bridge, n).edges, mesh.edges):
@@ -60,4 +76,4 @@ def case_to_toml(case, *, header=""):
         if x.size > 1 and not np.allclose(np.diff(x), step):
             raise ConfigError("The case's load sweep is not evenly spaced; a case file describes start, stop, step.")
         lines += ["", "[loads]", f"start = {_num(x[0])}", f"stop = {_num(x[-1])}", f"step = {_num(step)}"]
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + _logger_lines(logger)) + "\n"
