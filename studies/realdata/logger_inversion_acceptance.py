@@ -10,8 +10,10 @@ the record's quiet parts by ``estimate_noise``, the whole chain as a user runs i
 
 Geometry: the 30 m single span of tests/test_crossing_events.py (EI 4.5e10 N m^2, a 26 t three-axle truck),
 tiltmeters 1 m from each support and at the quarter points; inverted on 30 elements.  The truth (no inverse
-crime): EI on 120 elements, the nominal times exp(0.08 sin(2 pi x / L + 0.4) + 0.05 cos(6 pi x / L)), compared
-with its element-average EI on the inversion mesh.  Undamaged, so every detector alarm is a false alarm.
+crime): EI on 120 elements drawn per replicate from the inversion's GMRF prior discretised on that finer mesh
+(studies/inversion/calibration_integrated.py: ``matched_fine_precision``, ``draw_truth``; ``--fixed-truth``:
+the nominal times exp(0.08 sin(2 pi x / L + 0.4) + 0.05 cos(6 pi x / L)) in every replicate), compared with its
+element-average EI on the inversion mesh.  Undamaged, so every detector alarm is a false alarm.
 
 Reported: crossings accepted (of those simulated) and their speed errors, the 95 % band's coverage of the
 true EI per replicate and over all (target 0.90-0.99), and the detector's false-alarm rate with its Wilson
@@ -32,6 +34,8 @@ import warnings
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "tests"))
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "inversion"))
+from calibration_integrated import PRIOR, draw_truth, matched_fine_precision  # noqa: E402
 from logger_sim import MUNICH_LIKE, Bridge, Channel, Crossing, influence_lines, noise  # noqa: E402
 
 import sensorplan as sp  # noqa: E402
@@ -68,11 +72,17 @@ speed = 1.5
 """
 
 
-def truth():
-    edges = np.linspace(0.0, SPAN, FINE + 1)
+def fixed_truth(edges):
     mid = 0.5 * (edges[1:] + edges[:-1])
-    values = EI * np.exp(0.08 * np.sin(2 * np.pi * mid / SPAN + 0.4) + 0.05 * np.cos(6 * np.pi * mid / SPAN))
-    return edges, values
+    return EI * np.exp(0.08 * np.sin(2 * np.pi * mid / SPAN + 0.4) + 0.05 * np.cos(6 * np.pi * mid / SPAN))
+
+
+def lines_of(edges, values):
+    """Unit-load influence lines of the sensors on the truth (the independent FE solve)."""
+    bridge = Bridge([SPAN], EI, rot_springs=[0.0, 0.0], vert_springs=[math.inf, math.inf], ei_edges=list(edges),
+                    ei_values=list(values))
+    xs = np.linspace(0.0, SPAN, 601)
+    return influence_lines(bridge, [Channel(n, x) for n, x in SENSORS], xs), xs
 
 
 def simulate(rate, speeds, lines, xs, rng):
@@ -119,20 +129,20 @@ def main(argv=None):
     parser.add_argument("--crossings", type=int, default=5, help="vehicles per record (default 5)")
     parser.add_argument("--estimate", action="store_true", help="estimate the noise from each record")
     parser.add_argument("--seed", type=int, default=36)
+    parser.add_argument("--fixed-truth", action="store_true", help="one smooth truth in every replicate")
     args = parser.parse_args(argv)
     case = case_from_toml(CASE)
-    edges, values = truth()
-    bridge = Bridge([SPAN], EI, rot_springs=[0.0, 0.0], vert_springs=[math.inf, math.inf], ei_edges=list(edges),
-                    ei_values=list(values))
-    xs = np.linspace(0.0, SPAN, 601)
-    lines = influence_lines(bridge, [Channel(n, x) for n, x in SENSORS], xs)
+    edges = np.linspace(0.0, SPAN, FINE + 1)
     fine = sp.Mesh(edges)
-    ei_truth = element_average_ei(fine, values, case.mesh)
+    chol = np.linalg.cholesky(np.linalg.inv(matched_fine_precision(case, fine, PRIOR)))
     rng = np.random.default_rng(args.seed)
     accepted = simulated = alarms = tested = 0
     covers, errors = [], []
     t_start = time.process_time()
     for k in range(args.replicates):
+        values = fixed_truth(edges) if args.fixed_truth else draw_truth(case, fine, chol, rng)[0]
+        lines, xs = lines_of(edges, values)
+        ei_truth = element_average_ei(fine, values, case.mesh)
         n_acc, errs, cover, alarm = replicate(case, args.rate, args.crossings, lines, xs, ei_truth, rng,
                                               args.estimate)
         simulated += args.crossings
