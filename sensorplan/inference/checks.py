@@ -8,26 +8,33 @@ causes and points at ``sensorplan diagnose``:
   misses something;
 * hyper-posterior mass of tau at a hard end of its grid (or a point
   estimate of tau on its optimiser's bound);
-* a systematic residual: per sensor, the whitened residuals r / alpha of
-  every crossing with at least ``MIN_LOADS`` positions (shorter crossings
-  are not tested) are tested for a non-zero mean and for autocorrelation.
-  Per crossing, with n the readings that inform (``NoiseModel.dof``: one
-  fewer where the time model marginalises the wander's offset), the mean
-  term is n mean^2 / v (v = 1 - (1^T u)^2 / n, u the unit whitened constant
-  the offset projection removed; 1 without it) and the Ljung-Box term
-  n (n + 2) sum_k rho_k^2 / (n - k) over the sample autocorrelations rho_k,
-  lags 1..h with h = max(1, min(5, n_loads // 10)) (with more lags the
-  chi-square tail is too light at a hundred positions, simulated).  Summed
-  over a sensor's m crossings: M (mean terms) + B (Ljung-Box terms).  With
-  alpha known, M ~ chi-square(m) and B ~ chi-square(m h).  With alpha
-  estimated from the fit's residual degrees of freedom nu (``dof``), the
-  mean terms become an F statistic: the sensor's own mean-square against
-  the rest of the residual sum of squares S (all readings, in units of
-  alpha), F = (M / m) / ((S - M) / (nu - m)) ~ F(m, nu - m) (the
-  extra-sum-of-squares test of one offset per crossing); B does not depend
-  on alpha.  The p-value is P(m F(m, nu - m) + chi-square(m h) > m F + B),
-  the two parts independent (the sample mean and the autocorrelations of
-  the centred residuals are, for Gaussian noise), by one quadrature; for
+* a systematic residual: per sensor, the whitened residuals r / alpha are
+  tested for a non-zero mean and for autocorrelation.  Per crossing, with
+  n readings of which n' inform (``NoiseModel.dof``: one fewer where the
+  time model marginalises the wander's offset), the mean term is
+  n mean^2 / v (v = 1 - (1^T u)^2 / n, u the unit whitened constant the
+  offset projection removed; 1 without it); it carries 1 - h / v degrees
+  of freedom, h the readings' mean leverage (the fit absorbs that share of
+  the mean; :func:`_leverages`).  Crossings of at least ``MIN_LOADS``
+  positions add the Ljung-Box term n' (n' + 2) sum_k rho_k^2 / (n' - k)
+  over the sample autocorrelations rho_k, lags 1..h' with
+  h' = max(1, min(5, n // 10)) (with more lags the chi-square tail is too
+  light at a hundred positions, simulated).  Summed over a sensor's
+  crossings: M (mean terms, m degrees of freedom) + B (Ljung-Box terms,
+  k = the sum of the h').
+
+  With alpha known (``dof`` None, e.g. ``hyper="fixed"``) only crossings
+  of at least ``MIN_LOADS`` positions are tested: M + B ~ chi-square(m + k).
+  With alpha estimated from the fit's residual degrees of freedom nu
+  (:func:`residual_dof`), the mean terms are an F statistic, the sensor's
+  own mean-square against the rest of the residual sum of squares S (all
+  readings, in units of alpha): F = (M / m) / ((S - M) / (nu - m)) ~
+  F(m, nu - m), the extra-sum-of-squares test of one offset per crossing,
+  which compares a sensor with the others and so also tests the mean of
+  short crossings (static readings) when nu - m >= 1.  B does not depend
+  on alpha.  The p-value is P(m F(m, nu - m) + chi-square(k) > m F + B), the
+  two parts independent (for Gaussian noise the sample mean and the
+  autocorrelations of the centred residuals are), by one quadrature; for
   nu -> infinity it is the chi-square test of known alpha.  A sensor is
   flagged when p < 1e-3 / n_sensors (Bonferroni) and its residuals are not
   negligible (mean square of r / alpha at least 0.25: the structure of a
@@ -43,7 +50,7 @@ __all__ = ["fit_warnings", "residual_p_values", "residual_dof", "NOISE_SCALE_RAN
 
 NOISE_SCALE_RANGE = (0.5, 2.0)
 RESIDUAL_LEVEL = 1e-3  # family-wise level of the residual test over the sensors
-MIN_LOADS = 20  # crossings with fewer positions are not tested
+MIN_LOADS = 20  # shorter crossings: no Ljung-Box term, and untested when alpha is known
 MIN_MEAN_VARIANCE = 0.05  # a crossing whose mean the offset projection (nearly) removes has no mean term
 DIAGNOSE = "run `sensorplan diagnose` to test these explanations against the data"
 
@@ -88,8 +95,11 @@ def _leverages(noise, fit, noise_scale):
     return np.mean((fit.model_std / marginal[:, None]) ** 2, axis=1)
 
 
-def _residual_terms(noise, fits, noise_scale):
-    """Per sensor: mean terms M, Ljung-Box terms B, their counts (m, m h), mean square; and S over all readings."""
+def _residual_terms(noise, fits, noise_scale, short):
+    """Per sensor: mean terms M, Ljung-Box terms B, their counts (m, m h), mean square; and S over all readings.
+
+    ``short``: whether crossings with fewer than ``MIN_LOADS`` positions give mean terms.
+    """
     n_sensors = noise.n_sensors
     informs = np.array([noise.subset([i]).dof(1) for i in range(n_sensors)])  # 0 where the offset is spent
     mean = np.zeros(n_sensors)
@@ -104,11 +114,12 @@ def _residual_terms(noise, fits, noise_scale):
         r = noise.whiten(fit.data - fit.model, fit.positions, times=fit.times) / noise_scale  # (n_sensors, n_loads)
         total += float(np.sum(r * r))
         n_eff = n - 1 + informs  # readings that inform, per sensor
-        square += np.sum(r * r, axis=1)
-        count += n_eff
+        if short or n >= MIN_LOADS:
+            square += np.sum(r * r, axis=1)
+            count += n_eff
         v = _mean_variances(noise, fit, n)
         share = 1.0 - _leverages(noise, fit, noise_scale) / np.maximum(v, MIN_MEAN_VARIANCE)
-        tested = (v >= MIN_MEAN_VARIANCE) & (n_eff > 0) & (share >= MIN_MEAN_VARIANCE)
+        tested = (v >= MIN_MEAN_VARIANCE) & (n_eff > 0) & (share >= MIN_MEAN_VARIANCE) & (short or n >= MIN_LOADS)
         mean += np.where(tested, n * np.mean(r, axis=1) ** 2 / np.maximum(v, MIN_MEAN_VARIANCE), 0.0)
         n_mean += np.where(tested, share, 0.0)
         if n < MIN_LOADS:
@@ -142,7 +153,7 @@ def residual_p_values(noise, fits, noise_scale, *, dof=None):
     ``dof``: the residual degrees of freedom nu on which ``noise_scale`` was
     estimated (:func:`residual_dof`); None when the noise scale is known.
     """
-    mean, box, m, k, square, total = _residual_terms(noise, fits, noise_scale)
+    mean, box, m, k, square, total = _residual_terms(noise, fits, noise_scale, dof is not None)
     p = np.full(noise.n_sensors, np.nan)
     for i in range(noise.n_sensors):
         if m[i] + k[i] == 0 or square[i] < 0.25:
