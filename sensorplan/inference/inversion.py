@@ -32,7 +32,7 @@ from .._threads import single_threaded
 from ..model.crossings import Crossings
 from ..model.prior import GMRFPrior, HyperPrior
 from ..verdict import inversion_verdict
-from .checks import NOISE_SCALE_RANGE, RESIDUAL_LEVEL, fit_warnings, residual_p_values
+from .checks import NOISE_SCALE_RANGE, RESIDUAL_LEVEL, fit_warnings, residual_dof, residual_p_values
 from .damage import damage_hypotheses
 from .detector import detect_damage
 from .ei_problem import EIProblem, prior_matrices
@@ -141,7 +141,7 @@ def invert(case, crossings, *, prior=None, estimate_springs=True, parameterisati
     if detect and parameterisation == "log_ei":
         detection = detect_damage(problem.inversion_case, crossings, false_alarm=false_alarm, nuisance=nuisance, rng=rng)
         mixture, probability = _with_damage(mixture, problem, prior, detection, damage_prior, damage_log_std)
-    return _posterior(problem, fit, mixture, hyper=hyper, excluded=excluded, detection=detection,
+    return _posterior(problem, fit, mixture, hyper=hyper, excluded=excluded, detection=detection, prior=prior,
                       probability=probability, detector_run=detect and parameterisation == "log_ei")
 
 
@@ -163,7 +163,7 @@ def _checked_data(case, crossings, *, hyper, check_scale, screen, mesh):
     return crossings, excluded
 
 
-def _posterior(problem, fit, mixture, *, hyper, excluded, detection, probability, detector_run=True):
+def _posterior(problem, fit, mixture, *, hyper, excluded, detection, probability, prior, detector_run=True):
     """The result of :func:`invert`, its convergence and trust warnings emitted."""
     theta, covariance, alpha = mixture.mean, mixture.covariance, fit.noise_scale
     messages = []
@@ -172,7 +172,9 @@ def _posterior(problem, fit, mixture, *, hyper, excluded, detection, probability
         warnings.warn("sensorplan invert: the Gauss-Newton / evidence iteration did not converge; "
                       "results are reported with converged = false.", SensorplanWarning, stacklevel=3)
     fits = problem.fits(theta, covariance, alpha)
-    residual_p = residual_p_values(problem.noise, fits, alpha)
+    # the noise scale is estimated (unless fixed) from the fit's residual degrees of freedom
+    dof = None if hyper == "fixed" else residual_dof(problem.n_data, fit.mixture, *prior_matrices(problem, prior))
+    residual_p = residual_p_values(problem.noise, fits, alpha, dof=dof)
     trust = fit_warnings(problem.noise, fits, problem.sensors.names, noise_scale=alpha,
                          noise_configured=problem.case.noise is not None,
                          tau_at_bound=fit.mass_at_bound > BOUND_MASS, tau_side="flat" if fit.flat_side else "rough",

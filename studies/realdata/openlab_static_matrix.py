@@ -29,6 +29,75 @@ spring (k -> 1e7 N/m, the withheld LWA_5 predicted at 1.7-5.5 mm against
 one EI per span and its prior instead.
 
 Run: python studies/realdata/openlab_static_matrix.py [--no-level] [--span-mesh] [--quick]
+
+Measured 2026-11-27 on branch ``static2`` (commit 6e471eb plus its residual test; the rows are identical
+at 6e471eb), the shared 2-core machine at load 12-15, one thread: about 80 s of CPU per matrix (52 s user,
+28 s system), 120 MB peak.  Left: the default prior (``level_std`` 1); right: ``--no-level``.  "level"
+is the posterior mean of log EI minus its nominal; "in band" whether the withheld laser's two readings
+lie in their 95 % predictive band (n/a: pins cannot predict the bearing laser)::
+
+    variant        EI      held  inv diag verdict           level in band | inv diag verdict           level in band
+    pins           5.0e+08 LWA_1 ok  ok   model_error        0.28 NO      | ok  ok   model_error        0.16 NO
+    pins           5.0e+08 LWA_2 ok  ok   model_error        0.34 yes     | ok  ok   model_error        0.16 yes
+    pins           5.0e+08 LWA_3 ok  ok   model_error        0.32 yes     | ok  ok   model_error        0.14 yes
+    pins           5.0e+08 LWA_4 ok  ok   model_error        0.45 NO      | ok  ok   model_error        0.18 yes
+    pins           5.0e+08 LWA_5 ok  ok   model_error        0.35 n/a     | ok  ok   model_error        0.17 n/a
+    pins           1.0e+09 LWA_1 ok  ok   model_error       -0.41 NO      | ok  ok   model_error       -0.21 NO
+    pins           1.0e+09 LWA_2 ok  ok   model_error       -0.35 yes     | ok  ok   model_error       -0.17 yes
+    pins           1.0e+09 LWA_3 ok  ok   model_error       -0.37 yes     | ok  ok   model_error       -0.16 yes
+    pins           1.0e+09 LWA_4 ok  ok   model_error       -0.23 NO      | ok  ok   model_error       -0.10 NO
+    pins           1.0e+09 LWA_5 ok  ok   model_error       -0.34 n/a     | ok  ok   model_error       -0.17 n/a
+    pins           2.0e+09 LWA_1 ok  ok   model_error       -1.10 NO      | ok  ok   model_error       -0.05 yes
+    pins           2.0e+09 LWA_2 ok  ok   model_error       -1.04 yes     | ok  ok   model_error       -0.05 yes
+    pins           2.0e+09 LWA_3 ok  ok   model_error       -1.06 yes     | ok  ok   model_error       -0.04 yes
+    pins           2.0e+09 LWA_4 ok  ok   model_error       -0.92 NO      | ok  ok   model_error       -0.05 NO
+    pins           2.0e+09 LWA_5 ok  ok   model_error       -1.03 n/a     | ok  ok   model_error       -0.05 n/a
+    bearing spring 5.0e+08 LWA_1 ok  ok   insufficient_data  0.33 NO      | ok  ok   model_error        0.19 NO
+    bearing spring 5.0e+08 LWA_2 ok  ok   model_error        0.38 yes     | ok  ok   model_error        0.18 yes
+    bearing spring 5.0e+08 LWA_3 ok  ok   model_error        0.37 yes     | ok  ok   model_error        0.16 yes
+    bearing spring 5.0e+08 LWA_4 ok  ok   model_error        0.49 NO      | ok  ok   model_error        0.19 yes
+    bearing spring 5.0e+08 LWA_5 ok  ok   model_error        0.40 yes     | ok  ok   model_error        0.18 yes
+    bearing spring 1.0e+09 LWA_1 ok  ok   departure         -0.36 NO      | ok  ok   departure         -0.20 NO
+    bearing spring 1.0e+09 LWA_2 ok  ok   model_error       -0.30 yes     | ok  ok   model_error       -0.15 yes
+    bearing spring 1.0e+09 LWA_3 ok  ok   model_error       -0.32 yes     | ok  ok   model_error       -0.14 yes
+    bearing spring 1.0e+09 LWA_4 ok  ok   model_error       -0.20 NO      | ok  ok   model_error       -0.09 NO
+    bearing spring 1.0e+09 LWA_5 ok  ok   model_error       -0.28 yes     | ok  ok   model_error       -0.02 NO
+    bearing spring 2.0e+09 LWA_1 ok  ok   departure         -1.05 NO      | ok  ok   model_error       -0.05 yes
+    bearing spring 2.0e+09 LWA_2 ok  ok   model_error       -0.99 yes     | ok  ok   model_error       -0.05 yes
+    bearing spring 2.0e+09 LWA_3 ok  ok   model_error       -1.00 yes     | ok  ok   model_error       -0.05 yes
+    bearing spring 2.0e+09 LWA_4 ok  ok   model_error       -0.89 NO      | ok  ok   model_error       -0.05 NO
+    bearing spring 2.0e+09 LWA_5 ok  ok   model_error       -0.97 yes     | ok  ok   model_error       -0.04 NO
+    frame springs  5.0e+08 LWA_1 ok  ok   insufficient_data  0.24 yes     | ok  ok   insufficient_data  0.11 yes
+    frame springs  5.0e+08 LWA_2 ok  ok   model_error        0.27 yes     | ok  ok   model_error        0.11 yes
+    frame springs  5.0e+08 LWA_3 ok  ok   insufficient_data  0.23 yes     | ok  ok   insufficient_data  0.09 yes
+    frame springs  5.0e+08 LWA_4 ok  ok   insufficient_data  0.32 NO      | ok  ok   insufficient_data  0.09 NO
+    frame springs  5.0e+08 LWA_5 ok  ok   insufficient_data  0.29 yes     | ok  ok   model_error        0.11 yes
+    frame springs  1.0e+09 LWA_1 ok  ok   departure         -0.45 yes     | ok  ok   departure         -0.23 yes
+    frame springs  1.0e+09 LWA_2 ok  ok   model_error       -0.42 yes     | ok  ok   departure         -0.22 yes
+    frame springs  1.0e+09 LWA_3 ok  ok   departure         -0.45 yes     | ok  ok   departure         -0.22 yes
+    frame springs  1.0e+09 LWA_4 ok  ok   insufficient_data -0.37 NO      | ok  ok   insufficient_data -0.22 NO
+    frame springs  1.0e+09 LWA_5 ok  ok   departure         -0.39 yes     | ok  ok   insufficient_data -0.08 NO
+    frame springs  2.0e+09 LWA_1 ok  ok   departure         -1.13 yes     | ok  ok   model_error       -0.05 yes
+    frame springs  2.0e+09 LWA_2 ok  ok   model_error       -1.11 yes     | ok  ok   model_error       -0.05 yes
+    frame springs  2.0e+09 LWA_3 ok  ok   departure         -1.14 yes     | ok  ok   model_error       -0.04 NO
+    frame springs  2.0e+09 LWA_4 ok  ok   departure         -1.06 NO      | ok  ok   model_error       -0.05 NO
+    frame springs  2.0e+09 LWA_5 ok  ok   departure         -1.07 yes     | ok  ok   model_error       -0.05 NO
+
+Acceptance ("invert and diagnose never fail"): 0 failures of 45 in either matrix (and no failure at
+the issue's EI 1e9 and 5e8 for any variant and withheld laser).  The detector found no testable zone
+in any row (two steps under the smooth nuisance); it says so in one line.  The level takes up the
+nominal's error: about -0.35 at 1e9 and -1.05 at 2e9, i.e. an overall EI near 7e8 whatever the
+nominal, where without it the level stays within 0.25 of the nominal.  It repairs the issue's case:
+at the nominal 1e9 and 2e9, with the bearing spring or the frame springs and LWA_5 withheld, the
+bearing laser is predicted inside its band with the level and outside without it (the error then
+goes into the bearing spring, k down to 4e6 N/m).  Withheld laser inside its band: 27 of 42 judged
+rows with the level, 26 of 42 without.  The misses are mostly LWA_1 (span 1, read -0.97 and -1.65 mm)
+and LWA_4 (read 5.07 and 10.05 mm): with the level, pins and the bearing spring miss both at every
+nominal EI (without it, 2 of 6 such rows are in band each) -- a misfit of the model there that the
+level does not cause and does not resolve (left open).  The verdict is mostly model_error because
+the estimated noise scale is 2-3.3 times the stated 0.2 mm (checked at 1e9: pins/LWA_1 2.6,
+bearing spring/LWA_3 3.3, frame springs/LWA_2 2.1); the residual test now runs on these static
+readings (alpha estimated, F) and flagged no laser in the three rows checked (smallest p 0.04).
 """
 
 import argparse
