@@ -88,8 +88,10 @@ def _leverages(noise, fit, noise_scale):
     """Per sensor, the mean leverage of the crossing's readings: (model std / marginal noise std)^2.
 
     Exact for one white-noise reading (the fit's hat matrix diagonal, model_std^2 being the posterior
-    variance of the prediction); for longer crossings the leverage of a white direction, at most that
-    of the mean (smooth predictions lean on the mean more), so the mean term's dof err on the high side.
+    variance of the prediction).  For longer crossings it is the average leverage of single readings,
+    usually below that of their mean (smooth predictions move together), so the mean term keeps more
+    degrees of freedom than it has: the test errs on the conservative side.  Measured calibrations:
+    tests/test_residual_calibration.py.
     """
     marginal = noise_scale * np.sqrt(noise.std**2 + np.asarray(noise.correlated_std) ** 2)
     return np.mean((fit.model_std / marginal[:, None]) ** 2, axis=1)
