@@ -235,10 +235,12 @@ class VerificationPlan:
         """The tasks of layout ``k`` on the scenarios ``indices``, warm-started at its pilot's ``start``."""
         return [self._task(self.layouts[k], self.scenarios[i], self.seeds[i], start) for i in indices]
 
+    @single_threaded  # one BLAS limit for the call, not one per inversion (on a worker)
     def run_pilot(self, k):
         """(noise scale, tau) of layout ``k``'s pilot inversion."""
         return run_pilot(self.pilot(k))
 
+    @single_threaded
     def run_scenarios(self, k, start, indices):
         """The records of layout ``k`` on the scenarios ``indices``, warm-started at ``start``."""
         return [run_scenario(t) for t in self.layout_tasks(k, start, indices)]

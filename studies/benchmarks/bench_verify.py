@@ -81,15 +81,21 @@ RTOL = 1e-6  # relative tolerance of the scenario-by-scenario comparison (see th
 # Run in a child process with the package under test first on sys.path; prints one JSON line.
 CHILD = r"""
 import json, sys, time
+from sensorplan._threads import single_threaded
 from sensorplan.io.config import example_case
 from sensorplan.verification.verify import plan_verification, run_pilot, run_scenario
+
+@single_threaded  # as verify_layouts is: one BLAS thread limit for the whole run
+def run(case, args):
+    plan = plan_verification(case, [args["layout"]], n_locations=args["locations"], n_crossings=args["crossings"],
+                             seed=args["seed"])
+    starts = [run_pilot(t) for t in plan.pilots()]
+    return [run_scenario(t) for t in plan.tasks(starts)]
+
 args = json.loads(sys.argv[1])
 case = example_case(args["example"])
 t0 = time.process_time()
-plan = plan_verification(case, [args["layout"]], n_locations=args["locations"], n_crossings=args["crossings"],
-                         seed=args["seed"])
-starts = [run_pilot(t) for t in plan.pilots()]
-records = [run_scenario(t) for t in plan.tasks(starts)]
+records = run(case, args)
 cpu = time.process_time() - t0
 print(json.dumps({"cpu": cpu, "records": [r.to_dict() for r in records]}))
 """
