@@ -240,6 +240,40 @@ def part_dask(args):
           f"once, 2.00 on two free cores): {', '.join(f'{c:.2f}' for c in capacity)}")
 
 
+# (file name, function name, label) of the cost decomposition printed by --profile
+PHASES = (("inversion.py", "invert", "invert (all of one scenario's inference)"),
+          ("hyperposterior.py", "integrate_problem", "  hyper-posterior fit (MAPs, Laplace, quadrature over tau)"),
+          ("forward.py", "influence_lines", "  forward solves (fit, null fit, damage, fits)"),
+          ("detector.py", "detect_damage", "  damage detector"),
+          ("detector.py", "fit", "    its null fit (Gauss-Newton under the nuisance)"),
+          ("scan.py", "_null_maxima", "    its threshold: 20000 simulated null maxima"),
+          ("scan.py", "_zone_posteriors", "    its zone posteriors"),
+          ("inversion.py", "_with_damage", "  local-loss hypotheses in the bands"),
+          ("mixture.py", "mixture_quantile", "credible intervals (mixture quantiles)"),
+          ("simulate.py", "simulate_crossings", "simulation of the truth"))
+
+
+def part_profile(args):
+    """Where one core's time goes in this tree (cProfile, cumulative shares; Python-heavy parts look larger)."""
+    import cProfile
+    import pstats
+
+    from sensorplan.io.config import example_case
+    from sensorplan.verification.verify import verify_layouts
+
+    case = example_case(EXAMPLE)
+    profile = cProfile.Profile()
+    profile.enable()
+    verify_layouts(case, [LAYOUT], n_locations=args.locations, n_crossings=N_CROSSINGS, seed=SEED)
+    profile.disable()
+    stats = pstats.Stats(profile).stats
+    total = max(ct for (_, _, name), (_, _, _, ct, _) in stats.items() if name == "verify_layouts")
+    for filename, function, label in PHASES:
+        cum = sum(ct for (f, _, name), (_, _, _, ct, _) in stats.items()
+                  if name == function and f.endswith(filename))
+        print(f"  {label:62s} {100 * cum / total:5.1f} %")
+
+
 STUDY_CASES = ("simply-supported", "openlab-like", "three-span")
 STUDY = dict(criteria=["D", "A"], counts=3, baselines=["equally_spaced"], n_scenarios=4, seed=1)
 
@@ -277,9 +311,13 @@ def main(argv=None):
     parser.add_argument("--reference", default=REFERENCE_COMMIT, help=f"git commit (default {REFERENCE_COMMIT})")
     parser.add_argument("--no-dask", action="store_true", help="skip part 2")
     parser.add_argument("--no-reference", action="store_true", help="skip part 1")
+    parser.add_argument("--profile", action="store_true", help="also print where the time goes (cProfile)")
     args = parser.parse_args(argv)
     print(f"verify benchmark: {EXAMPLE}, layout {LAYOUT} m, n_locations={args.locations}, {N_CROSSINGS} "
           f"crossings, seed {SEED}; {os.cpu_count()} logical CPUs; BLAS threads 1")
+    if args.profile:
+        print("Where one core's time goes in this tree (cProfile; share of verify_layouts)")
+        part_profile(args)
     if not args.no_reference:
         print("Part 1: one core, CPU seconds, reference commit vs this tree")
         part_one_core(args)
