@@ -110,3 +110,13 @@ def test_verification_on_a_pool_equals_one_process_for_several_layouts():
     with ThreadPoolExecutor(3) as pool:
         threads = verify_layouts(case, layouts, executor=pool, **options).to_dict()
     assert json.dumps(threads, sort_keys=True) == json.dumps(one, sort_keys=True)
+
+
+def test_chunks_hold_about_an_eighth_of_a_workers_share():
+    from sensorplan.verification.dispatch import chunk_size
+
+    assert chunk_size(None, 92) == 1  # in process: progress after every scenario
+    with ThreadPoolExecutor(2) as pool:
+        assert chunk_size(pool, 92) == 92 // 16  # 8 tasks per worker
+        assert chunk_size(pool, 3) == 1
+        assert chunk_size(pool, 10, n_layouts=40) == 10  # never more than a layout's scenarios
