@@ -88,6 +88,25 @@ def _import_distributed(name):
     return distributed
 
 
+def _local_cluster(distributed, workers):
+    """A LocalCluster of ``workers`` single-threaded processes, set up for small dense numerical tasks.
+
+    Dask's nanny sets MALLOC_TRIM_THRESHOLD_ in its workers, which turns off
+    glibc's adaptive mmap threshold: every temporary array over 128 kB is then
+    mapped and unmapped anew, and a verification scenario costs about a third
+    more CPU on a worker than in this process; it is left unset here, and the
+    workers' sampling profiler is off.  No dashboard; the scheduler's HTTP
+    server on a free local port (8787 may be taken).
+    """
+    import dask
+
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+                          "distributed.worker.profile.enabled": False}):
+        return distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                        dashboard_address=None, silence_logs=logging.ERROR,
+                                        scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"})
+
+
 @contextmanager
 def executor_for(workers: int = 1, scheduler: str | None = None, *, timeout: float = 10.0,
                  name: str = "scheduler") -> Iterator[Executor | None]:
@@ -119,11 +138,7 @@ def executor_for(workers: int = 1, scheduler: str | None = None, *, timeout: flo
     try:
         try:
             if scheduler == "local":
-                # no dashboard; the scheduler's HTTP server on a free local port (8787 may be taken)
-                cluster = distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                                   dashboard_address=None, silence_logs=logging.ERROR,
-                                                   scheduler_kwargs={"dashboard": False,
-                                                                     "dashboard_address": "127.0.0.1:0"})
+                cluster = _local_cluster(distributed, workers)
                 client = distributed.Client(cluster, timeout=timeout)
             else:
                 client = distributed.Client(scheduler, timeout=timeout)
@@ -254,10 +269,12 @@ class TaskGraph:
         self._values: dict = {}
 
     def constant(self, value) -> _Ref:
+        """A node holding ``value``, an input shared by the tasks that take it (not copied per task on Dask)."""
         self._nodes.append((None, (value,), 0))
         return _Ref(len(self._nodes) - 1)
 
     def task(self, fn: Callable, *args, weight: int = 0) -> _Ref:
+        """A node ``fn(*args)``, nodes among ``args`` replaced by their values; ``weight``: its progress units."""
         self._nodes.append((fn, args, int(weight)))
         return _Ref(len(self._nodes) - 1)
 
@@ -266,6 +283,7 @@ class TaskGraph:
         return self._values[ref.index]
 
     def run(self, progress: Callable[[int, int], None] | None = None) -> None:
+        """Run every task (see the class); an error raised by a task propagates, a dead worker is an ExecutorError."""
         total = sum(w for _, _, w in self._nodes)
         done = [0]
 

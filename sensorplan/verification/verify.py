@@ -187,7 +187,7 @@ def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float] | SensorLayo
         are the detector's; each layout's ``detection_limit`` is the
         physical limit it is measured against (:func:`detection_limit`).
     progress : callable, optional
-        Called with (done, total) after each scenario.
+        Called with (done, total) scenarios as they finish (on a pool or a cluster, a chunk at a time).
     """
     plan = plan_verification(case, layouts, n_locations=n_locations, severity=severity, length=length,
                              n_controls=n_controls, n_crossings=n_crossings, seed=seed, kind=kind,
