@@ -40,6 +40,7 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
+from .._cache import Cache
 from .._errors import DataError
 from .engine import LOG_NOISE_FLOOR, SecantCurvature, solve_map
 from .mixture import GaussianMixture
@@ -82,9 +83,10 @@ class _Surrogate:
         self.lin, self.theta, self.ctx = lin, theta, ctx
         self.g = lin.jtr + lin.jtj @ d  # J^T (y_lin - J theta0)
         self.yy = float(lin.rr + 2.0 * d @ lin.jtr + d @ lin.jtj @ d)  # |y_lin - J theta0|^2
+        self.slices = Cache(maxsize=64)
 
-    def at(self, log_tau):
-        return _Slice(self, log_tau)
+    def at(self, log_tau):  # slices are kept: the search for the mode and the march ask for some twice
+        return self.slices.get((float(log_tau),), lambda: _Slice(self, log_tau))
 
 
 class _Slice:

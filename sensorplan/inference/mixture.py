@@ -56,18 +56,24 @@ def mixture_quantile(weights, means, stds, probability):
         return component[0]
     x = np.tensordot(weights, component, axes=1)
     scale = np.maximum(hi - lo, 1e-300)
+    active = np.arange(x.size)  # columns still iterating (each column's root is found independently)
     for _ in range(200):
-        cdf, pdf = _cdf_pdf(x, weights, means, stds)
+        cols = active
+        xa = x[cols]
+        cdf, pdf = _cdf_pdf(xa, weights, means[:, cols], stds[:, cols])
         below = cdf < probability
-        lo = np.where(below, x, lo)
-        hi = np.where(below, hi, x)
+        lo[cols] = np.where(below, xa, lo[cols])
+        hi[cols] = np.where(below, hi[cols], xa)
         with np.errstate(divide="ignore", invalid="ignore"):
-            newton = x - (cdf - probability) / pdf
-        inside = np.isfinite(newton) & (newton > lo) & (newton < hi)
-        new = np.where(inside, newton, 0.5 * (lo + hi))
-        done = np.abs(new - x) <= 1e-13 * scale + 1e-15 * np.abs(x)
-        x = new
-        if np.all(done):
+            newton = xa - (cdf - probability) / pdf
+        # a Newton step onto the bracket's end is kept: at the root the step is zero and x is an end
+        # (a strict test would bisect away from the converged root)
+        inside = np.isfinite(newton) & (newton >= lo[cols]) & (newton <= hi[cols])
+        new = np.where(inside, newton, 0.5 * (lo[cols] + hi[cols]))
+        done = np.abs(new - xa) <= 1e-13 * scale[cols] + 1e-15 * np.abs(xa)
+        x[cols] = new
+        active = cols[~done]
+        if not active.size:
             break
     return x
 

@@ -22,7 +22,7 @@ from .._cache import Cache
 from .._errors import ConfigError
 from .diagrams import RAMP, STEP, element_products, end_value_and_slope, point_actions, weighted_products
 
-__all__ = ["ForceMethod", "SharedCache", "shared_force_method"]
+__all__ = ["ForceMethod", "SharedCache", "shared_force_method", "free_actions"]
 
 
 class SharedCache:
@@ -140,11 +140,31 @@ class ForceMethod:
 
     def solve(self, positions, weights, kinds):
         """Actual diagrams and reactions for free-body atoms (n_funcs, n_actions)."""
-        free = point_actions(self.edges, positions, weights, kinds)
+        free, ends = free_actions(self.edges, self.length, positions, weights, kinds)
         g = weighted_products(self.edges, self.basis, free, self.v)  # (n_u, n_funcs)
-        x_scaled = self.redundants(g, *end_value_and_slope(self.length, positions, weights, kinds))
+        x_scaled = self.redundants(g, *ends)
         reactions = x_scaled * self.scale[:, None]  # physical R [N] and C [N m]
         return free.plus_linear(x_scaled.T @ self.basis.left, x_scaled.T @ self.basis.right), reactions
+
+
+_FREE = SharedCache(32)  # the free-body diagrams of the last few sets of actions (loads, sensors)
+
+
+def free_actions(edges, length, positions, weights, kinds):
+    """Free-body diagrams of actions and their value and slope beyond the right end, kept by their values.
+
+    They do not depend on EI: a fit asks for the same load positions and
+    sensors at every EI it tries.
+    """
+    def make():
+        free = point_actions(edges, positions, weights, kinds)
+        for arr in (free.left, free.right, free.atom_func, free.atom_elem, free.atom_pos, free.atom_kind,
+                    free.atom_weight):
+            arr.setflags(write=False)
+        return free, end_value_and_slope(length, positions, weights, kinds)
+
+    return _FREE.get((edges, float(length), np.asarray(positions, dtype=float), np.asarray(weights, dtype=float),
+                      np.asarray(kinds)), make)
 
 
 _METHODS = SharedCache(8)  # the last few force methods, by (bridge, mesh, EI)

@@ -23,8 +23,9 @@ from dataclasses import KW_ONLY, asdict, dataclass, fields
 from typing import TYPE_CHECKING
 
 from .._errors import ConfigError
-from .._executors import executor_for, map_ordered
-from .verify import plan_verification, run_pilot, run_scenario
+from .._executors import executor_for
+from .study_tasks import DesignJob, distinct_layouts, keep_row, run_study
+from .verify import plan_verification
 
 if TYPE_CHECKING:
     from ..model.case import Case
@@ -172,40 +173,6 @@ def _load(case):
     return case
 
 
-@dataclass(frozen=True)
-class _DesignJob:
-    """One (case, count, criterion) to recommend, with the design options every job shares."""
-
-    case: "Case"
-    count: int
-    criterion: str
-    spacing: float
-    n_crossings: int
-    seed: int
-
-
-@dataclass(frozen=True)
-class _Candidate:
-    """A layout a design offers for verification: the recommended one or a feasible baseline."""
-
-    name: str
-    layout_m: tuple
-    value: float
-    efficiency: float
-
-
-def _recommend(job):
-    """The recommended layout and the feasible baselines of one job; run on a worker."""
-    from ..design.recommend import CandidateGrid, recommend
-
-    design = recommend(job.case, job.count, job.criterion, grid=CandidateGrid(spacing=job.spacing),
-                       kind=job.case.default_kind, n_crossings=job.n_crossings, rng=job.seed, curve_max=0)
-    rows = [_Candidate("recommended", design.layout_m, design.value, design.efficiency)]
-    rows += [_Candidate(b.name, b.layout_m, b.value, min(1.0, b.relative * design.efficiency))
-             for b in design.baselines if b.feasible]
-    return rows
-
-
 def design_study(cases: Sequence, *, criteria: Sequence[str] = ("D",), counts: "int | Sequence[int] | None" = None,
                  baselines: "bool | Sequence[str]" = True, n_scenarios: int = 8, n_controls: int | None = None,
                  n_crossings: int = 10,
@@ -234,22 +201,28 @@ def design_study(cases: Sequence, *, criteria: Sequence[str] = ("D",), counts: "
     executor, workers, scheduler :
         Where the work runs, as in :func:`sensorplan.verify_layouts`; the table does not depend on it.
     progress : callable, optional
-        Called with (done, total) after each verification scenario.
+        Called with (done, total) as the work finishes: a design counts 1, a verification scenario 1.
+        The whole study is one task graph (on Dask submitted at once, see
+        :mod:`sensorplan.verification.study_tasks`).
     """
     loaded = _load_cases(cases)
     criteria = _check_criteria(criteria)
-    jobs = [_DesignJob(case, int(r), crit, float(spacing), int(design_crossings), int(seed))
+    _check_baseline_names(baselines)
+    jobs = [DesignJob(case, int(r), crit, float(spacing), int(design_crossings), int(seed))
             for case, cs in zip(loaded, _counts(loaded, counts)) for r in cs for crit in criteria]
+    options = dict(n_locations=n_scenarios, severity=severity, length=length, n_controls=n_controls,
+                   n_crossings=n_crossings, seed=seed, false_alarm=false_alarm, nuisance=nuisance)
     with nullcontext(executor) if executor is not None else executor_for(workers, scheduler) as runner:
-        designs = map_ordered(runner, _recommend, jobs, chunksize=1)
-        _check_baselines(baselines, designs)
-        selected = [(job, [row for row in rows if _keep(row.name, baselines)]) for job, rows in zip(jobs, designs)]
-        plans = [plan_verification(case, _layouts_of(case, selected), n_locations=n_scenarios, severity=severity,
-                                   length=length, n_controls=n_controls, n_crossings=n_crossings, seed=seed,
-                                   kind=case.default_kind, false_alarm=false_alarm, nuisance=nuisance)
-                 for case in loaded]
-        verifications = _verify_all(runner, loaded, plans, progress)
-    rows = [row for job, chosen in selected for row in _study_rows(job, chosen, verifications[job.case.name])]
+        designs, records = run_study(runner, loaded, jobs, baselines=baselines, options=options, progress=progress)
+    _check_baselines(baselines, designs)
+    verifications = {}
+    for case, slots in zip(loaded, records):
+        layouts = distinct_layouts([rows for job, rows in zip(jobs, designs) if job.case is case], baselines)
+        plan = plan_verification(case, layouts, kind=case.default_kind, **options)
+        verifications[case.name] = plan.result([r for slot in slots[:len(layouts)] for r in slot])
+    rows = [row for job, design in zip(jobs, designs)
+            for row in _study_rows(job, [r for r in design if keep_row(r.name, baselines)],
+                                   verifications[job.case.name])]
     return DesignStudy(tuple(rows), seed=int(seed), n_crossings=int(n_crossings), severity=float(severity),
                        length=float(length), false_alarm=float(false_alarm), nuisance=nuisance,
                        verifications=verifications)
@@ -289,6 +262,23 @@ def _counts(loaded, counts):
     return per_case
 
 
+def _check_baseline_names(baselines):
+    """Baselines named by the caller must be baselines recommend knows (before any work is done)."""
+    import inspect
+
+    from ..design.baselines import BASELINES
+    from ..design.recommend import recommend
+
+    if isinstance(baselines, bool):
+        return
+    n_random = inspect.signature(recommend).parameters["n_random"].default
+    known = {label.format(n_random=n_random) for label in BASELINES}
+    unknown = sorted(set(baselines) - known)
+    if unknown:
+        raise ConfigError(f"The 'baselines' parameter names unknown baselines: {', '.join(unknown)}; choose among "
+                          f"{', '.join(sorted(known))}.")
+
+
 def _check_baselines(baselines, designs):
     """Baselines named by the caller must be feasible baselines of some design."""
     if isinstance(baselines, bool):
@@ -298,27 +288,6 @@ def _check_baselines(baselines, designs):
     if missing:
         raise ConfigError(f"The 'baselines' parameter names no feasible baseline of these designs: "
                           f"{', '.join(missing)}; choose among {', '.join(sorted(known - {'recommended'}))}.")
-
-
-def _layouts_of(case, selected):
-    """The distinct layouts chosen for ``case`` over its jobs, in order of first appearance."""
-    return list(dict.fromkeys(row.layout_m for job, rows in selected if job.case is case for row in rows))
-
-
-def _verify_all(runner, loaded, plans, progress):
-    """Every case's verification (case name -> VerificationResult), all the pilots and tasks on ``runner``."""
-    starts = map_ordered(runner, run_pilot, [t for plan in plans for t in plan.pilots()], chunksize=1)
-    tasks, k = [], 0
-    for plan in plans:
-        tasks += plan.tasks(starts[k:k + len(plan.layouts)])
-        k += len(plan.layouts)
-    records = map_ordered(runner, run_scenario, tasks, progress=progress)
-    verifications, k = {}, 0
-    for case, plan in zip(loaded, plans):
-        n = len(plan.layouts) * len(plan.scenarios)
-        verifications[case.name] = plan.result(records[k:k + n])
-        k += n
-    return verifications
 
 
 def _study_rows(job, chosen, result):
@@ -345,11 +314,3 @@ def _rate_fields(name, metric, count, total):
     """A rate Metric as the StudyRow fields of its interval and counts."""
     low, high = metric.ci95
     return {f"{name}_low": low, f"{name}_high": high, count: metric.count, total: metric.n}
-
-
-def _keep(name, baselines):
-    if name == "recommended":
-        return True
-    if isinstance(baselines, bool):
-        return baselines
-    return name in baselines

@@ -7,9 +7,10 @@ crime is committed.  Noise comes from the case's noise model (AR(1)
 included).  The data are inverted with :func:`sensorplan.invert`,
 hyperparameters included, exactly as ``sensorplan invert`` does.
 
-Scenarios run through any ``concurrent.futures.Executor``; each one draws
-its noise from its own child of ``numpy.random.SeedSequence(seed)``, so the
-results are identical whatever the number of workers.
+Scenarios run through any ``concurrent.futures.Executor`` or a Dask
+cluster (:mod:`.dispatch`: one task graph, scenarios in chunks); each one
+draws its noise from its own child of ``numpy.random.SeedSequence(seed)``,
+so the results are identical whatever the number of workers.
 """
 
 import math
@@ -24,13 +25,14 @@ import numpy as np
 from scipy import special
 
 from .._errors import ConfigError, SensorplanWarning
-from .._executors import executor_for, map_ordered
+from .._executors import executor_for
 from .._threads import single_threaded
 from ..detection.signatures import whitened_signatures
 from ..inference.inversion import invert
 from ..model.noise import NoiseModel
 from ..model.sensors import SensorLayout
 from ..model.simulate import simulate_crossings
+from .dispatch import run_plans
 from .results import LayoutScore, ScenarioRecord, VerificationResult
 from .scenarios import Scenario, element_average_ei, make_scenarios, truth_mesh
 
@@ -87,8 +89,9 @@ def _run_task(task, *, posterior=False):
     data = simulate_crossings(fine, task.n_crossings, noise=True, rng=rng, ei=truth_fine)
     with warnings.catch_warnings(record=True):  # counted through post.converged, not printed per scenario
         warnings.simplefilter("always", SensorplanWarning)
-        post = invert(case, data, screen=False, noise_scale=task.start[0], tau=task.start[1], detect=not posterior,
-                      false_alarm=task.false_alarm, nuisance=task.nuisance, rng=rng)
+        # the data are the model's own simulation: no screening and no unit-slip check (a forward solve each)
+        post = invert(case, data, screen=False, check_scale=False, noise_scale=task.start[0], tau=task.start[1],
+                      detect=not posterior, false_alarm=task.false_alarm, nuisance=task.nuisance, rng=rng)
     if posterior:
         return post
     detection = post.damage
@@ -184,14 +187,13 @@ def verify_layouts(case: "Case", layouts: "Sequence[Sequence[float] | SensorLayo
         are the detector's; each layout's ``detection_limit`` is the
         physical limit it is measured against (:func:`detection_limit`).
     progress : callable, optional
-        Called with (done, total) after each scenario.
+        Called with (done, total) scenarios as they finish (on a pool or a cluster, a chunk at a time).
     """
     plan = plan_verification(case, layouts, n_locations=n_locations, severity=severity, length=length,
                              n_controls=n_controls, n_crossings=n_crossings, seed=seed, kind=kind,
                              noise_std=noise_std, false_alarm=false_alarm, nuisance=nuisance)
     with nullcontext(executor) if executor is not None else executor_for(workers, scheduler) as runner:
-        starts = map_ordered(runner, run_pilot, plan.pilots(), chunksize=1)
-        records = map_ordered(runner, run_scenario, plan.tasks(starts), progress=progress)
+        records = run_plans(runner, [plan], progress=progress)[0]
     return plan.result(records, names)
 
 
@@ -224,6 +226,24 @@ class VerificationPlan:
         """The (layout, scenario) tasks, layout by layout; ``starts`` are the pilots' results."""
         return [self._task(layout, scenario, s, start)
                 for layout, start in zip(self.layouts, starts) for scenario, s in zip(self.scenarios, self.seeds)]
+
+    def pilot(self, k):
+        """The pilot task of layout ``k``."""
+        return self._task(self.layouts[k], self.scenarios[0], self.seeds[0])
+
+    def layout_tasks(self, k, start, indices):
+        """The tasks of layout ``k`` on the scenarios ``indices``, warm-started at its pilot's ``start``."""
+        return [self._task(self.layouts[k], self.scenarios[i], self.seeds[i], start) for i in indices]
+
+    @single_threaded  # one BLAS limit for the call, not one per inversion (on a worker)
+    def run_pilot(self, k):
+        """(noise scale, tau) of layout ``k``'s pilot inversion."""
+        return run_pilot(self.pilot(k))
+
+    @single_threaded
+    def run_scenarios(self, k, start, indices):
+        """The records of layout ``k`` on the scenarios ``indices``, warm-started at ``start``."""
+        return [run_scenario(t) for t in self.layout_tasks(k, start, indices)]
 
     def _task(self, layout, scenario, seed, start=(1.0, None)):
         return _Task(case=self.case, layout=layout, scenario=scenario, seed=seed, n_crossings=self.n_crossings,
