@@ -29,7 +29,6 @@ from .._executors import executor_for
 from .._threads import single_threaded
 from ..detection.signatures import whitened_signatures
 from ..inference.inversion import invert
-from ..model.noise import NoiseModel
 from ..model.sensors import SensorLayout
 from ..model.simulate import simulate_crossings
 from .dispatch import run_plans
@@ -80,8 +79,7 @@ def _as_sensors(case, layout, kind, noise_std):
 def _run_task(task, *, posterior=False):
     case = task.case
     sensors = task.layout
-    noise = NoiseModel(sensors.noise_std, case.noise.correlation_length)
-    case = replace(case, sensors=sensors, noise=noise)
+    case = case.with_sensors(sensors)  # the layout's noise by the one rule (the case's correlation or time model)
     fine_mesh = truth_mesh(case)
     fine = case.with_mesh(fine_mesh)
     truth_fine = task.scenario.truth(fine_mesh, fine.ei)
@@ -133,8 +131,7 @@ def detection_limit(case, layout, scenarios, *, kind="rotation", noise_std=None,
         return None
     length = local[0].stop - local[0].start
     sensors = _as_sensors(case, layout, kind, noise_std)
-    noise = NoiseModel(sensors.noise_std, case.noise.correlation_length)
-    sig = whitened_signatures(case, sensors, noise, [s.centre for s in local], severity=local[0].severity,
+    sig = whitened_signatures(case, sensors, case.noise_for(sensors), [s.centre for s in local], severity=local[0].severity,
                               length=length, nuisance=nuisance)
     d = sig.projected_norms("damage") * math.sqrt(n_crossings)
     m = max(1, int(math.floor(case.bridge.length / length)))
