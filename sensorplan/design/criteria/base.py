@@ -134,6 +134,14 @@ class Criterion(ABC):
         best, _ = problem.linear_max(g)
         return self.utility(q) + max(0.0, best - float(g @ w))
 
+    def linearisation(self, problem, w):
+        """(constant, g) with utility* <= constant + g^T s for every relaxed-feasible s of *any* count
+        (concavity at the relaxed weights ``w``): the relaxed optimum for count r is at most
+        constant + max g^T s over sum s = r, a concave function of r."""
+        q = problem.precision(w)
+        g = problem.block_dot(self.gradient_matrix(q))
+        return self.utility(q) - float(g @ w), g
+
     # -- cvxpy -----------------------------------------------------------------------------
     def cvxpy_precision(self, cp, problem, w, idx):
         """Q(w) as a cvxpy expression (weights ``w`` on the candidates ``idx``)."""
