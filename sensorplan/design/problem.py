@@ -69,8 +69,16 @@ class DesignProblem:
         return self.blocks.reshape(self.n_candidates, -1)
 
     def precision(self, w):
-        """Q(w) for weights ``w`` (C,)."""
-        return self.q0 + (np.asarray(w, dtype=float) @ self.flat_blocks).reshape(self.q0.shape)
+        """Q(w) for weights ``w`` (C,) (from the candidates with a weight only, when they are few)."""
+        w = np.asarray(w, dtype=float)
+        nonzero = np.flatnonzero(w)
+        if nonzero.size > w.size // 4:
+            return self.q0 + (w @ self.flat_blocks).reshape(self.q0.shape)
+        total = self.q0.copy()
+        for start in range(0, nonzero.size, self._chunk):
+            part = nonzero[start:start + self._chunk]
+            total += (w[part] @ self.flat_blocks[part]).reshape(self.q0.shape)
+        return total
 
     def layout_precision(self, index):
         index = list(index)
@@ -94,6 +102,8 @@ class DesignProblem:
             return self.flat_blocks @ g
         index = np.asarray(index, dtype=int)
         step = self._chunk
+        if index.size > self.n_candidates // 4:  # one pass over all blocks costs less than copying these
+            return (self.flat_blocks @ g)[index]
         return np.concatenate([self.flat_blocks[index[s:s + step]] @ g for s in range(0, index.size, step)]
                               + [np.zeros(0)])
 

@@ -41,7 +41,7 @@ How to run
 ----------
 From the repository root::
 
-    python studies/benchmarks/bench_network.py [--quick]
+    python studies/benchmarks/bench_network.py [--quick] [--part=target] [--part=growth]
 
 ``--quick`` runs the growth series only up to C = 800 and N = 240 and the
 target configurations at C = 800 (to check the script).  Each child has a
@@ -205,7 +205,7 @@ def fit_exponent(xs, ts):
     return float(np.polyfit(a[:, 0], a[:, 1], 1)[0])
 
 
-def main(quick=False):
+def main(quick=False, parts=("target", "growth")):
     print(f"load average at start: {os.getloadavg()}; threads: "
           + ", ".join(f"{k}={os.environ[k]}" for k in THREAD_VARS))
     c_target = 800 if quick else 3000
@@ -213,6 +213,15 @@ def main(quick=False):
           "efficiency of the layout; peak / est: measured peak RSS / up-front estimate [GiB]; est_s: estimated CPU s")
     print(HEADER)
     results = {}
+    if "target" in parts:
+        target_part(results, c_target)
+    if "growth" in parts:
+        growth_part(results, c_target, quick)
+    print(f"load average at end: {os.getloadavg()}")
+
+
+def target_part(results, c_target):
+    """D, A, E and the mixed design at N = 400, C = ``c_target``, R = 20, against the targets."""
     for crit in ("D", "A", "E"):
         res = results[crit] = run({"n": 400, "c": c_target, "r": 20, "crit": crit})
         print(row(f"{crit} N=400 C={c_target} R=20", res), flush=True)
@@ -228,11 +237,16 @@ def main(quick=False):
     if "error" not in results["mixed"]:
         print(f"  mixed: total {results['mixed']['total']:.1f} s (< {MIXED_TARGET_S:g}: "
               f"{results['mixed']['total'] < MIXED_TARGET_S})")
-    growth_c = [c for c in GROWTH_C if c <= c_target]
+
+
+def growth_part(results, c_target, quick):
+    """D against C at N = 400 and against N at C = 800, with the fitted exponents."""
+    # run alone (--part=growth), the largest C is left to the target part (its D row)
+    growth_c = [c for c in GROWTH_C if c < c_target or c == c_target and "D" in results]
     growth_n = [n for n in GROWTH_N if not quick or n <= 240]
     times_c = []
     for c in growth_c:
-        res = results.get("D") if c == c_target else run({"n": 400, "c": c, "r": 20, "crit": "D"})
+        res = results["D"] if c == c_target and "D" in results else run({"n": 400, "c": c, "r": 20, "crit": "D"})
         print(row(f"D N=400 C={c} R=20", res), flush=True)
         times_c.append(None if "error" in res else res["total"])
     times_n = []
@@ -242,11 +256,11 @@ def main(quick=False):
         times_n.append(None if "error" in res else res["total"])
     print(f"fitted exponents: time ~ C^{fit_exponent(growth_c, times_c)} (N = 400, C = {growth_c}), "
           f"time ~ N^{fit_exponent(growth_n, times_n)} (C = 800, N = {growth_n})")
-    print(f"load average at end: {os.getloadavg()}")
 
 
 if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1] == CHILD_FLAG:
         child_main()
     else:
-        main(quick="--quick" in sys.argv)
+        chosen = tuple(a[len("--part="):] for a in sys.argv[1:] if a.startswith("--part=")) or ("target", "growth")
+        main(quick="--quick" in sys.argv, parts=chosen)
