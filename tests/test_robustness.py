@@ -216,7 +216,7 @@ SEMANTIC = [
     (["recommend", "--fixed", "40"], ["--fixed", "30 m"]),
     (["recommend", "--fixed", "11,12", "--min-spacing", "2"], ["--fixed", "--min-spacing"]),
     (["recommend", "--spacing", "5e-324"], ["--spacing"]),
-    (["recommend", "--spacing", "0.001"], ["--spacing"]),
+    (["recommend", "--spacing", "1e-7"], ["--spacing", "GiB"]),
     (["recommend", "--spacing", "31"], ["--spacing"]),
     (["recommend", "--min-spacing", "100"], ["--min-spacing"]),
     (["recommend", "--exclude", "100:200"], ["--exclude"]),

@@ -209,9 +209,7 @@ MAX_CROSSINGS = 10_000
 MAX_WORKERS = min(16, max(4, os.cpu_count() or 1))  # each worker holds its own copy of the case
 MAX_SCENARIOS = 200
 MAX_INVERSION_ELEMENTS = 400
-MAX_CANDIDATES = 2_000
 MAX_CENTRES = 2_000
-MAX_FISHER_BYTES = 2**30
 MIN_SNR = 3.0
 
 
@@ -255,34 +253,12 @@ def check_length(case, length, option):
 def check_grid(case, args):
     """The recommend options against the bridge: candidate count, zones, --fixed, --min-spacing."""
     length = case.bridge.length
-    check_step(case, args.spacing, "--spacing")
+    if args.spacing > length:
+        raise ConfigError(f"--spacing {args.spacing:g} m is longer than the bridge ({length:g} m); give a spacing "
+                          f"below {length:g} m.")
     if getattr(args, "length", None) is not None:
         check_length(case, args.length, "--length")
-    if _count(length, args.spacing) > MAX_CANDIDATES:
-        raise ConfigError(f"--spacing {args.spacing:g} m gives more than {MAX_CANDIDATES} candidates; "
-                          f"use --spacing >= {length / MAX_CANDIDATES:.3g}.")
-    if getattr(args, "criterion", None) == "detect":  # no Fisher blocks: its own packed Gram information
-        from ..design.detect_problem import MEMORY_LIMIT, detection_memory
-
-        needed = detection_memory(case, int(length / args.spacing + 1.0), length=getattr(args, "length", None) or 2.0,
-                                  step=getattr(args, "step", None) or 0.5,
-                                  nuisance=getattr(args, "nuisance", None) or "smooth")
-        if needed > MEMORY_LIMIT:
-            raise ConfigError(f"--spacing {args.spacing:g} m gives about {length / args.spacing + 1:.0f} candidates "
-                              f"whose detection information needs about {needed / 2**30:.2g} GiB, more than "
-                              f"{MEMORY_LIMIT / 2**30:g} GiB; use a larger --spacing or --step.")
-        return _check_fixed(case, args, length)
-    n_params = case.n_elements + (len(case.bridge.spring_parameters) if getattr(args, "springs", False) else 0)
-    needed = (length / args.spacing + 1.0) * n_params**2 * 8.0
-    if needed > MAX_FISHER_BYTES:
-        raise ConfigError(f"--spacing {args.spacing:g} m gives about {length / args.spacing + 1:.0f} candidates whose "
-                          f"Fisher blocks ({n_params} parameters) need {needed / 2**30:.2g} GiB, more than "
-                          f"{MAX_FISHER_BYTES / 2**30:g} GiB; use a larger --spacing or fewer elements.")
-    _check_fixed(case, args, length)
-
-
-def _check_fixed(case, args, length):
-    """--min-spacing, --exclude and --fixed against the bridge and each other."""
+    check_design_resources(case, args)
     if args.min_spacing > length:
         raise ConfigError(f"--min-spacing {args.min_spacing:g} m is longer than the bridge ({length:g} m).")
     zones = tuple(args.exclude or ())
@@ -303,6 +279,29 @@ def _check_fixed(case, args, length):
         if b - a < args.min_spacing:
             raise ConfigError(f"--fixed sensors at {a:g} and {b:g} m are closer than --min-spacing "
                               f"{args.min_spacing:g} m; lower --min-spacing or correct --fixed.")
+
+
+def check_design_resources(case, args):
+    """Refuse a candidate grid whose estimated memory or CPU time is beyond the machine
+    (:mod:`sensorplan.design.resources`), naming both estimates and a --spacing that fits."""
+    from ..design.resources import check_resources, estimate_resources, largest_fitting, spacing_for
+
+    length = case.bridge.length
+    kinds = getattr(args, "kind", None) or ()
+    n_kinds = max(1, len(kinds) if isinstance(kinds, tuple) else len([k for k in kinds.split(",") if k.strip()]))
+    n_candidates = int(min(_count(length, args.spacing) + 1.0, 1e15)) * n_kinds
+    n_params = case.n_elements + (len(case.bridge.spring_parameters) if getattr(args, "springs", False) else 0)
+    count = getattr(args, "count", None) or case.sensors.n_sensors
+    detection = getattr(args, "criterion", None) == "detect"
+
+    def estimate(c):
+        return estimate_resources(c, n_params, count, n_loads=case.sweep.n_loads, detection=detection)
+
+    fitting = largest_fitting(estimate)
+    fits = (f"use --spacing >= {spacing_for(length, fitting, n_kinds):.3g}" if fitting >= n_kinds
+            else "use fewer elements or a larger [loads] step")
+    check_resources(estimate(n_candidates), what=f"--spacing {args.spacing:g} m gives about {n_candidates:.3g} "
+                    "candidates", fits=fits)
 
 
 def check_signal(case, noise, n_crossings):

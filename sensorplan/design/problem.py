@@ -18,7 +18,9 @@ import scipy.optimize
 
 from .._errors import ConfigError, SolverError
 
-__all__ = ["DesignProblem"]
+__all__ = ["DesignProblem", "CHUNK_BYTES"]
+
+CHUNK_BYTES = 2**27  # blocks copied at a time when many are gathered (bounds the temporaries)
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,11 +69,43 @@ class DesignProblem:
         return self.blocks.reshape(self.n_candidates, -1)
 
     def precision(self, w):
-        """Q(w) for weights ``w`` (C,)."""
-        return self.q0 + (np.asarray(w, dtype=float) @ self.flat_blocks).reshape(self.q0.shape)
+        """Q(w) for weights ``w`` (C,) (from the candidates with a weight only, when they are few)."""
+        w = np.asarray(w, dtype=float)
+        nonzero = np.flatnonzero(w)
+        if nonzero.size > w.size // 4:
+            return self.q0 + (w @ self.flat_blocks).reshape(self.q0.shape)
+        total = self.q0.copy()
+        for start in range(0, nonzero.size, self._chunk):
+            part = nonzero[start:start + self._chunk]
+            total += (w[part] @ self.flat_blocks[part]).reshape(self.q0.shape)
+        return total
 
     def layout_precision(self, index):
-        return self.q0 + self.blocks[list(index)].sum(axis=0)
+        index = list(index)
+        step = self._chunk
+        if len(index) <= step:
+            return self.q0 + self.blocks[index].sum(axis=0)
+        total = self.q0.copy()  # many blocks (a baseline's elimination): summed a chunk at a time
+        for start in range(0, len(index), step):
+            total += self.blocks[index[start:start + step]].sum(axis=0)
+        return total
+
+    @cached_property
+    def _chunk(self):
+        """Candidates' blocks gathered at a time (bounds the temporary copies to CHUNK_BYTES)."""
+        return max(1, CHUNK_BYTES // max(1, self.flat_blocks.shape[1] * self.flat_blocks.itemsize))
+
+    def block_dot(self, g, index=None):
+        """<G, I_i> for every candidate (or those at ``index``), without copying all their blocks."""
+        g = np.asarray(g, dtype=float).ravel()
+        if index is None:
+            return self.flat_blocks @ g
+        index = np.asarray(index, dtype=int)
+        step = self._chunk
+        if index.size > self.n_candidates // 4:  # one pass over all blocks costs less than copying these
+            return (self.flat_blocks @ g)[index]
+        return np.concatenate([self.flat_blocks[index[s:s + step]] @ g for s in range(0, index.size, step)]
+                              + [np.zeros(0)])
 
     def posterior_precision(self, index):
         """Posterior precision of the parameters for a layout (for reports)."""
@@ -85,8 +119,7 @@ class DesignProblem:
 
     def gradient(self, w):
         """d utility / d w_i for all candidates."""
-        g = self.criterion.gradient_matrix(self.precision(w))
-        return self.flat_blocks @ g.ravel()
+        return self.block_dot(self.criterion.gradient_matrix(self.precision(w)))
 
     # -- linear constraints ---------------------------------------------------------------
     @cached_property

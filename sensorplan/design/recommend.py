@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .._errors import ConfigError, SensorplanError, SolverError
+from .._errors import ConfigError, SolverError
 from .._threads import single_threaded
 from ..model.fisher import fisher_blocks
 from ..model.prior import GMRFPrior
@@ -25,12 +25,14 @@ from .candidates import (
     sensor_layout,
 )
 from .criteria import criterion_class, make_criterion
+from .curve import criterion_curve
 from .detect_problem import DetectionTarget, detection_information
 from .feasibility import check_feasible
 from .problem import DesignProblem
 from .relaxation import Relaxation, solve_relaxation
-from .results import Baseline, CurvePoint, DesignResult, SolverStats
-from .selection import best_layout, exchange, greedy
+from .resources import check_resources, estimate_resources
+from .results import Baseline, DesignResult, SolverStats
+from .selection import best_layout, greedy
 from .supports import keep_off_supports, support_notes
 
 if TYPE_CHECKING:
@@ -158,6 +160,10 @@ def build_problem(case, count, criterion="D", *, grid=None, constraints=None, ki
     check_feasible(positions, bridge.span_of(positions), int(count), min_spacing=float(constraints.min_spacing),
                    span_min=span_min, span_max=span_max, n_fixed=0 if fixed is None else fixed.n_sensors,
                    costs=c_arr, budget=constraints.budget)
+    n_params = case.n_elements + (len(bridge.spring_parameters) if springs else 0)
+    check_resources(estimate_resources(cands.n_candidates, n_params, int(count), n_loads=case.sweep.n_loads,
+                                       detection=detection), what=f"{cands.n_candidates} candidates",
+                    fits="use fewer candidates (a larger grid spacing) or fewer elements")
     blocks, q0, crit, posterior_of = _information(case, cands, criterion, detection, n_crossings=n_crossings,
                                                   prior=prior, springs=springs, region=region,
                                                   functionals=functionals, target=target)
@@ -240,7 +246,8 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
         Random layouts tried by the random baseline.
     rng : seed or Generator for the random baseline.
     curve_max : int, optional
-        Largest R of the criterion-versus-R curve (default min(count + 3, 12)); 0 disables it.
+        Largest R of the criterion-versus-R curve (default ``count``, or ``count + 3`` while that is
+        <= 12); 0 disables it.
     target : DetectionTarget, optional
         The loss the detect criterion must see (default 25 % over 2 m, smooth nuisance, centres every
         0.5 m, power reported at a 5 % false-alarm rate); detect only.
@@ -254,8 +261,8 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
                             region=region, functionals=functionals, target=target)
     search = search_layout(problem, case, solver=solver, n_random=n_random, rng=rng)
     margin = 0.0 if grid is None else float(grid.support_margin)
-    return design_result(case, problem, search, _curve(problem, count, curve_max, solver), n_crossings=n_crossings,
-                         support_margin=margin)
+    curve = criterion_curve(problem, count, curve_max, search.relaxation.weights, search.layout)
+    return design_result(case, problem, search, curve, n_crossings=n_crossings, support_margin=margin)
 
 
 @dataclass(frozen=True, eq=False)
@@ -299,8 +306,7 @@ def design_result(case, problem, search, curve, *, n_crossings, support_margin=0
     value = sign * search.utility
     bound = sign * (search.relaxation.bound if search.bound is None else search.bound)
     count = problem.count
-    curve = tuple(replace(c, value=float(value)) if c.count == count and not c.failed and sign * c.value < sign * value
-                  else c for c in curve)
+    curve = tuple(_at_count(c, value, bound, sign) if c.count == count and not c.failed else c for c in curve)
     order = _sorted_index(problem, search.layout)
     details, detail_line = crit.describe(problem.layout_precision(order))
     layout_m = tuple(float(problem.positions[i]) for i in order)
@@ -327,6 +333,12 @@ def design_result(case, problem, search, curve, *, n_crossings, support_margin=0
                         cost=_cost(problem, order), budget=problem.budget,
                         support_notes=support_notes(case.bridge, layout_m, layout_kind),
                         support_margin_m=float(support_margin))
+
+
+def _at_count(point, value, bound, sign):
+    """The curve's point at the requested count with the recommendation's value and bound where better."""
+    return replace(point, value=float(value) if sign * point.value < sign * value else point.value,
+                   bound=float(bound) if sign * point.bound > sign * bound else point.bound)
 
 
 def _baseline_results(problem, base, value):
@@ -375,24 +387,3 @@ def _posterior_std(problem, index, n_elements):
     """Posterior standard deviation of log EI per element (~ relative std of EI)."""
     q = problem.posterior_precision(index)
     return np.sqrt(np.diag(np.linalg.inv(q))[:n_elements])
-
-
-def _curve(problem, count, curve_max, solver):
-    """Criterion versus R; a count whose constraints cannot be met is reported as failed, not dropped."""
-    if curve_max == 0:
-        return ()
-    r_max = min(count + 3, 12) if curve_max is None else int(curve_max)
-    r_max = min(r_max, problem.n_candidates)
-    out = []
-    sign = 1.0 if problem.criterion.maximise else -1.0
-    for r in range(1, r_max + 1):
-        sub = replace(problem, count=r)
-        try:
-            g, _ = greedy(sub)
-            layout, util = exchange(sub, g)
-            rel = solve_relaxation(sub, solver, start_layout=layout)
-        except SensorplanError as exc:  # an R for which the constraints cannot be met
-            out.append(CurvePoint(r, None, None, " ".join(str(exc).split())))
-            continue
-        out.append(CurvePoint(r, float(sign * util), float(sign * rel.bound)))
-    return tuple(out)

@@ -157,9 +157,10 @@ def fisher_blocks(case: "Case", *, sensors: "SensorLayout | None" = None, noise:
         lines = influence_lines(case.bridge, case.mesh, case.ei if ei is None else ei, chunk,
                                 case.vehicle, positions)
         white = noise.subset(index).whiten(lines.jacobian(parameterisation, springs=springs), positions)
-        blocks[index] = np.matmul(white.transpose(0, 2, 1), white)
-    blocks *= n_crossings
-    blocks = 0.5 * (blocks + blocks.transpose(0, 2, 1))
+        chunk_blocks = np.matmul(white.transpose(0, 2, 1), white)
+        chunk_blocks *= n_crossings
+        # symmetrised chunk by chunk: no temporary of the size of all blocks
+        blocks[index] = 0.5 * (chunk_blocks + chunk_blocks.transpose(0, 2, 1))
     blocks.setflags(write=False)
     return FisherBlocks(blocks, parameterisation, case.mesh.n_elements, n_springs, sensors,
                         case.mesh.edges, int(n_crossings))

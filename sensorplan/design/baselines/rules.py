@@ -46,6 +46,9 @@ def rule_of_thumb(problem, context):
     return snap(problem, targets)
 
 
+EXACT_BELOW = 300  # candidates left at or below which the elimination sums their blocks afresh (small problems: always)
+
+
 @register_baseline("effective_independence")
 def effective_independence(problem, context):
     """Kammer's Effective Independence (1991), by backward elimination.
@@ -57,15 +60,21 @@ def effective_independence(problem, context):
     many remain, until R are left.
     """
     remaining = list(range(problem.n_candidates))
+    q, dropped = None, []
     while len(remaining) > problem.count:
-        q = problem.layout_precision(remaining)
-        # a criterion with its own information layout (detect) says how to weigh it
         own = getattr(problem.criterion, "information_share", None)
-        inv = own(q) if own is not None else scipy.linalg.cho_solve((np.linalg.cholesky(q), True),
-                                                                    np.eye(q.shape[0]))
-        share = problem.flat_blocks[remaining] @ inv.ravel()
+        if own is not None:  # a criterion with its own information layout (detect) says how to weigh it
+            q = problem.layout_precision(remaining)
+            share = problem.flat_blocks[remaining] @ own(q).ravel()
+        else:
+            # many candidates left: the precision updated by the dropped blocks (one pass over all blocks in all)
+            q = problem.layout_precision(remaining) if q is None or len(remaining) <= EXACT_BELOW else \
+                q - problem.layout_precision(dropped) + problem.q0
+            inv = scipy.linalg.cho_solve((np.linalg.cholesky(q), True), np.eye(q.shape[0]))
+            share = problem.block_dot(inv, remaining)
         n_drop = max(1, (len(remaining) - problem.count) // 10)
         drop = set(np.argsort(share)[:n_drop].tolist())
+        dropped = [r for j, r in enumerate(remaining) if j in drop]
         remaining = [r for j, r in enumerate(remaining) if j not in drop]
     layout = [i for i in remaining]
     if not problem.feasible(layout):

@@ -140,6 +140,14 @@ class Criterion(ABC):
         better), ``bound`` and ``method`` (how it was proven), or None (the default: no such proof)."""
         return None
 
+    def linearisation(self, problem, w):
+        """(constant, g) with utility* <= constant + g^T s for every relaxed-feasible s of *any* count
+        (concavity at the relaxed weights ``w``): the relaxed optimum for count r is at most
+        constant + max g^T s over sum s = r, a concave function of r."""
+        q = problem.precision(w)
+        g = problem.block_dot(self.gradient_matrix(q))
+        return self.utility(q) - float(g @ w), g
+
     # -- cvxpy -----------------------------------------------------------------------------
     def cvxpy_precision(self, cp, problem, w, idx):
         """Q(w) as a cvxpy expression (weights ``w`` on the candidates ``idx``)."""

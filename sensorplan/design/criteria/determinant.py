@@ -13,7 +13,7 @@ import numpy as np
 
 from ..._errors import ConfigError
 from .base import Criterion
-from .linalg import eigen_split, inverse, log_det, symmetric_gram, symmetrise, whitened_blocks
+from .linalg import cholesky, eigen_split, inverse, log_det, symmetric_gram, symmetrise, whitened_blocks
 from .registry import register_criterion
 
 __all__ = ["DCriterion", "DsCriterion"]
@@ -32,6 +32,10 @@ class DCriterion(Criterion):
 
     def gradient_matrix(self, q):
         return inverse(symmetrise(q))
+
+    def utilities(self, q, blocks):
+        # Q and the blocks are symmetric, so Q + I_i is (no symmetrised copy; the factor reads one triangle)
+        return [2.0 * float(np.sum(np.log(np.diag(cholesky(q + b))))) for b in blocks]
 
     def hessian(self, q, chol, blocks):
         # H_ij = -<A_i, A_j>, A_i = L^-1 I_i L^-T (Q = L L^T), symmetric: a Gram
@@ -63,6 +67,7 @@ class DsCriterion(DCriterion):
     name = "Ds"
     description = "log det of the posterior precision of log EI, springs marginalised"
     submodular = False
+    utilities = Criterion.utilities  # not D's: the value is a difference of two log determinants
 
     def __init__(self, n_params, *, n_keep=None):
         super().__init__(n_params)

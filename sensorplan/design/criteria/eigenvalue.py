@@ -40,6 +40,11 @@ class ECriterion(Criterion):
     def bound(self, problem, w):
         return self.bound_from_dual(problem, self.gradient_matrix(problem.precision(w)))
 
+    def linearisation(self, problem, w):
+        """(<Z, Q_0>, <Z, I_i>) of the trace-one Z at ``w`` (see :meth:`bound_from_dual`): valid for every count."""
+        z = self.gradient_matrix(problem.precision(w))
+        return float(np.sum(z * problem.q0)), problem.block_dot(z)
+
     def bound_from_dual(self, problem, z):
         """lambda_min(Q) <= <Z, Q> for every Z >= 0 with trace 1, so
         E* <= <Z, Q_0> + max_s sum_i s_i <Z, I_i> (``z`` is projected onto that set)."""

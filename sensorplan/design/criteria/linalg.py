@@ -35,11 +35,12 @@ def inverse(q):
 
 
 def whitened_blocks(chol, blocks):
-    """A_i = L^-1 I_i L^-T for all blocks (m, P, P), as two tall products (A_i symmetric)."""
+    """A_i = L^-1 I_i L^-T for all blocks (m, P, P): one tall product I_i L^-T, then L^-1 times each (no
+    transposed copy of the stack)."""
     m, p, _ = blocks.shape
-    lt = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True).T.astype(blocks.dtype)
-    xt = (blocks.reshape(m * p, p) @ lt).reshape(m, p, p).transpose(0, 2, 1).reshape(m * p, p)
-    return (xt @ lt).reshape(m, p, p)
+    linv = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True).astype(blocks.dtype)
+    y = (blocks.reshape(m * p, p) @ linv.T).reshape(m, p, p)
+    return np.matmul(linv, y)
 
 
 def symmetric_gram(a):

@@ -22,9 +22,11 @@ import numpy as np
 __all__ = ["WorkingSet", "Round", "column_generation", "initial_size"]
 
 
-def initial_size(n_candidates, count, divisor):
-    """Size of a first working set: a few times the count, at least 1/``divisor`` of the candidates."""
-    return min(n_candidates, max(4 * count + 20, n_candidates // divisor))
+def initial_size(n_candidates, count, divisor, *, cap=None):
+    """Size of a first working set: a few times the count, at least 1/``divisor`` of the candidates (but
+    not more than ``cap``, when given, unless a few times the count is)."""
+    share = n_candidates // divisor if cap is None else min(n_candidates // divisor, cap)
+    return min(n_candidates, max(4 * count + 20, share))
 
 
 class WorkingSet:

@@ -15,7 +15,11 @@ from ..._errors import ConfigError, SolverError
 from . import cvxpy_reference, detect_epigraph, eigen_subspace, smooth  # noqa: F401  (register the members)
 from .registry import FAST_METHODS, RELAXATION_SOLVERS, register_relaxation_solver
 
-__all__ = ["solve_relaxation", "solve_relaxation_fast"]
+__all__ = ["solve_relaxation", "solve_relaxation_fast", "CVXPY_FALLBACK_ENTRIES"]
+
+# largest C x P^2 for which "auto" falls back to cvxpy + Clarabel (its dense conic data grow with it: the
+# D relaxation at C = 200, P = 60 took 89 s and C = 800, P = 400 aborted on allocation)
+CVXPY_FALLBACK_ENTRIES = 5_000_000
 
 
 def solve_relaxation(problem, solver="auto", *, start_layout=None):
@@ -34,7 +38,13 @@ def solve_relaxation(problem, solver="auto", *, start_layout=None):
         return RELAXATION_SOLVERS[name](problem, start_layout=start_layout)
     except SolverError as exc:
         # the fast path needs a strictly feasible point; when the constraints are tight (every candidate
-        # chosen, a count that just fits the spacing) the relaxed set has none and Clarabel solves it
+        # chosen, a count that just fits the spacing) the relaxed set has none and Clarabel solves it --
+        # on problems small enough for its dense conic data (beyond, it would run out of memory)
+        entries = problem.n_candidates * problem.n_params**2
+        if entries > CVXPY_FALLBACK_ENTRIES:
+            raise SolverError(f"{' '.join(str(exc).split())} (the cvxpy fallback is not tried: "
+                              f"{problem.n_candidates} candidates x {problem.n_params}^2 parameters is beyond "
+                              f"its memory; use fewer candidates or elements)") from None
         try:
             relaxation = RELAXATION_SOLVERS["cvxpy"](problem, start_layout=start_layout)
         except SolverError:

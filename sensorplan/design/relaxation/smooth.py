@@ -13,6 +13,7 @@ May import: errors, design.relaxation.
 """
 
 import time
+from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
@@ -39,7 +40,9 @@ def solve_column_generation(problem, *, tol=1e-7, start_layout=None, max_rounds=
     t0 = time.perf_counter()
     c = problem.n_candidates
     g = problem.gradient(np.full(c, problem.count / c))
-    first = np.argsort(-g, kind="stable")[:initial_size(c, problem.count, 8)].tolist()
+    # a first working set of at most 8 R + 40 candidates: the Newton steps cost m P^3 on m candidates, and
+    # the support of the relaxed optimum is a few times R (the rounds add what is missing)
+    first = np.argsort(-g, kind="stable")[:initial_size(c, problem.count, 8, cap=8 * problem.count + 40)].tolist()
     working = WorkingSet(c, first, start_layout=start_layout)
     last, rounds, newton_iters = column_generation(problem, working, partial(_solve_round, problem), tol=tol,
                                                    max_rounds=max_rounds)
@@ -72,6 +75,18 @@ def _solve_round(problem, working, idx, w_prev, inner):
     gap = (bound - utility) / max(1.0, abs(bound))
     return Round(idx=idx, x=x, weights=weights, utility=utility, bound=bound, gap=gap, threshold=nu, maximiser=s,
                  iterations=it, entry_gradient=lambda: grad)
+
+
+@dataclass(frozen=True)
+class LazyHessian:
+    """When a Newton step may reuse the criterion's Hessian of an earlier iterate (it costs m P^3 on a working set
+    of m candidates; the gradient and residuals, hence the certificate, are always recomputed)."""
+
+    max_reuse: int = 3  # Newton steps per Hessian at most: the weights move little between close iterates
+    min_step: float = 0.5  # a shorter step means the reused Hessian misleads: it is refreshed and the step retried
+
+
+LAZY_HESSIAN = LazyHessian()
 
 
 class _Restricted:
@@ -122,6 +137,7 @@ def restricted_interior_point(problem, idx, w_prev, *, tol, max_iter=200):
     nu = 0.0
     ones = poly.sum_row
     u, g, hess = smooth.derivatives(x)
+    stale = 0  # Newton steps taken since the Hessian was computed
     for it in range(1, max_iter + 1):
         eta = float(slack @ lam)  # the surrogate duality gap
         t = 10.0 * poly.n_ineq / eta  # barrier parameter: aim at a tenth of the gap
@@ -137,13 +153,18 @@ def restricted_interior_point(problem, idx, w_prev, *, tol, max_iter=200):
         dlam = (lam * gdx - (lam * slack - 1.0 / t)) / slack
         r0 = np.sqrt(r_dual @ r_dual + np.sum((lam * slack - 1.0 / t) ** 2) + (x.sum() - poly.count) ** 2)
         step = _step(smooth, poly, (x, lam, nu), (dx, dlam, dnu), gdx, slack, t, r0)
+        if stale and step < LAZY_HESSIAN.min_step:  # a reused Hessian gave a short step: refresh it, retry
+            hess, stale = smooth.derivatives(x)[2], 0
+            continue
         if step <= 1e-12:
             break
         x = x + step * dx
         lam = lam + step * dlam
         nu = nu + step * dnu
         slack = poly.slack(x)
-        u, g, hess = smooth.derivatives(x)
+        refresh = step < LAZY_HESSIAN.min_step or stale + 1 >= LAZY_HESSIAN.max_reuse
+        u, g, new_hess = smooth.derivatives(x, hessian=refresh)
+        hess, stale = (new_hess, 0) if refresh else (hess, stale + 1)
     return np.clip(x, 0.0, 1.0), float(nu), it
 
 
