@@ -76,11 +76,15 @@ Measured (2026-11-27, 2 logical CPUs shared with about six other jobs: load aver
   core at all; an earlier run with the machine at 1.06, 0.38, 0.48 gave
   0.63.  The graph keeps both workers busy: 1.71 and 1.96 tasks computing
   at once on 2 workers (0.93, 0.99 on 1).  JSON identical to the
-  in-process run in every repeat.  TARGET OF 1.7x NOT MEASURABLE on this
-  machine at this load (rerun on two free cores).
+  in-process run in every repeat.  A later run at load 4.8-5.6 (nice 10, the
+  other jobs at nice 5): 1 worker 7.98 s, 2 workers 7.77 s, 1.03, the
+  machine 0.99, 0.98, 0.95; concurrency 1.73, 1.91, 1.94 on 2 workers.
+  TARGET OF 1.7x NOT MEASURABLE on this machine at this load (rerun on two
+  free cores; the concurrency says the graph would use them).
 * Part 3 (load 11-13): the design study (12 rows, 9 distinct layouts, one
   graph, 66 progress calls) 19.4 s on 1 worker, 18.9 s on 2: 1.03 (no
-  second core free); the table identical to the in-process run.
+  second core free); at load 5.4-6.0: 10.7 s and 7.4 s, 1.46; the table
+  identical to the in-process run every time.
 * Before the LocalCluster's workers were started without Dask's
   MALLOC_TRIM_THRESHOLD_, a scenario cost ~35 % more thread CPU on a worker
   than in process (the same plan timed with ``time.thread_time`` in both);
