@@ -155,7 +155,7 @@ def assess_record(template, time, values, *, noise=None, speed_range, fixed_spee
     pairs = [w.record(y) for w, y in zip(whiteners, clean)]
     r, ones = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
     speeds = speed_grid(speed_range, fixed_speed)
-    templates = whitened_templates(template, whiteners, dt, speeds)
+    templates = whitened_templates(template, whiteners, dt, speeds, max_samples=r.shape[1])
     cal = calibrate(templates, dt, false_events_per_day=policy.false_events_per_day, n_samples=policy.n_null,
                     seed=policy.seed)
     found = scan(r, templates, ones=ones)

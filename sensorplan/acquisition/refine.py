@@ -64,7 +64,7 @@ class _Column:
 
 def _window(ctx, k, v0):
     dt = float(ctx.time[1] - ctx.time[0])
-    tail = max(w.tail(TAIL_TOLERANCE) for w in ctx.whiteners)
+    tail = min(max(w.tail(TAIL_TOLERANCE) for w in ctx.whiteners), ctx.time.size)
     on = int(np.ceil(ctx.template.length / (SLOWER * v0 * dt)))
     return slice(max(0, k - int(PRE / dt)), min(ctx.time.size, k + on + tail))
 

@@ -64,9 +64,16 @@ class Templates:
         return ("Templates", value_key(self.speeds, *self.columns))
 
 
-def whitened_templates(template, whiteners, dt, speeds):
-    """:class:`Templates` of ``template`` (a :class:`~.fit.Template`) whitened per channel on step ``dt``."""
+def whitened_templates(template, whiteners, dt, speeds, *, max_samples=None):
+    """:class:`Templates` of ``template`` (a :class:`~.fit.Template`) whitened per channel on step ``dt``.
+
+    The whitened column runs on after the vehicle until it has decayed (the filter's tail), but never beyond
+    ``max_samples`` (the record's length): a nearly unit pole (a very weak walk) would otherwise ask for
+    millions of samples no record holds.
+    """
     tail = max(w.tail(TAIL_TOLERANCE) for w in whiteners)
+    if max_samples is not None:
+        tail = min(tail, int(max_samples))
     columns, norms, durations = [], [], []
     for v in speeds:
         on = int(np.ceil(template.length / (v * dt)))
