@@ -71,8 +71,9 @@ afterwards to these peaks and times: 5.7 GiB / 357 s at C = 3,000)::
     D N=240 C=800  R=20        4.1   1.9    2.1    7.9   13.2    3.6   32.6  2.4e-10 0.985 0.78
 
 A and E at N = 400, C = 3,000 and the mixed design did not finish within
-the session on the shared machine: A had used more than 6 min of CPU when
-it was stopped; E at N = 400, C = 800 more than 8 min (its eigen-subspace
+the session on the shared machine: A had used 14 min of CPU when it was
+stopped (before the mixed run could start); E at N = 400, C = 800 17 min
+(its eigen-subspace
 rounds solve small SDPs afresh, and their Schur complements cost
 2 m k^3 + m^2 k^2 / 2 for a subspace k that grows with P).
 Acceptance (issue 38) at N = 400, C = 3,000, R = 20:
