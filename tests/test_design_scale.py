@@ -138,3 +138,17 @@ def test_cli_refuses_a_grid_beyond_the_estimate_and_accepts_its_suggestion(capsy
         spacing, kind, springs, count, criterion = suggested, None, False, 2, "D"
 
     check_design_resources(example_case("openlab-like"), Args)
+
+
+def test_auto_does_not_fall_back_to_cvxpy_beyond_its_size(monkeypatch):
+    from sensorplan.design.relaxation import dispatch
+
+    case = example_case("simply-supported")
+    # every candidate chosen: the relaxed set is one point, the fast path has no interior and fails
+    problem = build_problem(case, 6, "D", grid=CandidateGrid(spacing=4.0))
+    assert problem.count == problem.n_candidates
+    assert solve_relaxation(problem).stats.get("fallback")  # small: cvxpy solves it
+    monkeypatch.setattr(dispatch, "CVXPY_FALLBACK_ENTRIES", 0)
+    with pytest.raises(sp.SolverError, match="cvxpy fallback is not tried") as info:
+        solve_relaxation(problem)
+    assert "\n" not in str(info.value)
