@@ -95,9 +95,11 @@ def test_no_certificate_when_the_search_cannot_afford_it():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("example", ["openlab-like", "three-span"])
+@pytest.mark.parametrize("example", ["openlab-like"])
 def test_examples_four_sensors_certified_optimal_by_enumeration(example):
-    # every layout of 4 sensors on the default 0.5 m grid (61 and 81 candidates: 0.52 and 1.58 million)
+    # every layout of 4 sensors on the default 0.5 m grid (61 candidates: 0.52 million).  The three-span
+    # example's 1.58 million layouts take too long for the suite; its value agrees with the independent
+    # search of test_detect_criterion.test_acceptance_worst_case_power.
     case = example_case(example)
     result = sp.recommend(case, 4, "detect", curve_max=0)
     problem = build_problem(case, 4, "detect")
