@@ -14,6 +14,7 @@ from ._common import (
     SEVERITY,
     add_case_arguments,
     add_out_arguments,
+    add_speed_argument,
     check_grid,
     check_signal,
     integer,
@@ -53,6 +54,7 @@ def add_arguments(p):
     from ..design.criteria import CRITERIA
 
     add_case_arguments(p)
+    add_speed_argument(p)
     p.add_argument("--count", type=COUNT, help="number of new sensors R (default: as many as the case has); with "
                    "--target-power the largest count tried (default 12)")
     p.add_argument("--criterion", choices=list(CRITERIA), default="D", help="design criterion (default D)")
@@ -136,8 +138,13 @@ def run(args, out, files):
                                values={"recommended": result.value} | {b.name: b.value for b in result.baselines})
         payload.update(ranking.to_dict())
         figures.append(vfig)
+    trade = _crossing_trade(case, result)
+    if trade is not None:
+        payload["crossing_trade"] = trade.to_dict()
     json_path = stage_json(files, args.json or outdir / "design.json", payload)
     out(answer.summary())
+    if trade is not None:
+        out(trade.summary())
     if verification is not None:
         out(verification.summary())
         out(ranking.summary())
@@ -283,6 +290,22 @@ def _existing_noise(case, kind):
         unit = "rad" if kind == "rotation" else "m"
         raise ConfigError(f"--fixed: the case has no {kind} sensor to take the noise of the existing {kind} "
                           f"sensors from; give it as --noise-std {kind}=VALUE in {unit}") from None
+
+
+def _crossing_trade(case, result):
+    """What slower or more crossings buy for the recommended layout (and the existing sensors), under a
+    noise model in time; None otherwise."""
+    from ..design.crossing_trade import crossing_trade
+    from ..model.sensors import SensorLayout
+
+    if case.noise is None or not case.noise.in_time:
+        return None
+    n_new, n_fixed = len(result.layout_m), len(result.fixed_m)
+    layout = SensorLayout(list(result.layout_m) + list(result.fixed_m),
+                          tuple(result.layout_kind) + tuple(result.fixed_kind),
+                          tuple(f"S{i + 1}" for i in range(n_new + n_fixed)),
+                          tuple(result.noise_std[k] for k in result.layout_kind) + tuple(result.fixed_noise_std))
+    return crossing_trade(case, layout)
 
 
 def _sensors(positions, kinds, noise):

@@ -12,6 +12,7 @@ from ._common import (
     SEED,
     add_case_arguments,
     add_out_arguments,
+    add_speed_argument,
     check_layouts,
     check_length,
     integer,
@@ -72,6 +73,7 @@ def parse_severities(text):
 
 def add_arguments(p):
     add_case_arguments(p)
+    add_speed_argument(p)
     p.add_argument("--layout", type=parse_sensors, action="append", required=True,
                    help="sensor positions in m, each optionally with :kind, e.g. 3.5,8:deflection,12 "
                         "(repeat for several layouts)")
