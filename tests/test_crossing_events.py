@@ -19,12 +19,13 @@ sys.path.insert(0, str(pathlib.Path(__file__).parent))
 from logger_sim import MUNICH_LIKE, Bridge, Channel, Crossing, record  # noqa: E402
 from realdata_munich import available, munich_inc01  # noqa: E402
 
-from sensorplan.acquisition import ChannelNoise, Template, extract_crossings
+from sensorplan.acquisition import Template, extract_crossings
 from sensorplan.acquisition.calibration import calibrate, null_scan
 from sensorplan.acquisition.scan import candidates, speed_grid, whitened_templates
 from sensorplan.acquisition.whitening import whitener
 from sensorplan.cli import main
 from sensorplan.io.config import case_from_toml
+from sensorplan.model.noise import NoiseModel
 from sensorplan.model.statespace import innovation_filter
 from sensorplan.model.timeseries import TimeSeries
 
@@ -46,7 +47,8 @@ noise_std = 21.0e-6
 """
 AXLES = dict(axle_offsets=(0.0, 3.6, 4.95), axle_loads=(70e3, 95e3, 95e3))
 BRIDGE = Bridge([30.0], 4.5e10)
-MODEL = ChannelNoise(MUNICH_LIKE["white"], MUNICH_LIKE["correlated"], MUNICH_LIKE["tau"], MUNICH_LIKE["walk"])
+MODEL = NoiseModel([MUNICH_LIKE["white"]] * 2, correlated_std=MUNICH_LIKE["correlated"],
+                   correlation_time_s=MUNICH_LIKE["tau"], random_walk=MUNICH_LIKE["walk"])
 RATE = 100.0
 
 
@@ -64,8 +66,8 @@ def test_whitening_equals_the_exact_kalman_filter():
     # inner products of whitened columns agree once the start's transient has passed
     dt = 0.01
     time = np.arange(12000) * dt
-    exact = innovation_filter(time, white=MODEL.white, correlated=MODEL.correlated,
-                              correlation_time=MODEL.correlation_time, random_walk=MODEL.random_walk)
+    exact = innovation_filter(time, white=MUNICH_LIKE["white"], correlated=MUNICH_LIKE["correlated"],
+                              correlation_time=MUNICH_LIKE["tau"], random_walk=MUNICH_LIKE["walk"])
     fast = whitener(MODEL, dt)
     rng = np.random.default_rng(4)
     y = rng.standard_normal(time.size) * 2e-5 + np.cumsum(rng.standard_normal(time.size)) * 2.5e-7
@@ -82,7 +84,7 @@ def test_whitening_equals_the_exact_kalman_filter():
 def templates(case):
     dt = 1.0 / RATE
     template = Template.from_case(case, ("TL1", "TL2"))
-    return whitened_templates(template, [whitener(MODEL, dt)] * 2, dt, speed_grid((0.3, 40.0)))
+    return whitened_templates(template, [whitener(MODEL, dt, i) for i in range(2)], dt, speed_grid((0.3, 40.0)))
 
 
 def test_calibrated_rate_matches_an_independent_null_simulation(templates):
@@ -101,7 +103,7 @@ def test_calibrated_rate_matches_an_independent_null_simulation(templates):
 def test_vehicle_free_record_with_bursts_has_no_accepted_event(case, tmp_path):
     # 30 minutes of the measured noise with bursts (one an hour in each channel, raised to 4 an hour here)
     time, values, _ = record(1800.0, RATE, _channels(burst_rate=4.0 / 3600.0), rng=11)
-    out = extract_crossings(case, TimeSeries(time, ("TL1", "TL2"), values, {}), noise=(MODEL, MODEL))
+    out = extract_crossings(case, TimeSeries(time, ("TL1", "TL2"), values, {}), noise=MODEL)
     assert not out.accepted
     assert out.burst_seconds > 0.0
     assert np.isfinite(out.threshold) and out.threshold > 16.0
@@ -115,7 +117,7 @@ def test_clean_crossings_accepted_with_speed_within_2_percent(case):
         crossings.append(Crossing(t0, v))
         t0 += 35.0 / v + 30.0
     time, values, _ = record(t0 + 20.0, RATE, _channels(), bridge=BRIDGE, crossings=crossings, rng=5, **AXLES)
-    out = extract_crossings(case, TimeSeries(time, ("TL1", "TL2"), values, {}), noise=(MODEL, MODEL))
+    out = extract_crossings(case, TimeSeries(time, ("TL1", "TL2"), values, {}), noise=MODEL)
     good = 0
     for c in crossings:
         match = [e for e in out.accepted if abs(e.entry_time - c.entry_time) < 2.0]

@@ -25,7 +25,7 @@ import pytest
 
 sys.path.insert(0, str(pathlib.Path(__file__).parent))
 from fe_reference import fe_response  # noqa: E402
-from sensorplan.acquisition import ChannelNoise, extract_crossings
+from sensorplan.acquisition import extract_crossings
 from sensorplan.cli import main
 from sensorplan.inference.inversion import invert
 from sensorplan.io.config import case_from_toml
@@ -60,7 +60,7 @@ RATE = 10.0  # Hz
 CLEAN = [(10.0, 0.8), (70.0, 2.0), (110.0, 1.2), (170.0, 1.6), (320.0, 0.9), (390.0, 1.8), (440.0, 1.4)]
 OVERLAP = [(230.0, 1.0), (241.0, 1.3)]
 # the record's noise as the test is told it: white 3 urad + wander (the slow drift) per channel
-NOISE_MODEL = (ChannelNoise(NOISE, random_walk=0.5e-6),) * 2
+NOISE_MODEL = NoiseModel([NOISE, NOISE], random_walk=0.5e-6)
 
 
 def _fe_lines():

@@ -100,7 +100,6 @@ def test_degrees_of_freedom_spend_one_reading_per_wandering_sensor():
 
 @pytest.mark.parametrize("kwargs, field", [
     (dict(correlated_std=1e-5), "correlation_time_s"),
-    (dict(random_walk=1e-6), "speed"),
     (dict(random_walk=1e-6, speed=1.0, correlation_length=0.5), "correlation_length"),
     (dict(random_walk=[1e-6, 1e-6, 1e-6], speed=1.0), "random_walk"),
     (dict(correlated_std=-1.0, correlation_time_s=1.0, speed=1.0), "correlated_std"),
@@ -108,6 +107,16 @@ def test_degrees_of_freedom_spend_one_reading_per_wandering_sensor():
 def test_bad_time_models_name_the_field(kwargs, field):
     with pytest.raises(ConfigError, match=field):
         NoiseModel([1e-5, 1e-5], **kwargs)
+
+
+def test_readings_by_load_position_need_the_speed():
+    # a logger channel's noise is read in time and needs no speed; readings at load positions do
+    noise = NoiseModel([1e-5, 1e-5], random_walk=1e-6)
+    x = np.linspace(0.0, 10.0, 20)
+    with pytest.raises(ConfigError, match="speed"):
+        noise.whiten(np.ones((2, x.size)), x)
+    np.testing.assert_allclose(noise.whiten(np.ones((2, x.size)), x, times=x / 2.0),
+                               noise.at_speed(2.0).whiten(np.ones((2, x.size)), x))
 
 
 def test_a_reading_stands_for_the_mean_of_the_logger_samples_between_readings():

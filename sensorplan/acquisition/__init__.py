@@ -15,7 +15,6 @@ from .extract import extract_crossings
 from .fit import Template
 from .glr import Policy, RecordTest, assess_record
 from .results import REASONS, CrossingEvent, ExtractedCrossings
-from .whitening import ChannelNoise
 
-__all__ = ["extract_crossings", "ExtractedCrossings", "CrossingEvent", "REASONS", "Template", "ChannelNoise",
+__all__ = ["extract_crossings", "ExtractedCrossings", "CrossingEvent", "REASONS", "Template",
            "Policy", "RecordTest", "assess_record"]

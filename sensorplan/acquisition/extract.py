@@ -80,8 +80,9 @@ def extract_crossings(case: "Case", series: "TimeSeries", *, speed: float | None
     false_events_per_day : float
         The stated false-event rate: the threshold lets chance through this
         often per day of record.
-    noise : tuple of ChannelNoise, optional
-        The noise of each channel; default the case's, else estimated from the record.
+    noise : NoiseModel, optional
+        The noise in time of each channel (one entry per channel of ``series``, no speed needed);
+        default the case's, else estimated from the record.
 
     Returns
     -------
@@ -145,7 +146,7 @@ def _extract(case, series, *, speed, axle_times, speed_range, quiet_gap, max_rms
             crossings.append(_crossing(series, c, label, template.length, quiet_gap, exit_time))
     source = "given" if speed is not None else ("axle detector" if axle_times is not None else "fitted")
     dt = float(np.median(np.diff(t)))
-    return ExtractedCrossings(series.names, kinds, noise_std=np.array([n.white for n in test.noise]),
+    return ExtractedCrossings(series.names, kinds, noise_std=np.array(test.noise.std),
                               events=tuple(events),
                               crossings=Crossings(series.names, tuple(crossings)) if crossings else None,
                               duration=float(t[-1] - t[0]), speed_source=source,

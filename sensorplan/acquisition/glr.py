@@ -37,7 +37,7 @@ from .._errors import DataError
 from .calibration import calibrate
 from .scan import candidates, scan, speed_grid, whitened_templates
 from .screen import estimate_noise, screen_bursts
-from .whitening import ChannelNoise, whitener
+from .whitening import whitener
 
 __all__ = ["Policy", "Candidate", "RecordTest", "assess_record", "case_noise"]
 
@@ -106,7 +106,7 @@ class RecordTest:
 
     candidates: tuple
     calibration: object
-    noise: tuple
+    noise: object  # NoiseModel, one entry per channel
     noise_source: str
     burst_mask: np.ndarray
     strongest: float
@@ -119,9 +119,7 @@ def case_noise(case, names):
     noise = case.noise
     if noise is None or not noise.in_time:
         return None
-    idx = [case.sensors.names.index(n) for n in names]
-    return tuple(ChannelNoise(float(noise.std[i]), float(noise.correlated_std[i]),
-                              float(noise.correlation_time_s[i]), float(noise.random_walk[i])) for i in idx)
+    return noise.subset([case.sensors.names.index(n) for n in names])
 
 
 def _sample_interval(time):
@@ -139,7 +137,7 @@ def assess_record(template, time, values, *, noise=None, speed_range, fixed_spee
                 policy=Policy()):
     """The :class:`RecordTest` of a record ``values`` (n_channels, n) at ``time`` [s].
 
-    ``noise`` is one :class:`~.whitening.ChannelNoise` per channel, or None
+    ``noise`` is a :class:`~sensorplan.model.noise.NoiseModel` with one entry per channel, or None
     to estimate it from the record (:func:`~.screen.estimate_noise`).
     ``fixed_speed`` [m/s] restricts the search to that speed; ``axle_times``
     [s] (an axle detector's front-axle times at x = 0) fix the entry of a
@@ -151,7 +149,7 @@ def assess_record(template, time, values, *, noise=None, speed_range, fixed_spee
     source = "case"
     if noise is None:
         noise, source = estimate_noise(clean, mask, dt), "record (robust variogram)"
-    whiteners = [whitener(n, dt) for n in noise]
+    whiteners = [whitener(noise, dt, i) for i in range(noise.n_sensors)]
     pairs = [w.record(y) for w, y in zip(whiteners, clean)]
     r, ones = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
     speeds = speed_grid(speed_range, fixed_speed)
@@ -167,7 +165,7 @@ def assess_record(template, time, values, *, noise=None, speed_range, fixed_spee
     out = tuple(sorted((_candidate(context, k, speeds[found.speed_index[k]], float(found.z[k])) for k in picks),
                        key=lambda c: c.entry_time))
     top = int(np.argmax(found.z))
-    return RecordTest(candidates=out, calibration=cal, noise=tuple(noise), noise_source=source, burst_mask=mask,
+    return RecordTest(candidates=out, calibration=cal, noise=noise, noise_source=source, burst_mask=mask,
                       strongest=float(found.z[top]), strongest_time=float(time[top]), speeds=speeds)
 
 

@@ -108,8 +108,8 @@ class ExtractedCrossings:
         The GLR an event must exceed (for ``false_events_per_day``).
     false_events_per_day : float
         The stated false-event rate.
-    noise : tuple
-        The noise model in time of each channel (:class:`~.whitening.ChannelNoise`).
+    noise : NoiseModel or None
+        The noise model in time of the channels (one entry per channel).
     noise_source : str
         "case" or "record (robust variogram)".
     strongest_glr, strongest_time : float
@@ -130,7 +130,7 @@ class ExtractedCrossings:
     speed_source: str = "fitted"
     threshold: float = np.nan
     false_events_per_day: float = 1.0
-    noise: tuple = ()
+    noise: object = None
     noise_source: str = "case"
     strongest_glr: float = np.nan
     strongest_time: float = np.nan
@@ -185,10 +185,17 @@ class ExtractedCrossings:
     def to_dict(self):
         return {"channels": list(self.names),
                 "noise_std": {n: float(s) for n, s in zip(self.names, self.noise_std)},
-                "noise_model": {n: m.to_dict() for n, m in zip(self.names, self.noise)},
+                "noise_model": {} if self.noise is None else {n: _channel_noise(self.noise, i)
+                                                               for i, n in enumerate(self.names)},
                 "noise_source": self.noise_source, "burst_seconds": float(self.burst_seconds),
                 "duration_s": float(self.duration), "speed_source": self.speed_source,
                 "threshold_glr": float(self.threshold), "false_events_per_day": float(self.false_events_per_day),
                 "strongest_glr": float(self.strongest_glr), "strongest_entry_s": float(self.strongest_time),
                 "calibration": self.calibration,
                 "n_accepted": len(self.accepted), "events": [e.to_dict() for e in self.events]}
+
+
+def _channel_noise(noise, i):
+    """The noise parameters of channel ``i`` of a NoiseModel, as the crossings JSON names them."""
+    return {"white_std": float(noise.std[i]), "correlated_std": float(noise.correlated_std[i]),
+            "correlation_time_s": float(noise.correlation_time_s[i]), "random_walk": float(noise.random_walk[i])}

@@ -28,7 +28,7 @@ looser.  ``sensorplan noise`` on a quiet stretch gives the better model.
 
 import numpy as np
 
-from .whitening import ChannelNoise
+from ..model.noise import NoiseModel
 
 __all__ = ["screen_bursts", "estimate_noise", "BURST_SIGMA", "BURST_PAD"]
 
@@ -120,13 +120,10 @@ def _fit_variogram(lags_s, gamma):
 
 
 def estimate_noise(values, mask, dt):
-    """A :class:`~.whitening.ChannelNoise` per channel from the record's robust variogram."""
+    """The :class:`~sensorplan.model.noise.NoiseModel` of the channels from the record's robust variogram."""
     values = np.asarray(values, dtype=float)
     n = values.shape[1]
     top = max(2, min(n // 4, int(MAX_LAG / dt)))
     lags = np.unique(np.round(np.geomspace(1, top, 30)).astype(int))
-    out = []
-    for y, m in zip(values, mask):
-        w, s, tau, q = _fit_variogram(lags * dt, _variogram(y, m, lags))
-        out.append(ChannelNoise(w, s, tau, q))
-    return tuple(out)
+    w, s, tau, q = np.array([_fit_variogram(lags * dt, _variogram(y, m, lags)) for y, m in zip(values, mask)]).T
+    return NoiseModel(w, correlated_std=s, correlation_time_s=tau, random_walk=q)

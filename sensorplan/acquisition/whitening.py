@@ -26,69 +26,33 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._errors import ConfigError
-
-__all__ = ["ChannelNoise", "Whitener", "whitener"]
+__all__ = ["Whitener", "whitener"]
 
 
-@dataclass(frozen=True)
-class ChannelNoise:
-    """Noise of one channel in time.
-
-    Attributes
-    ----------
-    white : float
-        White-noise std per sample [rad or m].
-    correlated, correlation_time : float
-        Ornstein-Uhlenbeck std [rad or m] and correlation time [s] (0: none).
-    random_walk : float
-        Wander [rad or m per sqrt(s)] (0: none).
-    """
-
-    white: float
-    correlated: float = 0.0
-    correlation_time: float = 0.0
-    random_walk: float = 0.0
-
-    def __post_init__(self):
-        if not (np.isfinite(self.white) and self.white > 0.0):
-            raise ConfigError(f"The white-noise std of a logger channel must be positive. Got {self.white!r} "
-                              "instead; give [sensors] noise_std.")
-        for name in ("correlated", "correlation_time", "random_walk"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and value >= 0.0):
-                raise ConfigError(f"The noise model's {name!r} must be non-negative. Got {value!r} instead.")
-
-    @property
-    def has_ou(self):
-        return self.correlated > 0.0 and self.correlation_time > 0.0
-
-    @property
-    def has_walk(self):
-        return self.random_walk > 0.0
-
-    def to_dict(self):
-        return {"white_std": self.white, "correlated_std": self.correlated,
-                "correlation_time_s": self.correlation_time, "random_walk": self.random_walk}
+def _parts(noise, channel):
+    """(white, correlated, correlation time, walk) of ``channel`` of the NoiseModel ``noise``."""
+    return (float(noise.std[channel]), float(noise.correlated_std[channel]),
+            float(noise.correlation_time_s[channel]), float(noise.random_walk[channel]))
 
 
-def _steady_state(noise, dt):
+def _steady_state(parts, dt):
     """(F diagonal, K, s) of the converged Kalman filter on a grid of step ``dt``."""
     from scipy.linalg import solve_discrete_are
 
+    white, correlated, tau, walk = parts
     phi, q = [], []
-    if noise.has_ou:
-        a = np.exp(-dt / noise.correlation_time)
+    if correlated > 0.0:
+        a = np.exp(-dt / tau)
         phi.append(a)
-        q.append(noise.correlated**2 * -np.expm1(-2.0 * dt / noise.correlation_time))
-    if noise.has_walk:
+        q.append(correlated**2 * -np.expm1(-2.0 * dt / tau))
+    if walk > 0.0:
         phi.append(1.0)
-        q.append(noise.random_walk**2 * dt)
+        q.append(walk**2 * dt)
     f = np.diag(phi)
     c = np.ones((len(phi), 1))
     # predicted covariance P = F (P - P c (c'Pc + r)^-1 c'P) F' + Q  (scipy's DARE with a = F', b = c)
-    p = solve_discrete_are(f.T, c, np.diag(q), np.array([[noise.white**2]]))
-    s2 = float((c.T @ p @ c)[0, 0]) + noise.white**2
+    p = solve_discrete_are(f.T, c, np.diag(q), np.array([[white**2]]))
+    s2 = float((c.T @ p @ c)[0, 0]) + white**2
     return np.array(phi), (p @ c)[:, 0] / s2, np.sqrt(s2)
 
 
@@ -142,13 +106,16 @@ class Whitener:
         return r - ones * (float(ones @ r) / float(ones @ ones)), ones
 
 
-def whitener(noise, dt):
-    """The :class:`Whitener` of ``noise`` (a :class:`ChannelNoise`) on a grid of step ``dt`` [s]."""
+def whitener(noise, dt, channel=0):
+    """The :class:`Whitener` of ``channel`` of ``noise`` (a :class:`~sensorplan.model.noise.NoiseModel`, one
+    entry per logger channel) on a grid of step ``dt`` [s]."""
     from scipy.signal import ss2tf
 
-    if not (noise.has_ou or noise.has_walk):
-        return Whitener(np.array([1.0 / noise.white]), np.array([1.0]), noise.white, 0.0, False)
-    phi, gain, s = _steady_state(noise, float(dt))
+    parts = _parts(noise, channel)
+    white, correlated, _, walk = parts
+    if correlated <= 0.0 and walk <= 0.0:
+        return Whitener(np.array([1.0 / white]), np.array([1.0]), white, 0.0, False)
+    phi, gain, s = _steady_state(parts, float(dt))
     d = phi.size
     f = np.diag(phi)
     ones = np.ones((1, d))
@@ -156,4 +123,4 @@ def whitener(noise, dt):
     b = (f @ gain)[:, None]
     num, den = ss2tf(a, b, -ones / s, np.array([[1.0 / s]]))
     pole = float(np.max(np.abs(np.linalg.eigvals(a))))
-    return Whitener(np.asarray(num[0], float), np.asarray(den, float), float(s), pole, noise.has_walk)
+    return Whitener(np.asarray(num[0], float), np.asarray(den, float), float(s), pole, walk > 0.0)

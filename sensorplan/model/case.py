@@ -63,6 +63,11 @@ class Case:
             raise ConfigError(
                 f"The noise model has {self.noise.n_sensors} standard deviations for "
                 f"{self.sensors.n_sensors} sensors.")
+        if self.noise is not None and self.noise.in_time and self.noise.speed is None:
+            from .._errors import ConfigError
+            from .noise import NO_SPEED
+
+            raise ConfigError(NO_SPEED)
         if self.sweep is None:
             object.__setattr__(self, "sweep", LoadSweep.covering(self.bridge, self.vehicle, 0.25))
         self._check_size()

@@ -31,6 +31,8 @@ MAX_RHO = 1.0 - 1e-9
 # four parameters and the readings' times), so subsets and copies reuse them.  Each may hold a dense
 # whitening matrix of up to 8 MB (statespace.DENSE_ROWS).
 FILTERS = Cache(maxsize=64)
+NO_SPEED = ("The time-correlated noise model needs the crossing 'speed' (m/s) to map load positions to times; "
+            "give [noise] speed or --speed.")
 
 
 def _per_sensor(value, n, name, *, allow_zero=True):
@@ -69,8 +71,9 @@ class NoiseModel:
         Wander per sensor [rad or m per sqrt(s)] (0: none); its level at the
         start of a crossing is an unknown offset, marginalised.
     speed : float, optional
-        Crossing speed [m/s] mapping load positions to times; needed by the
-        time model, ignored otherwise.
+        Crossing speed [m/s] mapping load positions to times: needed by the
+        time model for readings given by load position (a case's crossings),
+        not for a logger channel read in time; ignored without a time part.
     sample_rate : float, optional
         The logger's sampling rate [Hz], to which ``std`` refers (time model
         only).  Readings further apart in time than one sample stand for the
@@ -120,9 +123,6 @@ class NoiseModel:
             raise ConfigError("Give the noise correlation either in time ('correlated_std', "
                               "'correlation_time_s', 'random_walk') or along the load position "
                               "('correlation_length'), not both.")
-        if self.speed is None:
-            raise ConfigError("The time-correlated noise model needs the crossing 'speed' (m/s) to map load "
-                              "positions to times; give [noise] speed or --speed.")
 
     @property
     def in_time(self):
@@ -171,6 +171,10 @@ class NoiseModel:
 
     def times(self, positions):
         """Times [s] of readings at load ``positions`` [m] at the model's speed (time model only)."""
+        if self.speed is None:
+            from .._errors import ConfigError
+
+            raise ConfigError(NO_SPEED)
         return (np.asarray(positions, dtype=float) - float(np.asarray(positions)[0])) / self.speed
 
     def filter(self, sensor, positions, times=None):

@@ -12,7 +12,7 @@ May import: the foundations and model.
 from .allan import allan_variance_data, allan_variance_model, octave_factors
 from .estimate import estimate_noise, fit_channel
 from .quiet import QuietParts, quiet_parts
-from .results import AllanDeviation, ChannelNoise, Estimate, NoiseEstimate
+from .results import AllanDeviation, ChannelEstimate, Estimate, NoiseEstimate
 
-__all__ = ["estimate_noise", "fit_channel", "NoiseEstimate", "ChannelNoise", "Estimate", "AllanDeviation",
+__all__ = ["estimate_noise", "fit_channel", "NoiseEstimate", "ChannelEstimate", "Estimate", "AllanDeviation",
            "quiet_parts", "QuietParts", "allan_variance_data", "allan_variance_model", "octave_factors"]

@@ -20,7 +20,7 @@ from ..._errors import DataError
 from .allan import allan_variance_data, allan_variance_model, octave_factors
 from .likelihood import restricted_loglik
 from .quiet import quiet_parts
-from .results import AllanDeviation, ChannelNoise, Estimate, NoiseEstimate
+from .results import AllanDeviation, ChannelEstimate, Estimate, NoiseEstimate
 
 __all__ = ["estimate_noise", "fit_channel"]
 
@@ -87,7 +87,7 @@ def _errors(neg_loglik, theta, low, high):
 
 
 def fit_channel(segments, dt, *, name="", kind="rotation"):
-    """The :class:`ChannelNoise` of one channel's quiet ``segments`` (arrays evenly sampled every ``dt`` s)."""
+    """The :class:`ChannelEstimate` of one channel's quiet ``segments`` (arrays evenly sampled every ``dt`` s)."""
     start_cpu = clock.process_time()
     segments = [np.asarray(y, dtype=float) for y in segments]
     pooled = np.concatenate([np.diff(y) for y in segments])
@@ -117,7 +117,7 @@ def fit_channel(segments, dt, *, name="", kind="rotation"):
     model = allan_variance_model(factors, dt, white=values[0], correlated=values[1], correlation_time=values[2],
                                  random_walk=values[3])
     allan = AllanDeviation(factors * dt, np.sqrt(avar) * scale, np.sqrt(model), counts)
-    return ChannelNoise(name, kind, *estimates, allan=allan, log_likelihood=float(-fit.fun) - sum(
+    return ChannelEstimate(name, kind, *estimates, allan=allan, log_likelihood=float(-fit.fun) - sum(
         y.size for y in segments) * math.log(scale), converged=bool(fit.success),
         cpu_s=clock.process_time() - start_cpu)
 

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Estimate", "AllanDeviation", "ChannelNoise", "NoiseEstimate"]
+__all__ = ["Estimate", "AllanDeviation", "ChannelEstimate", "NoiseEstimate"]
 
 PARAMETERS = ("white_std", "correlated_std", "correlation_time_s", "random_walk")
 # A model Allan deviation this far from the data's where the data are precise is a misfit worth a note (fits of the
@@ -78,7 +78,7 @@ class AllanDeviation:
 
 
 @dataclass(frozen=True, eq=False)
-class ChannelNoise:
+class ChannelEstimate:
     """The noise of one channel estimated from the quiet parts of a record (SI: rad or m, s)."""
 
     name: str
@@ -110,7 +110,7 @@ class NoiseEstimate:
 
     Attributes
     ----------
-    channels : tuple of ChannelNoise
+    channels : tuple of ChannelEstimate
     quiet_fraction : float
         Share of the record's samples in the quiet segments used.
     segments_s : tuple of (float, float)
