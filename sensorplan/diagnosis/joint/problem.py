@@ -55,6 +55,10 @@ class JointProblem(WhitenedProblem, LineSource):
         super().__init__(case, crossings, masks=masks)
         self.prior = prior
         self.n_sensors = self.sensors.n_sensors
+        for c, m in zip(crossings, self.masks):  # bins in time: their maps marginalise the offsets (binning.py)
+            if getattr(c, "n_offsets", 0) and m.any():
+                self.n_data -= c.n_offsets
+                self.log_det_noise += c.offset_log_det
         self.sensor_names = self.sensors.names
         self.n_crossings = len(crossings)
         self.labels = crossings.labels
