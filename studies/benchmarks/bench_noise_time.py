@@ -19,17 +19,19 @@ support spring withheld, 12 and 6 crossings).  Times are CPU seconds (``time.pro
 on one BLAS thread; the ratio time / today is printed with the target (<= 2).
 Nothing is asserted.
 
-Measured (2026-11-27, best of 2, a 2-core machine with a test suite running beside):
+Last run (2026-11-27, commit cc124c8, best of 3, a 2-core machine at load average 9 from other jobs;
+CPU seconds):
 
     case              today s   time s  ratio  target <= 2
-    diagnose-small       0.77     0.90   1.17  met
-    diagnose-three       0.99     2.27   2.29  NOT met
-    invert-A             0.16     0.20   1.21  met
-    invert-B             0.17     0.21   1.23  met
+    invert-A             0.20     0.25   1.24  met
+    invert-B             0.21     0.25   1.22  met
+    diagnose-small       1.03     1.12   1.08  met
+    diagnose-three       1.39     1.16   0.84  met
 
-diagnose-three is the one miss: its records are dense enough that today's AR(1) model fits them in whitened
-bins (sensorplan/diagnosis/joint/binning.py), which the time model's filter does not allow yet (the bin map
-is the AR(1) whitening's bidiagonal one), so every refit runs row by row.
+diagnose-three's records are dense: both models fit them in whitened bins of 4 readings
+(sensorplan/diagnosis/joint/binning.py; in time the bins of the Kalman filter's innovations with the
+wander's offset projected out).  Before the time model had bins it was fitted row by row: 2.29x
+(0.99 s today, 2.27 s in time, commit 5559df9).
 
 Run: python studies/benchmarks/bench_noise_time.py [--repeats 3] [--cases ...]
 """
