@@ -37,24 +37,42 @@ def timed_noise(std, *, speed=1.0, tau=3.0):
                          speed=speed)
 
 
-def dense_case(step=0.1, n_elements=8, speed=1.0):
+def unlike_noise(std, *, speed=1.0):
+    """Sensors whose noise has different shapes (one map each): OU of other proportions and times, the first
+    sensor wandering, the others not."""
+    std = np.asarray(std, dtype=float)
+    n = std.size
+    return sp.NoiseModel(std * np.linspace(1.0, 1.5, n), correlated_std=std * np.linspace(0.3, 0.6, n),
+                         correlation_time_s=np.linspace(0.5, 3.0, n), random_walk=std * (np.arange(n) == 0) * 0.12,
+                         speed=speed)
+
+
+NOISES = {"like": timed_noise, "unlike": unlike_noise}
+
+
+def dense_case(step=0.1, n_elements=8, speed=1.0, noise="like"):
     case = example_case("openlab-like")
     case = case.with_mesh(sp.Mesh.uniform(case.bridge, n_elements))
-    return replace(case, sweep=sp.LoadSweep.from_range(0.0, 32.0, step), noise=timed_noise(case.noise.std, speed=speed))
+    return replace(case, sweep=sp.LoadSweep.from_range(0.0, 32.0, step),
+                   noise=NOISES[noise](case.noise.std, speed=speed))
 
 
 def dense_covariance(noise, s, t):
     """Sigma of sensor s at times t from the model's definition: white, stationary OU, walk from t[0] (dense)."""
     dt = np.abs(t[:, None] - t[None, :])
     walk = np.minimum(t[:, None], t[None, :]) - t[0]
-    return (noise.std[s] ** 2 * np.eye(t.size) + noise.correlated_std[s] ** 2 * np.exp(-dt / noise.correlation_time_s[s])
-            + noise.random_walk[s] ** 2 * walk)
+    tau = noise.correlation_time_s[s]
+    ou = noise.correlated_std[s] ** 2 * np.exp(-dt / tau) if tau > 0 else 0.0
+    return noise.std[s] ** 2 * np.eye(t.size) + ou + noise.random_walk[s] ** 2 * walk
 
 
 def reference_map(noise, s, t, size):
-    """P_u B L^{-1} with L numpy's Cholesky factor of the dense covariance, u = B L^{-1} 1; and log |u|^2."""
+    """P_u B L^{-1} with L numpy's Cholesky factor of the dense covariance, u = B L^{-1} 1; and log |u|^2
+    (B L^{-1} and 0 without wander)."""
     linv = linalg.solve_triangular(np.linalg.cholesky(dense_covariance(noise, s, t)), np.eye(t.size), lower=True)
     bins = linv.reshape(t.size // size, size, t.size).sum(axis=1) / np.sqrt(size)
+    if noise.random_walk[s] == 0:
+        return bins, 0.0
     u = bins.sum(axis=1)
     return bins - np.outer(u, u @ bins) / (u @ u), float(np.log(u @ u))
 
@@ -67,28 +85,34 @@ def sensor_map(crossing, s):
     return crossing.to_bins(unit)[s]
 
 
-@pytest.mark.parametrize("times", [False, True])
-def test_bins_in_time_are_the_dense_restricted_likelihood(times):
+@pytest.mark.parametrize("times, unlike", [(False, False), (True, False), (True, True)])
+def test_bins_in_time_are_the_dense_restricted_likelihood(times, unlike):
     # each sensor's map equals P_u B L^{-1} built from the dense covariance's Cholesky factor (unequal sensors,
-    # unequally spaced readings, recorded times or positions / speed); the bins' covariance is the projector
-    # of rank bins - 1 and the constant is annihilated (the offset marginalised); one offset per sensor
+    # unequally spaced readings, recorded times or positions / speed, one shape or one per sensor); the bins'
+    # covariance is the projector of rank bins - 1 and the constant is annihilated (the offset marginalised);
+    # one offset per wandering sensor (without wander: B L^{-1}, the bins independent unit normals)
     rng = np.random.default_rng(0)
     x = np.cumsum(rng.uniform(0.03, 0.08, 60))
-    noise = timed_noise([2e-6, 5e-4], speed=0.7, tau=0.5)
+    noise = unlike_noise([2e-6, 5e-4], speed=0.7) if unlike else timed_noise([2e-6, 5e-4], speed=0.7, tau=0.5)
     t = x / 0.7 + 0.1 * np.sin(x) if times else (x - x[0]) / 0.7
     crossing = BinnedCrossing("a", x[:60:4], np.zeros((2, 15)), np.ones(15), x, np.zeros((2, 60)), np.ones(60),
                               noise, 4, raw_times=t if times else None)
     log_det = 0.0
+    assert crossing.shared != unlike
     for s in range(2):
         m = sensor_map(crossing, s)
         want, log_u = reference_map(noise, s, t, 4)
         np.testing.assert_allclose(m, want, rtol=1e-8, atol=1e-8 * np.abs(want).max())
         cov = m @ dense_covariance(noise, s, t) @ m.T
-        np.testing.assert_allclose(cov @ cov, cov, atol=1e-8)
-        assert np.trace(cov) == pytest.approx(14.0, rel=1e-8)
-        np.testing.assert_allclose(m @ np.ones(60), 0.0, atol=1e-8 * np.abs(m).sum())
+        wander = noise.random_walk[s] > 0
+        if wander:
+            np.testing.assert_allclose(cov @ cov, cov, atol=1e-8)
+            np.testing.assert_allclose(m @ np.ones(60), 0.0, atol=1e-8 * np.abs(m).sum())
+        else:
+            np.testing.assert_allclose(cov, np.eye(15), atol=1e-8)
+        assert np.trace(cov) == pytest.approx(15.0 - wander, rel=1e-8)
         log_det += log_u
-    assert crossing.n_offsets == 2
+    assert crossing.n_offsets == (1 if unlike else 2)
     assert crossing.offset_log_det == pytest.approx(log_det, rel=1e-10)
 
 
@@ -103,30 +127,33 @@ def test_noise_without_wander_projects_nothing():
     assert crossing.n_offsets == 0 and crossing.offset_log_det == 0.0
 
 
-def test_problem_counts_the_offsets_of_the_bins():
-    # the restricted likelihood of the bins: bins x sensors - one offset per sensor and crossing with rows,
-    # log det: sum over sensors of log |B L_s^{-1} 1|^2 (dense reference above)
-    case = dense_case(0.25)
+@pytest.mark.parametrize("noise", ["like", "unlike"])
+def test_problem_counts_the_offsets_of_the_bins(noise):
+    # the restricted likelihood of the bins: bins x sensors - one offset per wandering sensor and crossing with
+    # rows, log det: sum over those sensors of log |B L_s^{-1} 1|^2 (dense reference above)
+    case = dense_case(0.25, noise=noise)
     data = simulate_crossings(case, 3, noise=True, rng=3)
     b_case, b_data = bin_crossings(case, data, 4)
     masks = [np.ones(c.n_loads, bool) for c in b_data]
     masks[1][:] = False
     problem = JointProblem(b_case, b_data, [], GMRFPrior(), masks=masks)
     s_count = case.sensors.n_sensors
-    assert problem.n_data == 2 * (b_data[0].n_loads - 1) * s_count
+    wandering = int(np.sum(case.noise.random_walk > 0))
+    assert problem.n_data == 2 * (b_data[0].n_loads * s_count - wandering)
     t = (b_data[0].raw_positions - b_data[0].raw_positions[0]) / case.noise.speed
     want = sum(reference_map(case.noise, s, t, 4)[1] for s in range(s_count))
     assert problem.log_det_noise == pytest.approx(2 * want, rel=1e-9)
 
 
-@pytest.mark.parametrize("names", [
-    ("thermal_drift", "position_offset", "sensor_gain", "vertical_support_spring"),
-    ("sensor_gain", "vertical_support_spring", "sensor_position", "axle_loads"),
+@pytest.mark.parametrize("names, noise", [
+    (("thermal_drift", "position_offset", "sensor_gain", "vertical_support_spring"), "like"),
+    (("sensor_gain", "vertical_support_spring", "sensor_position", "axle_loads"), "like"),
+    (("thermal_drift", "position_offset", "sensor_gain", "vertical_support_spring"), "unlike"),
 ])
-def test_binned_problem_in_time_is_the_unbinned_model_mapped_onto_the_bins(names):
+def test_binned_problem_in_time_is_the_unbinned_model_mapped_onto_the_bins(names, noise):
     # reference: the unbinned problem's predictions and Jacobian at the readings, mapped with each sensor's map
     # (itself checked against the dense reference above): the dense-map paths of the assembly
-    case = dense_case(0.25)
+    case = dense_case(0.25, noise=noise)
     data = simulate_crossings(case, 3, noise=True, rng=4)
     data = sp.Crossings(data.sensor_names, tuple(replace(c, load_factor=c.load_factor * f)
                                                  for c, f in zip(data.crossings, (1.0, 1.0, 1.4))))
@@ -144,11 +171,14 @@ def test_binned_problem_in_time_is_the_unbinned_model_mapped_onto_the_bins(names
         np.testing.assert_allclose(jb, want_j, rtol=1e-8, atol=1e-9 * np.abs(want_j).max())
 
 
-@pytest.mark.parametrize("names", [("position_offset", "sensor_gain"), ("support_rotational_spring",)])
-def test_factored_normal_equations_in_time_equal_the_formed_jacobian(names):
+@pytest.mark.parametrize("names, noise", [(("position_offset", "sensor_gain"), "like"),
+                                         (("support_rotational_spring",), "like"),
+                                         (("support_rotational_spring", "sensor_gain"), "unlike")])
+def test_factored_normal_equations_in_time_equal_the_formed_jacobian(names, noise):
     # reference: J^T J, J^T r, r^T r of the Jacobian formed row by row (JointProblem.rows); evaluate keeps the
-    # log-EI block factored with the dense maps -- on training masks that drop bins and a whole crossing
-    case = dense_case(0.25)
+    # log-EI block factored with one dense map for all sensors (a map per sensor: formed on the bins) -- on
+    # training masks that drop bins and a whole crossing
+    case = dense_case(0.25, noise=noise)
     data = simulate_crossings(case, 3, noise=True, rng=8)
     b_case, b_data = bin_crossings(case, data, 3)
     rng = np.random.default_rng(9)
@@ -205,21 +235,22 @@ def test_bin_size_in_time_keeps_the_stated_information_on_ei(monkeypatch):
     assert nxt.min() < binning.KEEP
 
 
-def test_sensors_of_unlike_noise_are_fitted_row_by_row():
+def test_sensors_of_unlike_noise_get_a_map_each():
     # one bin map serves every sensor only when their noise has one shape
-    case = dense_case(0.1)
-    noise = case.noise
-    unlike = replace(case, noise=replace(noise, correlation_time_s=noise.correlation_time_s * np.array([1.0, 2.0])))
-    data = simulate_crossings(case, 2, noise=True, rng=8)
-    assert choose_size(case, data, GMRFPrior()) > 1
-    assert choose_size(unlike, data, GMRFPrior()) == 1
+    for noise, shared in (("like", True), ("unlike", False)):
+        case = dense_case(0.1, noise=noise)
+        data = simulate_crossings(case, 2, noise=True, rng=8)
+        size = choose_size(case, data, GMRFPrior())
+        assert size > 1
+        assert bin_crossings(case, data, size)[1][0].shared == shared
 
 
-def test_binned_diagnosis_in_time_agrees_with_the_row_by_row_one(monkeypatch):
+@pytest.mark.parametrize("noise", ["like", "unlike"])
+def test_binned_diagnosis_in_time_agrees_with_the_row_by_row_one(monkeypatch, noise):
     # reference: the same diagnosis with binning switched off (every reading a row of the time model's fit); a
-    # settled bearing on a dense record under white + 3 s OU + wander. Tolerances as for AR(1) noise
-    # (test_diagnosis_binning.py): the bins lose <= 5 % of the information on EI, nothing else
-    case = dense_case(0.1, n_elements=16)
+    # settled bearing on a dense record under white + OU + wander (one map for all sensors, or one each).
+    # Tolerances as for AR(1) noise (test_diagnosis_binning.py): the bins lose <= 5 % of the information on EI
+    case = dense_case(0.1, n_elements=16, noise=noise)
     data = generate(case, "vertical_support_spring", np.random.SeedSequence(12), 8)
     binned = sp.diagnose(case, data)
     monkeypatch.setattr("sensorplan.diagnosis.diagnose.choose_size", lambda *args: 1)
@@ -233,12 +264,14 @@ def test_binned_diagnosis_in_time_agrees_with_the_row_by_row_one(monkeypatch):
     np.testing.assert_allclose(binned.ei_final, rows.ei_final, rtol=0.05)
 
 
-@pytest.mark.parametrize("names", [("thermal_drift", "sensor_gain"), ("vertical_support_spring", "position_offset")])
-def test_bins_of_one_reading_are_the_unbinned_time_model_fit(names):
+@pytest.mark.parametrize("names, noise", [(("thermal_drift", "sensor_gain"), "like"),
+                                         (("vertical_support_spring", "position_offset"), "like"),
+                                         (("vertical_support_spring", "sensor_gain"), "unlike")])
+def test_bins_of_one_reading_are_the_unbinned_time_model_fit(names, noise):
     # the reduction with nothing lost: bins of one reading, P_u L^{-1}, give the unbinned problem's normal
     # equations (its Kalman filter and offset projection, model/statespace.py) and degrees of freedom; the noise
     # determinants differ by log det Sigma (the bins are whitened: their covariance is I), a constant
-    case = dense_case(0.25)
+    case = dense_case(0.25, noise=noise)
     data = simulate_crossings(case, 3, noise=True, rng=11)
     ones = []
     for c in data:
@@ -257,7 +290,8 @@ def test_bins_of_one_reading_are_the_unbinned_time_model_fit(names):
     np.testing.assert_allclose(a.jtr, b.jtr, rtol=1e-8, atol=1e-10 * np.abs(b.jtr).max())
     assert binned.n_data == rows.n_data
     t = (data[0].positions - data[0].positions[0]) / case.noise.speed
-    log_det_sigma = sum(np.linalg.slogdet(dense_covariance(case.noise, s, t))[1] for s in range(case.sensors.n_sensors))
+    log_det_sigma = sum(np.linalg.slogdet(dense_covariance(case.noise, s, t))[1]
+                        for s in range(case.sensors.n_sensors))
     assert rows.log_det_noise - binned.log_det_noise == pytest.approx(len(data) * log_det_sigma, rel=1e-9)
 
 

@@ -15,14 +15,14 @@ the variation of the whitened data within a bin.
 
 Under the noise model in time (:mod:`sensorplan.model.statespace`) the
 whitening is the Kalman filter's innovations L^{-1} (lower triangular,
-dense), the same for every sensor up to its scale when the sensors' noise
-is proportional (:func:`shared_shape`; otherwise the record is fitted row by
-row).  The bins of the innovations are again independent standard normals;
-the wander's unknown level at the start of the crossing enters them as the
-bins of the whitened constant, u = B L^{-1} 1, and is marginalised exactly
-as on the readings: projected out of the bins (the map is P_u B L^{-1}), one
-degree of freedom per sensor and log |u|^2 in the restricted likelihood's
-determinant (``n_offsets``, ``offset_log_det``).
+dense): one map for every sensor up to its scale when the sensors' noise is
+proportional (:func:`shared_shape`), else one map per sensor.  The bins of
+the innovations are again independent standard normals; the wander's
+unknown level at the start of the crossing enters them as the bins of the
+whitened constant, u = B L^{-1} 1, and is marginalised exactly as on the
+readings: projected out of the bins (the map is P_u B L^{-1}), one degree of
+freedom per sensor and log |u|^2 in the restricted likelihood's determinant
+(``n_offsets``, ``offset_log_det``).
 
 The size is chosen from the information it keeps: the largest bin whose
 posterior precision of log EI (the nominal model, the case's prior) keeps at
@@ -61,6 +61,9 @@ class BinnedCrossing(Crossing):
     ``raw_times`` the readings' times [s] when recorded (noise in time only).
     ``n_offsets``, ``offset_log_det``: the offsets the map projects out (one
     per wandering sensor) and their log |u|^2 summed (see the module docstring).
+    The map: ``bin_map`` (sparse, AR(1)), ``dense_map`` (noise in time, one
+    for every sensor) or ``sensor_maps`` (noise in time, (S, bins, readings),
+    each times its sensor's std); ``shared``: whether one map serves every sensor.
     """
 
     raw_positions: np.ndarray = None  # type: ignore[assignment]
@@ -72,14 +75,14 @@ class BinnedCrossing(Crossing):
 
     def __post_init__(self):
         if self.raw_positions is not None:  # the whitening and binning as one sparse map, readings -> bins
-            offsets = (0, 0.0)
-            if self.noise.in_time:
-                bin_map, offsets = _time_bin_map(self.noise, self.raw_positions, self.size, self.raw_times)
+            offsets, bin_map, maps = (0, 0.0), None, None
+            if self.noise.in_time:  # dense maps (the filter's L^{-1}): products with dense arrays (BLAS)
+                maps, offsets = _time_maps(self.noise, self.raw_positions, self.size, self.raw_times)
             else:
                 bin_map = _bin_map(self.noise, self.raw_positions, self.size)
-            # in time the map is dense (the filter's L^{-1}): products with it as a dense array (BLAS)
-            object.__setattr__(self, "dense_map", bin_map.toarray() if self.noise.in_time else None)
             object.__setattr__(self, "bin_map", bin_map)
+            object.__setattr__(self, "dense_map", maps if maps is not None and maps.ndim == 2 else None)
+            object.__setattr__(self, "sensor_maps", maps if maps is not None and maps.ndim == 3 else None)
             object.__setattr__(self, "n_offsets", offsets[0])
             object.__setattr__(self, "offset_log_det", offsets[1])
             object.__setattr__(self, "_factor_map", None)  # formed on first use (map_with)
@@ -87,6 +90,11 @@ class BinnedCrossing(Crossing):
             in_time = (self.noise.cache_key, self.raw_times) if self.noise.in_time else ()
             object.__setattr__(self, "map_key", value_key(self.raw_positions, self.size, self.noise.std,
                                                           self.noise.correlation_length, *in_time))
+
+    @property
+    def shared(self):
+        """Whether one map serves every sensor (the noise scale applied after it)."""
+        return self.sensor_maps is None
 
     def map_with(self, load_factor):
         """The map readings -> bins after scaling the readings by ``load_factor`` (sparse; dense in time)."""
@@ -108,8 +116,11 @@ class BinnedCrossing(Crossing):
     def to_bins_first(self, values):
         """As :meth:`to_bins` with the readings first and the sensors next, (readings, S, ...) -> (bins, S, ...)."""
         k, s = values.shape[:2]
-        bin_map = self.bin_map if self.dense_map is None else self.dense_map
-        out = (bin_map @ values.reshape(k, -1)).reshape((-1,) + values.shape[1:])  # every sensor and column
+        if self.sensor_maps is not None:  # each sensor its own map
+            out = np.einsum("sbk,ks...->bs...", self.sensor_maps, values)
+        else:
+            bin_map = self.bin_map if self.dense_map is None else self.dense_map
+            out = (bin_map @ values.reshape(k, -1)).reshape((-1,) + values.shape[1:])  # every sensor and column
         out /= self.noise.std.reshape((s,) + (1,) * (values.ndim - 2))
         return out
 
@@ -118,7 +129,7 @@ class BinnedCrossing(Crossing):
 
         ``sensors`` (S, n), ``loads`` (readings, n): the map acts on the
         readings, the noise scale on the sensors.  Returns (sensors (S, n),
-        loads (bins, n)).
+        loads (bins, n)).  Only with one map for every sensor (``shared``).
         """
         bin_map = self.bin_map if self.dense_map is None else self.dense_map
         return sensors / self.noise.std[:, None], np.asarray(bin_map @ loads)
@@ -145,47 +156,47 @@ def shared_shape(noise):
             and (not timed.any() or same(noise.correlation_time_s[timed])))
 
 
-def _innovations(noise, positions, times, values):
-    """L^{-1} values (readings first) of the first sensor's filter times its std, and the filter.
-
-    Divided by a sensor's std this is that sensor's innovations when the
-    noise has one shape (:func:`shared_shape`).
-    """
-    f = noise.filter(0, positions, times)
-    return f.innovations(values) * noise.std[0], f
-
-
 def _project(binned, ones):
     """``binned`` (bins first) with the bins' whitened constant ``ones`` projected out (the offset marginalised)."""
     coef = np.tensordot(ones, binned, axes=(0, 0)) / float(ones @ ones)
     return binned - ones.reshape((-1,) + (1,) * (binned.ndim - 1)) * coef[None, ...]
 
 
-def _time_bin_map(noise, positions, size, times):
-    """Sparse (bins x readings) P_u B L^{-1} of the noise in time (the first sensor's, times its std).
+def _time_maps(noise, positions, size, times):
+    """The maps P_u B L^{-1} of the noise in time, and (offsets projected out, their log |u|^2 summed).
 
-    Returns the map and (offsets projected out, their log |u|^2 summed over
-    the sensors); see the module docstring.  Kept in ``MAPS`` (crossings
-    with the same readings share it).
+    One map (bins x readings, the first sensor's times its std) when the
+    sensors' noise has one shape (:func:`shared_shape`), else one per sensor
+    (S, bins, readings), each times its std.  Kept in ``MAPS`` (crossings
+    with the same readings share them); see the module docstring.
     """
-    return MAPS.get((), lambda: _new_time_bin_map(noise, positions, size, times),
-                    key=value_key("time bins", noise.cache_key, positions, size, times))
+    def build():
+        if shared_shape(noise):
+            binned, log_u = _sensor_map(noise, 0, positions, size, times)
+            if log_u is None:
+                return binned, (0, 0.0)
+            # sensor s's |B L_s^{-1} 1|^2 = |B L_0^{-1} 1|^2 std_0^2 / std_s^2
+            return binned, (noise.n_sensors, float(np.sum(log_u + 2.0 * np.log(noise.std[0] / noise.std))))
+        parts = [_sensor_map(noise, s, positions, size, times) for s in range(noise.n_sensors)]
+        logs = [log_u for _, log_u in parts if log_u is not None]
+        return np.stack([m for m, _ in parts]), (len(logs), float(sum(logs)))
+
+    return MAPS.get((), build, key=value_key("time bins", noise.cache_key, positions, size, times))
 
 
-def _new_time_bin_map(noise, positions, size, times):
-    f = noise.filter(0, positions, times)
+def _sensor_map(noise, s, positions, size, times):
+    """std_s P_u B L_s^{-1} of sensor ``s`` (bins x readings) and log |B L_s^{-1} 1|^2 (None without wander)."""
+    f = noise.filter(s, positions, times)
     n = np.asarray(positions).size
     if n <= DENSE_ROWS:  # the filter's own L^{-1}, summed over the bins' rows
-        binned = bin_sum(f.matrix()[None], size)[0] * (noise.std[0] / np.sqrt(size))
+        binned = bin_sum(f.matrix()[None], size)[0] * (noise.std[s] / np.sqrt(size))
     else:  # B L^{-1} a block of the identity's columns at a time: no n x n matrix
         binned = np.hstack([bin_sum(f.innovations(np.eye(n, min(BLOCK, n - j), -j))[None], size)[0]
-                            for j in range(0, n, BLOCK)]) * (noise.std[0] / np.sqrt(size))
+                            for j in range(0, n, BLOCK)]) * (noise.std[s] / np.sqrt(size))
     if not f.offset:
-        return sparse.csr_matrix(binned), (0, 0.0)
-    ones = binned.sum(axis=1)  # B L^{-1} 1 (times the first sensor's std)
-    # sensor s's |B L_s^{-1} 1|^2 = |ones|^2 / std_s^2
-    log_det = float(np.sum(np.log(float(ones @ ones) / noise.std**2)))
-    return sparse.csr_matrix(_project(binned, ones)), (noise.n_sensors, log_det)
+        return binned, None
+    ones = binned.sum(axis=1)  # B L^{-1} 1 (times the sensor's std)
+    return _project(binned, ones), float(np.log(float(ones @ ones) / noise.std[s] ** 2))
 
 
 def model_rows(crossing):
@@ -206,12 +217,16 @@ def bin_sum(values, size):
 def _information(white, size, ones=None):
     """Fisher information of log EI of one crossing's whitened Jacobian rows summed in bins of ``size``.
 
-    ``ones`` (noise in time): the readings' whitened constant, projected out
-    of the bins (the offset marginalised); ``white`` are then innovations.
+    ``ones`` (noise in time, (S, readings)): each sensor's whitened constant
+    (0 without wander), projected out of its bins (the offset marginalised);
+    ``white`` are then the innovations.
     """
     binned = bin_sum(white, size) / np.sqrt(size)
     if ones is not None:
-        binned = _project(binned.swapaxes(0, 1), bin_sum(ones[None, :], size)[0] / np.sqrt(size)).swapaxes(0, 1)
+        u = bin_sum(ones, size) / np.sqrt(size)
+        norm = np.einsum("sb,sb->s", u, u)
+        coef = np.einsum("sb,sbe->se", u, binned) / np.where(norm > 0.0, norm, 1.0)[:, None]
+        binned = binned - u[:, :, None] * coef[:, None, :]
     binned = binned.reshape(-1, white.shape[-1])
     return binned.T @ binned
 
@@ -222,8 +237,6 @@ def choose_size(case, crossings, prior):
     if n_rows < MIN_ROWS or any(isinstance(c, BinnedCrossing) for c in crossings):
         return 1
     sensors, noise = data_sensors(case, crossings.sensor_names)
-    if noise.in_time and not shared_shape(noise):  # one bin map serves every sensor only when they share it
-        return 1
     groups = {}  # crossings with the same positions, load factors (and times) have the same information
     for c in crossings:
         key = value_key(c.positions, c.load_factor, *((c.times,) if noise.in_time else ()))
@@ -232,10 +245,10 @@ def choose_size(case, crossings, prior):
     for c, count in groups.values():
         lines = influence_lines(case.bridge, case.mesh, case.ei, sensors, case.vehicle, c.positions)
         jac = lines.jacobian("log_ei") * c.load_factor[None, :, None]
-        if noise.in_time:
-            white, f = _innovations(noise, c.positions, c.times, jac.swapaxes(0, 1))
-            white = white.swapaxes(0, 1) / noise.std[:, None, None]
-            ones = _innovations(noise, c.positions, c.times, np.ones(c.n_loads))[0] if f.offset else None
+        if noise.in_time:  # each sensor's innovations and whitened constant (0 without wander)
+            filters = [noise.filter(s, c.positions, c.times) for s in range(noise.n_sensors)]
+            white = np.stack([f.innovations(j) for f, j in zip(filters, jac)])
+            ones = np.stack([f.innovations(np.ones(c.n_loads)) * f.offset for f in filters])
             whites.append((white, ones, count))
         else:
             whites.append((noise.whiten(jac, c.positions), None, count))

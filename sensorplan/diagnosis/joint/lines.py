@@ -168,6 +168,8 @@ def log_ei_blocks(items, cache):
         first[key] = k
         if binned is None:
             out[k] = lines.jacobian() * lf[None, :, None]
+        elif not binned.shared:  # a map per sensor (noise in time): the kernel at the readings, mapped
+            out[k] = binned.to_bins(lines.jacobian() * lf[None, :, None])
         else:
             binned_items.append(k)
     for members, lines, mapped, offsets, _ in mapped_groups([items[k] for k in binned_items], cache):
