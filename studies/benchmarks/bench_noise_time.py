@@ -35,8 +35,8 @@ other jobs; CPU seconds):
 diagnose-three's records are dense: both models fit them in whitened bins of 4 readings
 (sensorplan/diagnosis/joint/binning.py; in time the bins of the Kalman filter's innovations with the
 wander's offset projected out, one map for all sensors, or one per sensor in the -unlike case).  The
-time model's maps are dense and go through dense products; today's AR(1) maps are sparse.  Before the time model had bins it was fitted row by row: 2.29x
-(0.99 s today, 2.27 s in time, commit 5559df9).
+time model's maps are dense and go through dense products; today's AR(1) maps are sparse.  Before the
+time model had bins it was fitted row by row: 2.29x (0.99 s today, 2.27 s in time, commit 5559df9).
 
 Run: python studies/benchmarks/bench_noise_time.py [--repeats 3] [--cases ...]
 """
