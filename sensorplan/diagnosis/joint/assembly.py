@@ -65,7 +65,7 @@ def _write_crossing(problem, theta, state, c, lines, view, block):
             cols = b.effect.jacobian(b, problem, state, theta[sl], c, y)
             if cols is None:
                 continue
-            if isinstance(cols, Outer) and problem.binned[c] is not None:
+            if isinstance(cols, Outer) and problem.binned[c] is not None and problem.binned[c].shared:
                 # a sensor factor times a reading factor: the bin map acts on the reading factor alone
                 # (spring columns: bins x springs instead of readings x sensors x springs)
                 on_bins.append((places[b.name], cols))

@@ -26,7 +26,8 @@ class LogEIFactor:
     """A binned crossing's dy/dlog EI on its bins, kept as the product of its two factors (never formed).
 
     ``mapped[rows]``: the crossing's interpolation weights mapped onto its
-    bins (bins x table rows, sparse; ``mapped`` holds every crossing of one
+    bins (bins x table rows, sparse; a dense array under the noise model in
+    time, whose bin maps are dense; ``mapped`` holds every crossing of one
     interpolant); ``table``: the interpolant's element kernel of the table
     rows times -1/EI, (table rows, S, E), shared by those crossings;
     ``scale`` (S,): the factor of each sensor (1 / the readings' noise std,
@@ -74,7 +75,7 @@ def add_factored_terms(terms, jtj, jtr, cache):
     for members in groups.values():
         mapped, table = members[0][0].mapped, members[0][0].table
         n_rows, n_sensors = table.shape[:2]
-        dense = mapped.toarray()
+        dense = mapped if isinstance(mapped, np.ndarray) else mapped.toarray()
         scales = np.array([factor.scale for factor, *_ in members])  # (crossings, S)
         weights = np.zeros(mapped.shape[0])  # a crossing's squared factor on its fitted bins
         residuals = np.zeros((mapped.shape[0], n_sensors))  # scale x r, bin-major, zero off the fitted bins
@@ -116,9 +117,12 @@ def add_factored_terms(terms, jtj, jtr, cache):
 
 
 def _weighted_gram(factor, weights, cache):
-    """R^T diag(weights) R of the sparse ``factor.mapped`` (dense), kept in ``cache`` under its key and ``weights``."""
+    """R^T diag(weights) R of ``factor.mapped`` (a dense array), kept in ``cache`` under its key and ``weights``."""
     def gram():
         mapped = factor.mapped
+        if isinstance(mapped, np.ndarray):  # dense maps (noise in time)
+            scaled = mapped * np.sqrt(weights)[:, None]
+            return scaled.T @ scaled
         scaled = mapped.copy()  # rows times sqrt(weights), in the sparse structure as it is
         scaled.data *= np.repeat(np.sqrt(weights), np.diff(mapped.indptr))
         return (scaled.T @ scaled).toarray()

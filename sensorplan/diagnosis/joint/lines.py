@@ -115,12 +115,27 @@ def mapped_groups(items, cache):
                   tuple((items[k][0].rows.start, value_key(items[k][1]), items[k][2].map_key) for k in members))
         side_by_side, offsets = cache.get((), lambda: _side_by_side(items, members, weights.shape[0]), key=layout)
         # kept with the maps, as long as the loads stay where they are
-        mapped = lines.maps.derived.get((), lambda: side_by_side @ weights, key=("mapped", layout))
+        mapped = lines.maps.derived.get((), lambda: _product(side_by_side, weights), key=("mapped", layout))
         yield members, lines, mapped, offsets, (lines.maps.cache_key, layout)
+
+
+def _product(side_by_side, weights):
+    """The bin maps times the interpolation weights (a dense array when the maps are: the noise in time)."""
+    if isinstance(side_by_side, np.ndarray):
+        return np.ascontiguousarray((weights.T @ side_by_side.T).T)  # sparse times dense
+    return side_by_side @ weights
 
 
 def _side_by_side(items, members, n_rows):
     """The bin maps of ``members`` side by side on the rows of their common maps, and each one's first bin."""
+    if items[members[0]][2].dense_map is not None:  # dense maps (noise in time; one noise model for all)
+        parts = [items[k][2].map_with(items[k][1]) for k in members]
+        offsets = np.cumsum([0] + [p.shape[0] for p in parts])
+        out = np.zeros((offsets[-1], n_rows))
+        for p, o, k in zip(parts, offsets, members):
+            start = items[k][0].rows.start
+            out[o:o + p.shape[0], start:start + p.shape[1]] = p
+        return out, offsets
     parts = [items[k][2].map_with(items[k][1]).tocoo() for k in members]
     offsets = np.cumsum([0] + [p.shape[0] for p in parts])
     rows = np.concatenate([p.row + o for p, o in zip(parts, offsets)])
@@ -153,6 +168,8 @@ def log_ei_blocks(items, cache):
         first[key] = k
         if binned is None:
             out[k] = lines.jacobian() * lf[None, :, None]
+        elif not binned.shared:  # a map per sensor (noise in time): the kernel at the readings, mapped
+            out[k] = binned.to_bins(lines.jacobian() * lf[None, :, None])
         else:
             binned_items.append(k)
     for members, lines, mapped, offsets, _ in mapped_groups([items[k] for k in binned_items], cache):

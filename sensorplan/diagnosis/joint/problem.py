@@ -55,6 +55,10 @@ class JointProblem(WhitenedProblem, LineSource):
         super().__init__(case, crossings, masks=masks)
         self.prior = prior
         self.n_sensors = self.sensors.n_sensors
+        for c, m in zip(crossings, self.masks):  # bins in time: their maps marginalise the offsets (binning.py)
+            if getattr(c, "n_offsets", 0) and m.any():
+                self.n_data -= c.n_offsets
+                self.log_det_noise += c.offset_log_det
         self.sensor_names = self.sensors.names
         self.n_crossings = len(crossings)
         self.labels = crossings.labels
@@ -215,10 +219,10 @@ class JointProblem(WhitenedProblem, LineSource):
         Jacobian is zero in the columns of the other crossings' own
         parameters (offsets, drift, shifts, amplification): it is formed,
         whitened and multiplied on its own columns only (``self.columns``).
-        When every crossing is binned the log-EI blocks are never formed:
+        When every crossing is binned (one map for all its sensors) the log-EI blocks are never formed:
         their share of J^T J and J^T r comes from the factors (:mod:`.factored`).
         """
-        factored = jacobian and all(b is not None for b in self.binned)
+        factored = jacobian and all(b is not None and b.shared for b in self.binned)
         preds = self.predicted(theta, jacobian, factored)
         if preds is None:
             return None
