@@ -16,6 +16,12 @@ down and reproduces the reading.  The tests use a subset of the effect library
 run in about ten seconds per diagnosis (marked slow); with the full library the
 support spring is not named either and dynamic_amplification still ranks
 first (see the README).
+
+On all seven steps load-dependent stiffness ranks first but leaves a significant
+gap (the curvature concentrates under the load, which one EI per span cannot
+follow): the diagnosis reports it as partial and the gap as unexplained, which
+studies/realdata/openlab_pe21_softening.py shows to be right (the gap test is
+calibrated after the correction; the remainder is real).
 """
 
 import importlib.util
@@ -153,6 +159,7 @@ def test_seven_steps_rank_load_dependent_stiffness_first_and_leave_the_gap_partl
     # but it leaves a significant gap: reported as partial, not as a cause, and the verdict says unexplained
     assert d.causes == () and d.partial == (study.LOAD_DEPENDENT,) and d.unexplained
     assert d.statement.startswith("unexplained") and d.verdict.status == "model_error"
+    assert "unexplained" in d.verdict.summary and study.LOAD_DEPENDENT not in d.verdict.summary  # partial: no cause
     assert "not causes: load_dependent_stiffness reduces the gap but leaves it significant" in d.summary()
     # the partial model: the largest reading's residual shrinks by a factor of seven (5.07 -> 0.70 mm measured) ...
     rms = corrected.rms_by_sensor
