@@ -40,7 +40,7 @@ all, peak RSS 120 MB)::
       + load_dependent_stiffness  1.1e-04    0.76   0.24   1.13   0.70
         (log EI -0.233 per 100 kN, i.e. EI x 0.79; noise 2.95 -> 0.80 mm; F(4, 21))
     null after the correction     KS p 0.780, share p < 0.05: 0.065, p < 1e-3: 0.005
-      (the same null readings fitted without the effect: significant in 0.99)
+      (further null readings fitted without the effect: significant in 0.99)
     truth uniform, 0.2 mm         gap left significant in 34 % (median p 2.7e-4); LWA_4 4.38 -> 0.43 mm
     truth split,   0.2 mm         gap left significant in 86 % (median p 2.1e-4); LWA_4 5.08 -> 0.72 mm
 
@@ -213,8 +213,9 @@ def main(replicates=200, truth_replicates=50, seed=0):
     base, fitted = refit(case, real, ()), refit(case, real, (EFFECT,))
     print("openLAB PE 2.1, seven steps, LWA_1..LWA_4, rigid supports (openlab_pe21_diagnosis.py's model)")
     for label, r in (("base", base), (f"+ {EFFECT}", fitted)):
-        print(f"  {label:28s} gap p {r.gap.p_value:.2g} ({'significant' if r.gap.significant else 'not significant'}),"
-              f" noise {1e3 * r.noise_scale * study.NOISE_STD:.2f} mm, rms per laser [mm] {_mm(r.rms_by_sensor, '5.2f')}")
+        verdict = "significant" if r.gap.significant else "not significant"
+        print(f"  {label:28s} gap p {r.gap.p_value:.2g} ({verdict}), noise {1e3 * r.noise_scale * study.NOISE_STD:.2f} "
+              f"mm, rms per laser [mm] {_mm(r.rms_by_sensor, '5.2f')}")
     print(f"  residuals after the correction [mm], steps 1-7 ({EFFECT} log EI per 100 kN "
           f"{fitted.theta[-1]:+.3f}):")
     for i, name in enumerate(study.KEPT):
@@ -226,13 +227,13 @@ def main(replicates=200, truth_replicates=50, seed=0):
     print(f"Null after the correction ({replicates} replicates, noise {1e3 * sigma:.2f} mm): KS p {ks:.3f}, "
           f"share p < 0.05 {low:.3f}, p < 1e-3 {tiny:.3f}")
     base_null = simulate(case, forces, corrected_truth(case, forces, fitted), sigma, replicates, rng, names=())
-    print("  (the same readings fitted without the effect: the base model's gap is then real: significant in "
-          f"{np.mean(base_null[:, 1]):.2f})")
+    print("  (further null readings of the corrected model fitted without the effect: the base model's gap is then "
+          f"real: significant in {np.mean(base_null[:, 1]):.2f})")
     uniform, miss = uniform_truth(case, forces, readings)
     for label, truth in (("uniform", uniform), ("split", split_truth(case, forces, readings))):
         rows = simulate(case, forces, truth, study.NOISE_STD, truth_replicates, rng)
-        print(f"Truth {label} (noise {1e3 * study.NOISE_STD:.1f} mm, {truth_replicates} replicates"
-              f"{f'; the flexibility law misses the real secants by <= {100 * miss:.1f} %' if label == 'uniform' else ''}"
+        law = f"; the flexibility law misses the real secants by <= {100 * miss:.1f} %" if label == "uniform" else ""
+        print(f"Truth {label} (noise {1e3 * study.NOISE_STD:.1f} mm, {truth_replicates} replicates{law}"
               f"): gap left significant in {np.mean(rows[:, 1]):.2f} (median p {np.median(rows[:, 0]):.2g}); "
               f"LWA_4 rms {1e3 * np.median(rows[:, 2]):.2f} -> {1e3 * np.median(rows[:, 3]):.2f} mm")
     return base, fitted, null
