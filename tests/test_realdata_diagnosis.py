@@ -16,6 +16,12 @@ down and reproduces the reading.  The tests use a subset of the effect library
 run in about ten seconds per diagnosis (marked slow); with the full library the
 support spring is not named either and dynamic_amplification still ranks
 first (see the README).
+
+On all seven steps load-dependent stiffness ranks first but leaves a significant
+gap (the curvature concentrates under the load, which one EI per span cannot
+follow): the diagnosis reports it as partial and the gap as unexplained, which
+studies/realdata/openlab_pe21_softening.py shows to be right (the gap test is
+calibrated after the correction; the remainder is real).
 """
 
 import importlib.util
@@ -23,7 +29,11 @@ import math
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
+from scipy import stats
+
+from sensorplan.diagnosis.gap import systematic_f_test
 
 sys.path.insert(0, str(Path(__file__).parent))
 from realdata_table import plateaus_from_table  # noqa: E402
@@ -32,15 +42,18 @@ REPO = Path(__file__).resolve().parents[1]
 SCRIPT = REPO / "studies" / "realdata" / "openlab_pe21_diagnosis.py"
 
 
-def _load_study():
-    spec = importlib.util.spec_from_file_location("openlab_pe21_diagnosis_study", SCRIPT)
+def _load_study(name, script):
+    if name in sys.modules:
+        return sys.modules[name]
+    spec = importlib.util.spec_from_file_location(name, script)
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module  # dataclasses look their module up by name
     spec.loader.exec_module(module)
     return module
 
 
-study = _load_study()
+study = _load_study("openlab_pe21_diagnosis_study", SCRIPT)
+softening = _load_study("openlab_pe21_softening_study", SCRIPT.with_name("openlab_pe21_softening.py"))
 
 
 @pytest.fixture(scope="module")
@@ -113,24 +126,69 @@ def seven_steps(plateaus):
     return study.run(plateaus, study.ALL_STEPS)
 
 
+@pytest.fixture(scope="module")
+def corrected(plateaus):
+    """The seven steps refitted with load-dependent stiffness as diagnose's final refit does (the partial model)."""
+    return softening.refit(study.make_case(), study.make_crossings(plateaus), (study.LOAD_DEPENDENT,))
+
+
+# The numbers below were measured by studies/realdata/openlab_pe21_softening.py (its docstring holds the table):
+# the gap test after the correction is calibrated (200 null replicates from the corrected model as fitted: KS p
+# 0.78, share below 0.05 0.065), and data from a truth whose softening concentrates under the load (each step
+# fitted with span 2 split at 21 m) leave a significant gap after the correction in 86 % of replicates, with the
+# same LWA_4 shrinkage as the real data (5.08 -> 0.72 mm there, 5.07 -> 0.70 mm here).  One EI per span that falls
+# with the load cannot follow that shape, so the honest diagnosis names load-dependent stiffness first and says
+# the gap is only partly explained.
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="issue 36 (open): since the gap and residual tests use F with the right degrees "
-                   "of freedom, load-dependent stiffness still ranks first (log BF 11.2) but the seven steps end "
-                   "'unexplained'; to be investigated before #36 closes")
-def test_seven_steps_name_load_dependent_stiffness_and_nothing_impossible(seven_steps):
+def test_seven_steps_rank_load_dependent_stiffness_first_and_leave_the_gap_partly_explained(seven_steps, corrected):
     d = seven_steps.diagnosis
-    # a static jack test: no dynamics, one sample per step (no drift, no offset per step)
+    # a static jack test: no dynamics, one sample per step (no drift, no offset per step); nothing impossible named
     assert {"dynamic_amplification", "thermal_drift", "sensor_offset"} <= set(d.not_offered)
-    assert not set(d.causes) & set(d.not_offered)
-    assert d.causes == (study.LOAD_DEPENDENT,)
-    finding = d.findings[study.LOAD_DEPENDENT][0]
-    # EI falls with the load: the secant flexibility LWA_4 / F grows from step to step (derived table)
+    assert not (set(d.causes) | set(d.partial)) & set(d.not_offered)
+    # load-dependent stiffness first, far ahead (measured: log BF 11.2, held-out gain 37; position_offset next, 2.0)
+    first, second = d.effects[:2]
+    assert first.name == study.LOAD_DEPENDENT and first.converged
+    assert first.log_bayes_factor > 8 and first.log_bayes_factor - second.log_bayes_factor > 6
+    assert first.heldout_score_gain > 20
+    # EI falls with the load: the whole 95 % interval of the change per 100 kN is negative (measured -21 %)
+    (finding,) = first.findings
     assert finding.unit == "%" and finding.high < 0
+    # as the secant flexibility LWA_4 / F does without any model (derived table: x 2.14 from step 1 to 7)
     lwa4 = [p.deflection[3] / p.force for p in plateaus_from_table(study.pe21)]
     assert lwa4[-1] > 1.3 * lwa4[0]
-    # the residual of the largest reading shrinks by a factor of several
-    s = d.shrinkage["LWA_4"]
-    assert s.rms_after < 0.3 * s.rms_before
+    # but it leaves a significant gap: reported as partial, not as a cause, and the verdict says unexplained
+    assert d.causes == () and d.partial == (study.LOAD_DEPENDENT,) and d.unexplained
+    assert d.statement.startswith("unexplained") and d.verdict.status == "model_error"
+    assert "unexplained" in d.verdict.summary and study.LOAD_DEPENDENT not in d.verdict.summary  # partial: no cause
+    assert "not causes: load_dependent_stiffness reduces the gap but leaves it significant" in d.summary()
+    # the partial model: the largest reading's residual shrinks by a factor of seven (5.07 -> 0.70 mm measured) ...
+    rms = corrected.rms_by_sensor
+    assert rms[3] < 0.2 * d.shrinkage["LWA_4"].rms_before
+    assert corrected.gap.significant  # measured p = 1.1e-4 (5.2e-6 before)
+    # ... and what remains has one sign per laser from step 3 on and grows with the load: LWA_1 and LWA_3 below
+    # the model, LWA_4 above it (curvature concentrated under the load), up to 2.15 mm = 11 x the 0.2 mm laser level
+    res = corrected.residuals[2:]
+    assert np.all(res[:, 0] < 0) and np.all(res[:, 2] < 0) and np.all(res[:, 3] > 0)
+    assert np.max(np.abs(res)) > 5 * study.NOISE_STD
+
+
+def test_the_corrected_gap_test_counts_the_effect_and_the_systematic_columns(corrected):
+    # 7 steps x 4 lasers = 28 readings; parameters: EI of the two spans and the change per 100 kN (3); systematic
+    # columns: one per laser (4, none in the span of the model's Jacobian: LWA_2 reads nothing in the model)
+    assert systematic_f_test(corrected.problem, corrected.theta)[2] == 28 - 3 - 4
+
+
+@pytest.mark.slow
+def test_the_gap_test_after_the_correction_is_calibrated(plateaus, corrected):
+    # null data from the corrected model as fitted (0.5 m mesh) plus noise at the refit's level; the study's 200
+    # replicates gave KS p 0.78; 40 here
+    case = study.make_case()
+    forces = np.array([p.force for p in plateaus])
+    truth = softening.corrected_truth(case, forces, corrected)
+    sigma = corrected.noise_scale * study.NOISE_STD
+    rows = softening.simulate(case, forces, truth, sigma, 40, np.random.default_rng(5))
+    assert stats.kstest(rows[:, 0], "uniform").pvalue > 0.01
+    assert np.mean(rows[:, 0] < 0.05) <= 0.15
 
 
 @pytest.mark.slow

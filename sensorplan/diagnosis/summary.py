@@ -77,8 +77,9 @@ def _closing_lines(d):
     """Partial effects, the confounded ones, convergence and the statement."""
     g, lines = d.gap, []
     if d.partial:
-        lines.append(f"  not causes: {', '.join(d.partial)} reduce the gap but leave it significant (the cause is "
-                     "outside the library)")
+        verbs = "reduces the gap but leaves it" if len(d.partial) == 1 else "reduce the gap but leave it"
+        lines.append(f"  not causes: {', '.join(d.partial)} {verbs} significant (the cause is outside the "
+                     "library)")
     if d.confounded and not g.significant and not d.causes:
         # nothing to explain: which effects an EI change could mimic is no finding here (it is in to_dict())
         lines.append(f"  no significant gap, so confounded alternatives are not listed ({len(d.confounded)} effects "
