@@ -165,6 +165,12 @@ def test_seven_steps_rank_load_dependent_stiffness_first_and_leave_the_gap_partl
     rms = corrected.rms_by_sensor
     assert rms[3] < 0.2 * d.shrinkage["LWA_4"].rms_before
     assert corrected.gap.significant  # measured p = 1.1e-4 (5.2e-6 before)
+    # the diagnosis itself reports what the partial model explains, as the study's refit measures it
+    assert d.partial_gap is not None and d.partial_gap.significant
+    assert d.partial_gap.p_value == pytest.approx(corrected.gap.p_value, rel=0.05)
+    assert d.partial_shrinkage["LWA_4"].rms_after == pytest.approx(rms[3], rel=0.05)
+    line = next(t for t in d.summary().splitlines() if "before -> with load_dependent_stiffness" in t)
+    assert "LWA_4 5.05 mm -> 0.70" in line  # measured 5.05 -> 0.701 mm (the fit's own rms, before the held-out one)
     # ... and what remains has one sign per laser from step 3 on and grows with the load: LWA_1 and LWA_3 below
     # the model, LWA_4 above it (curvature concentrated under the load), up to 2.15 mm = 11 x the 0.2 mm laser level
     res = corrected.residuals[2:]

@@ -178,8 +178,10 @@ def _diagnose(case, crossings, prior, offered, not_offered, policy, *, n_folds, 
     final = _final_fit(data, base, [offered[n] for n in selection.selected], selection.current, prior,
                        estimate_springs=estimate_springs)
     causes = named_causes(selection.selected, gap_remains=final.gap.significant, policy=policy)
+    partly = None  # the partial effects' refit and held-out statistics: what they explain is still reported
     if len(causes) < len(selection.selected):
         say("the selected effects leave a significant gap: no cause named; final refit of the case's model")
+        partly = (final, selection.current.held)
         selection = replace(selection, selected=(), alternatives={}, current=base.candidate,
                             partial=selection.selected)
         final = _final_fit(data, base, [], base.candidate, prior, estimate_springs=estimate_springs)
@@ -188,7 +190,7 @@ def _diagnose(case, crossings, prior, offered, not_offered, policy, *, n_folds, 
     confounded = confounding(data.case, data.crossings, others, prior=prior, theta_base=base.candidate.fit.theta,
                              alpha=base.full.noise_scale, tau=base.full.tau, estimate_springs=estimate_springs)
     return _diagnosis(data, base, final=final, selection=selection, results=results, confounded=confounded,
-                      offered=offered, not_offered=not_offered, estimate_springs=estimate_springs)
+                      offered=offered, not_offered=not_offered, estimate_springs=estimate_springs, partly=partly)
 
 
 def _screen_and_select(ctx, names, base, *, policy, folds, say, runner):
@@ -288,8 +290,20 @@ def _final_fit(data, base, effects, current, prior, *, estimate_springs):
                   corrected_model(problem, theta, std))
 
 
-def _diagnosis(data, base, *, final, selection, results, confounded, offered, not_offered, estimate_springs):
-    """The :class:`GapDiagnosis` of the stages' results."""
+def _shrinkage(base, after, held):
+    """sensor -> :class:`SensorShrinkage` from the base fit to the refit ``after`` (held-out stats ``held``)."""
+    problem, base_held = base.problem, base.candidate.held
+    kinds = dict(zip(problem.sensor_names, problem.sensors.kinds))
+    return {n: SensorShrinkage(
+        kind=kinds[n], rms_before=base.gap.by_sensor[n].rms_residual, rms_after=after.gap.by_sensor[n].rms_residual,
+        heldout_rms_before=None if base_held is None else float(base_held.rms_by_sensor[i]),
+        heldout_rms_after=None if held is None else float(held.rms_by_sensor[i]))
+        for i, n in enumerate(problem.sensor_names)}
+
+
+def _diagnosis(data, base, *, final, selection, results, confounded, offered, not_offered, estimate_springs,
+               partly=None):
+    """The :class:`GapDiagnosis` of the stages' results (``partly``: the partial effects' refit, held)."""
     selected, held = selection.selected, selection.current.held
     # no cause named: the gap of the case's model (the base fit, or its refit) is what remains
     unexplained = bool(final.gap.significant or (not selected and base.gap.significant))
@@ -301,12 +315,7 @@ def _diagnosis(data, base, *, final, selection, results, confounded, offered, no
     if differs:
         text += "; the case's elastic springs differ from the configured values: " + ", ".join(differs)
     problem, base_held = base.problem, base.candidate.held
-    kinds = dict(zip(problem.sensor_names, problem.sensors.kinds))
-    shrinkage = {n: SensorShrinkage(
-        kind=kinds[n], rms_before=base.gap.by_sensor[n].rms_residual, rms_after=final.gap.by_sensor[n].rms_residual,
-        heldout_rms_before=None if base_held is None else float(base_held.rms_by_sensor[i]),
-        heldout_rms_after=None if held is None else float(held.rms_by_sensor[i]))
-        for i, n in enumerate(problem.sensor_names)}
+    shrinkage = _shrinkage(base, final, held)
     n_base, n_el = problem.n_elements, final.problem.n_elements
     verdict = gap_verdict(base.gap, base.nominal_gap, _ei_fit(data, final), causes=selected, unexplained=unexplained,
                           in_case={n: offered[n].in_case for n in selected}, partial=selection.partial,
@@ -324,7 +333,9 @@ def _diagnosis(data, base, *, final, selection, results, confounded, offered, no
         noise_scale=float(final.fit.noise_scale), converged=bool(base.full.converged and final.converged),
         heldout_ratio_after=None if held is None else held.ratio,
         heldout_ratio_before=None if base_held is None else base_held.ratio, corrected_model=final.corrected,
-        binning=data.binning, includes=includes, partial=tuple(selection.partial))
+        binning=data.binning, includes=includes, partial=tuple(selection.partial),
+        partial_gap=None if partly is None else partly[0].gap,
+        partial_shrinkage={} if partly is None else _shrinkage(base, *partly))
 
 
 def _ei_fit(data, final):

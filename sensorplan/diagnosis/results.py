@@ -225,7 +225,8 @@ class GapDiagnosis:
     ``effects``: one :class:`EffectFit` per candidate, best log Bayes factor
     first; ``causes``: the selected effects in order of selection, named
     only when the model with them leaves no significant gap (else they are
-    ``partial``: they reduce the gap but leave it significant); per
+    ``partial``: they reduce the gap but leave it significant, and
+    ``partial_gap`` and ``partial_shrinkage`` say by how much); per
     cause its ``findings`` (of the final refit), ``alternatives`` (effects
     explaining the gap about as well) and ``includes`` (candidates it holds
     as a special case); ``not_offered``: effect -> why it cannot act on
@@ -265,6 +266,8 @@ class GapDiagnosis:
     binning: Binning | None = None
     includes: dict = field(default_factory=dict)
     partial: tuple = ()
+    partial_gap: Gap | None = None
+    partial_shrinkage: dict = field(default_factory=dict)
 
     def summary(self):
         from .summary import summary_lines
@@ -281,6 +284,8 @@ class GapDiagnosis:
             "verdict": self.verdict.to_dict(),
             "statement": self.statement,
             "partial": list(self.partial),
+            "partial_gap": None if self.partial_gap is None else self.partial_gap.to_dict(),
+            "partial_shrinkage": {k: v.to_dict() for k, v in self.partial_shrinkage.items()},
             "gap_after": self.gap_after.to_dict(),
             "ei_edges_m": self.ei_edges.tolist(),
             "ei_base": self.ei_base.tolist(),

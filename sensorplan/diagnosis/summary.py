@@ -78,8 +78,13 @@ def _closing_lines(d):
     g, lines = d.gap, []
     if d.partial:
         verbs = "reduces the gap but leaves it" if len(d.partial) == 1 else "reduce the gap but leave it"
-        lines.append(f"  not causes: {', '.join(d.partial)} {verbs} significant (the cause is outside the "
+        p = "" if d.partial_gap is None else f", p = {d.partial_gap.p_value:.2g}"
+        lines.append(f"  not causes: {', '.join(d.partial)} {verbs} significant{p} (the cause is outside the "
                      "library)")
+        if d.partial_shrinkage:
+            lines.append(f"    residual rms per sensor, before -> with {', '.join(d.partial)}: " + ", ".join(
+                f"{n} {in_unit(s.rms_before, s.kind)} -> {in_unit(s.rms_after, s.kind)}"
+                for n, s in d.partial_shrinkage.items()))
     if d.confounded and not g.significant and not d.causes:
         # nothing to explain: which effects an EI change could mimic is no finding here (it is in to_dict())
         lines.append(f"  no significant gap, so confounded alternatives are not listed ({len(d.confounded)} effects "
