@@ -65,10 +65,13 @@ class FixedLines:
         self.unit_actions = (edges, length) + sensor_actions(sensors)
         self.loads = free_actions(*self.load_actions)  # free-body diagrams F and their end values
         self.units = free_actions(*self.unit_actions)  # free-body diagrams f of the sensors' unit actions
+        self._last = (None, None)  # (frame, its products): a fit keeps one support layout
 
     def _products(self, method):
         """(int f F (S, K, E), int b F (U, K, E), int b f (U, S, E), int b b (U, U, E)) for ``method``'s frame."""
         frame = method.frame
+        if self._last[0] is frame:
+            return self._last[1]
 
         def make():
             edges = self.mesh.edges
@@ -79,7 +82,9 @@ class FixedLines:
                 arr.setflags(write=False)
             return out
 
-        return _PRODUCTS.get(("fixed lines", frame.key, self.load_actions, self.unit_actions), make)
+        products = _PRODUCTS.get(("fixed lines", frame.key, self.load_actions, self.unit_actions), make)
+        self._last = (frame, products)
+        return products
 
     def at(self, bridge, ei):
         """:class:`~sensorplan.model.forward.InfluenceLines` at ``ei`` (per element, per span or scalar) on ``bridge``."""
@@ -87,9 +92,11 @@ class FixedLines:
         method = shared_force_method(bridge, self.mesh, ei)
         unit_load, basis_load, basis_unit, basis_basis = self._products(method)
         v = method.v
-        x_load = method.redundants(basis_load @ v, *self.loads[1])  # scaled unknowns (U, K)
-        x_unit = method.redundants(basis_unit @ v, *self.units[1])  # (U, S)
         n_u, n_loads, n_el = basis_load.shape
+        # the scaled unknowns of the loads (U, K) and of the sensors' unit actions (U, S), one solve
+        ends = [np.concatenate([a, b]) for a, b in zip(self.loads[1], self.units[1])]
+        x = method.redundants(np.hstack([basis_load @ v, basis_unit @ v]), *ends)
+        x_load, x_unit = x[:, :n_loads], x[:, n_loads:]
         # int b_u M_k, then int m_s M_k (the kernel), as in the module docstring
         basis_actual = basis_load + np.matmul(basis_basis.transpose(0, 2, 1), x_load).transpose(0, 2, 1)
         kernel = (unit_load + np.matmul(basis_unit.transpose(1, 2, 0), x_load).transpose(0, 2, 1)

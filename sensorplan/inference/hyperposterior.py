@@ -105,7 +105,7 @@ class _Slice:
         mu, w = _generalized_eigh(surrogate.lin.jtj, self.precision)
         self.mu, self.w = np.clip(mu, 0.0, None), w
         self.c = w.T @ surrogate.g
-        self.c2 = self.c**2
+        self.c2, self.mu2 = self.c**2, self.mu**2
 
     def log_posterior_v(self, v):
         """log p(y | alpha, tau) + log p(log alpha) at v = log alpha, with its first two v-derivatives."""
@@ -117,12 +117,11 @@ class _Slice:
         return (float(value + ctx.hyperprior.log_density_log_noise(v)), d1, d2)
 
     def _derivatives(self, v, a):  # of log_posterior_v at v = log alpha, a = alpha^2
-        ctx, mu, c2 = self.surrogate.ctx, self.mu, self.c2
-        ap = a + mu
-        ap2 = ap**2
-        d1 = -ctx.n_data + np.sum(mu / ap) + self.surrogate.yy / a - np.sum(c2 * (2.0 * a + mu) / (a * ap2))
-        d2 = (-np.sum(2.0 * a * mu / ap2) - 2.0 * self.surrogate.yy / a
-              + np.sum(2.0 * c2 * (4.0 * a**2 + 3.0 * a * mu + mu**2) / (a * ap**3)))
+        ctx, mu, c2, yy = self.surrogate.ctx, self.mu, self.c2, self.surrogate.yy
+        r = 1.0 / (a + mu)
+        r2 = r * r
+        d1 = -ctx.n_data + mu @ r + yy / a - (c2 @ ((2.0 * a + mu) * r2)) / a
+        d2 = -2.0 * a * (mu @ r2) - 2.0 * yy / a + 2.0 * (c2 @ ((4.0 * a * a + 3.0 * a * mu + self.mu2) * (r2 * r))) / a
         s2 = ctx.hyperprior.noise_log_std**2
         return float(d1 - v / s2), float(d2 - 1.0 / s2)
 
