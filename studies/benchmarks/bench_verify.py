@@ -55,23 +55,26 @@ cores shared with other jobs, and a load above 2 means the workers competed
 with other processes (the Dask speed-up then understates what 2 free cores
 give).
 
-Measured (2026-11-27 22:50-23:10 UTC, the code of commit 2e0cb57, 2 logical CPUs shared with six other helpers' jobs: load average 8 to 13)
--------------------------------------------------------------------------------------------------------------------------------------
-* Part 1 (load 10.3-10.8, best of 3, interleaved): reference 0e3817a 9.81 s
-  CPU (worst 10.38) for 92 scenarios + pilot = 9.4 scenarios per CPU second;
-  base 1ce98a5 8.51 s (8.79) = 10.8; this tree 6.76 s (7.22) = 13.6: ratio
-  1.45 against the reference, 1.26 against the base.  (Single runs at load
+Measured (2026-11-27 22:50-23:25 UTC, 2 logical CPUs shared with six other helpers' jobs: load average 8 to 13)
+------------------------------------------------------------------------------------------------------------
+* Part 1, commit 3376d80 (23:20, load 10.3-11.7, best of 3, interleaved):
+  reference 0e3817a 9.28 s CPU (worst 9.59) for 92 scenarios + pilot = 9.9
+  scenarios per CPU second; base 1ce98a5 7.45 s (8.14) = 12.3; this tree
+  5.65 s (6.24) = 16.3: ratio 1.64 against the reference, 1.32 against the
+  base; identical to the base to 2.9e-10.  Commit 2e0cb57 (22:55, load
+  10.3-10.8): 9.81 / 8.51 / 6.76 s, 1.45 and 1.26.  (Single runs at load
   0.1-3.8, 22:34: reference 9.93 s, base 7.70 s.)  TARGET OF 3x NOT MET.
 * Identity against the base: every scenario's kind, verdict, detection and
-  false alarm equal; largest relative difference of any number 1.2e-9 (a
-  band width).  The undamaged posterior moves by ~1e-10 (the fit's forward
-  solves now round differently, 1e-14, and the hyper-posterior's grid step,
-  a finite-difference curvature, amplifies that to ~1e-7 of the step); the
+  false alarm equal; largest relative difference of any number 2.9e-10
+  (1.2e-9 at 2e0cb57; a band width).  The undamaged posterior moves by
+  ~1e-10 (the fit's forward solves now round differently, 1e-14, and the
+  hyper-posterior's grid step, a finite-difference curvature, amplifies
+  that to ~1e-7 of the step); the
   damage hypotheses keep the components making up 99.9 % of the weight, so a
   component at that cut can enter or leave: up to ~1e-6 of an rmse on other
   cases (tests/test_verify_throughput.py states and tests the tolerances).
-* Stage by stage, CPU ms per scenario (process_time around each stage, the
-  same 93 inversions, base then this tree back to back at load 10):
+* Stage by stage at 2e0cb57, CPU ms per scenario (process_time around each
+  stage, the same 93 inversions, base then this tree back to back, load 10):
   total 82.6 -> 70.4; truth simulation 1.8 -> 1.8; hyper-posterior fit
   32.7 -> 26.3 (forward solves of the fit: the element integrals of the
   moment diagrams kept, FixedLines, 0.9 -> 0.3 ms a solve, of which the
@@ -90,9 +93,12 @@ Measured (2026-11-27 22:50-23:10 UTC, the code of commit 2e0cb57, 2 logical CPUs
   simulation, the null fit and the 20,000 draws stay as they were (the
   draws: 4.7 ms of normals from the scenario's stream, ~9 ms the
   20,000 x 24 x 240 product at ~15 GFlop/s, 2 ms the maxima; other chunkings
-  measured equal).  That is ~29 ms of a scenario pinned, against the ~35 ms
-  a 3x gain allows for everything (the reference takes ~105 ms a scenario at
-  this load); the rest has its own floors (64 eigendecompositions, 6 ms).
+  measured equal).  That is ~29 ms of a scenario pinned, against the 33-35
+  ms a 3x gain allows for everything (the reference takes 100-105 ms a
+  scenario at this load); the rest has its own floors (64
+  eigendecompositions, 6 ms; ~14 forward solves of the fit, 4 ms; the
+  whitening and normal equations, 3 ms), so the ceiling with identical
+  results is about 2x the reference.
   A 3x gain needs the threshold once per layout (it depends on the null fit
   only through the linearisation point: over these 92 scenarios it ranges
   2.981-3.042, std 0.013) or drawn in a sign-stable basis (a Cholesky factor,
