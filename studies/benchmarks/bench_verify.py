@@ -104,20 +104,21 @@ Measured (2026-11-27 22:50-23:25 UTC, 2 logical CPUs shared with six other helpe
   2.981-3.042, std 0.013) or drawn in a sign-stable basis (a Cholesky factor,
   or eigenvectors with a fixed sign rule, which would also make it robust to
   BLAS/LAPACK versions); either changes the numbers.
-* Part 2 (load 10.9-13.0): 1 worker 12.6 s best, 2 workers 14.1 s: wall
-  speed-up 0.90, while the machine gave two processes 1.08-1.24 (a fixed
-  computation alone vs two at once; 2.00 on free cores): no second core.
-  JSON identical to the in-process run in every repeat.  Tasks computing at
-  once: 1.70, 1.94, 1.88 on 2 workers (0.87-0.99 on 1).  Worker CPU seconds:
-  1 worker 7.76, 6.73, 6.49; 2 workers 3.98 + 4.63, 3.28 + 4.26, 3.25 + 4.16
-  (two processes cost 7-14 % more CPU in all on the shared cores): speed-up
-  projected on two free cores 1.80, 1.79, 1.75 with even shares (each
-  worker half of the total), less the tail (the last chunk, 5 scenarios =
-  0.35 s, may run alone: 1.6 at worst, ~1.7 on average); 1.68, 1.58, 1.56
-  with the uneven shares the load gave.  Earlier run (load 8.9-12.4): 0.64
-  wall, concurrency 1.67-1.95.  TARGET OF 1.7x NOT MEASURABLE as wall time
-  here; projected at about 1.7 (1.6-1.8) on two free cores, not clearly
-  above it (more, smaller chunks would shorten the tail).
+* Part 2, commit 3376d80 (23:25, load 13.9-17.1): 1 worker 15.2 s best, 2
+  workers 14.0 s: wall speed-up 1.08 (per repeat 0.74, 1.09, 1.28), while
+  the machine gave two processes 1.35, 0.61, 0.85 (a fixed computation alone
+  vs two at once; 2.00 on free cores).  JSON identical to the in-process run
+  in every repeat.  Tasks computing at once: 1.72, 1.94, 1.96 on 2 workers
+  (0.92-0.99 on 1).  Worker CPU seconds: 1 worker 6.50, 6.32, 6.49;
+  2 workers 3.99 + 4.17, 3.05 + 3.82, 3.38 + 3.51 (the first repeat holds
+  the workers' imports; two processes cost up to 9 % more CPU in all on the
+  shared cores): speed-up projected on two free cores 1.59, 1.84, 1.88 with
+  even shares (half the total each), 1.56, 1.66, 1.85 with the shares the
+  load gave; the tail (the last chunk, 5 scenarios, ~0.3 s, may run alone)
+  takes up to 0.15 off.  At 2e0cb57 (load 10.9-13.0): wall 0.90, projected
+  1.75-1.80 (even) and 1.56-1.68 (uneven).  TARGET OF 1.7x NOT MEASURABLE
+  as wall time here (no second core free); projected 1.7-1.9 on two free
+  cores after the first (import) repeat.
 * Part 3 (load 11.6-12.3): the design study (12 rows, 9 distinct layouts,
   66 progress calls) 22.2 s on 1 worker, 17.5 s on 2: 1.27; the table
   identical to the in-process run.
