@@ -83,7 +83,11 @@ Measured (2026-11-27 22:50-23:25 UTC, 2 logical CPUs shared with six other helpe
   29.7 -> 26.5 (null fit 7.1 -> 7.4, threshold from 20,000 null maxima
   13.7 -> 14.4, zone posteriors 4.9 -> 1.2: now computed only for the
   estimates of a detection); damage hypotheses 8.8 -> 7.3; posterior checks
-  and verdict 4.9 -> 4.1; scoring 2.6 -> 2.7.
+  and verdict 4.9 -> 4.1; scoring 2.6 -> 2.7.  At 3376d80 (load 12.6):
+  total 65.6; hyper-posterior fit 21.8 (forward solves 7.1, eigen-
+  decompositions with their slices 7.2, Newton on log alpha 2.4); detector
+  27.3 (null fit 6.9, null maxima 13.6); damage hypotheses 6.8; posterior
+  checks 3.8; scoring 2.6; simulation 1.8.
 * Why not 3x with identical results.  The detector's threshold is a Monte
   Carlo quantile drawn in the eigenbasis of the projected Gram matrix at the
   null fit, and LAPACK's eigenvector signs are not continuous in the input:
