@@ -1,6 +1,7 @@
 """Result types of damage detection: DetectabilityMap (the design side) and DamageDetection (the scan on data)."""
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -186,6 +187,9 @@ class DamageDetection:
         Posterior probability of each zone given a loss (sums to 1).
     posterior_loss : ndarray (H, 2)
         Posterior mean and std of the lost fraction s per zone.
+    zone_posterior : tuple or callable
+        (weights, posterior_loss), or a callable returning them: they are
+        computed when first asked for (most uses need the verdict only).
     nuisance : str
     noise_scale : float
         alpha of the null fit.
@@ -214,13 +218,27 @@ class DamageDetection:
     loss_ci95: tuple | None
     zones: np.ndarray = field(repr=False)
     scores: np.ndarray = field(repr=False)
-    weights: np.ndarray = field(repr=False)
-    posterior_loss: np.ndarray = field(repr=False)
+    zone_posterior: "tuple | Callable[[], tuple]" = field(repr=False)
     nuisance: str = "smooth"
     noise_scale: float = 1.0
     untestable: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)), repr=False)
     dof: int = 0
     n_nuisance: int = 0
+
+    @cached_property
+    def weights(self):
+        """Posterior probability of each zone given a loss, (H,)."""
+        return self._zone_posterior[0]
+
+    @cached_property
+    def posterior_loss(self):
+        """Posterior mean and std of the lost fraction per zone, (H, 2)."""
+        return self._zone_posterior[1]
+
+    @cached_property
+    def _zone_posterior(self):
+        value = self.zone_posterior
+        return value() if callable(value) else value
 
     @property
     def testable(self):

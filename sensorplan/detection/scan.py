@@ -50,6 +50,7 @@ Owns: the scan of a fitted null model, the threshold, the estimates (the result:
 May import: model and the foundations.
 """
 
+import functools
 import math
 
 import numpy as np
@@ -144,20 +145,26 @@ def scan_null_fit(case, residual, jacobian, compliance, *, false_alarm, nuisance
     if not zones.size:
         empty = np.zeros((0, 2))
         return DamageDetection(False, float(false_alarm), math.nan, math.nan, math.nan, None, None, None, None,
-                               None, empty, np.zeros(0), np.zeros(0), empty, **common)
+                               None, empty, np.zeros(0), (np.zeros(0), empty), **common)
     scores = proj / (alpha * norms)
     statistic = float(scores.max())
     null_max = _null_maxima(_overlap(case.mesh, zones) / norms[:, None], gram, n_null, rng, dof=dof)
     threshold = float(np.quantile(null_max, 1.0 - false_alarm))
     p_value = float((1 + np.sum(null_max >= statistic)) / (1 + null_max.size))
-    weights, grid, density = _zone_posteriors(proj, norms, alpha, zones, max_loss)
     detected = statistic > threshold
     estimates = (None,) * 5
     if detected:
         estimates = _fine_estimates(case, lengths, gram, raw_gram, c_res, dof, alpha, max_loss)
-    moments = np.column_stack([density @ grid, np.sqrt(np.clip(density @ grid**2 - (density @ grid) ** 2, 0, None))])
     return DamageDetection(bool(detected), float(false_alarm), statistic, threshold, p_value, *estimates,
-                           zones, scores, weights, moments, **common)
+                           zones, scores, functools.partial(_zone_moments, proj, norms, alpha, zones, max_loss),
+                           **common)
+
+
+def _zone_moments(proj, norms, alpha, zones, max_loss):
+    """The zones' posterior weights and the posterior mean and std of the lost fraction in each, (H,), (H, 2)."""
+    weights, grid, density = _zone_posteriors(proj, norms, alpha, zones, max_loss)
+    mean = density @ grid
+    return weights, np.column_stack([mean, np.sqrt(np.clip(density @ grid**2 - mean**2, 0, None))])
 
 
 def _column_basis(jacobian, rtol=1e-10):

@@ -185,14 +185,12 @@ def _hypotheses(weights, thetas, taus, noise_scales, theta0, information, *, pri
 
 def _moment_matched(chosen, comp, zone, thetas, covariances, steps):
     """Means and covariances of the ``chosen`` hypotheses (a damaged one: moment-matched over its step)."""
-    new_thetas, new_covs = [], []
-    for i in chosen:
-        k, h = comp[i], zone[i]
-        if h < 0:
-            new_thetas.append(thetas[k])
-            new_covs.append(covariances[k])
-            continue
-        x, e_s, var_s = steps[k]
-        new_thetas.append(thetas[k] + e_s[h] * x[:, h])
-        new_covs.append(covariances[k] + var_s[h] * np.outer(x[:, h], x[:, h]))
-    return np.asarray(new_thetas), np.asarray(new_covs)
+    k, h = comp[chosen], zone[chosen]
+    new_thetas, new_covs = thetas[k], covariances[k]  # copies (fancy indexing); the undamaged ones stay as they are
+    for source in np.unique(k[h >= 0]):  # the damaged ones, by the component they come from
+        rows = np.flatnonzero((k == source) & (h >= 0))
+        x, e_s, var_s = steps[source]
+        step = x[:, h[rows]].T  # (n, P)
+        new_thetas[rows] = thetas[source] + e_s[h[rows]][:, None] * step
+        new_covs[rows] = covariances[source] + var_s[h[rows]][:, None, None] * (step[:, :, None] * step[:, None, :])
+    return new_thetas, new_covs

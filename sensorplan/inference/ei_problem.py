@@ -13,11 +13,14 @@ share them); the engine forms the normal equations.
 Owns: the EI parameterisation and its predictions.  May import: model, the engine, the foundations.
 """
 
+from functools import cached_property
+
 import numpy as np
 
 from .._errors import ConfigError
-from ..model.forward import influence_lines
+from ..model.force_method import SharedCache
 from .engine import WhitenedProblem
+from .fixed_lines import FixedLines
 from .posterior import CrossingFit
 
 __all__ = ["EIProblem", "prior_matrices"]
@@ -87,7 +90,12 @@ class EIProblem(WhitenedProblem):
         if ei is None:
             return None
         self.n_evaluations += 1
-        return [influence_lines(bridge, self.mesh, ei, self.sensors, self.case.vehicle, positions)
+        return [lines.at(bridge, ei) for lines in self.fixed_lines]
+
+    @cached_property
+    def fixed_lines(self):
+        """:class:`~.fixed_lines.FixedLines` of each position set (the forward model at any EI)."""
+        return [FixedLines(self.case.bridge, self.mesh, self.sensors, self.case.vehicle, positions)
                 for positions in self.position_sets]
 
     def whitened_model(self, theta, *, jacobian):
@@ -127,14 +135,23 @@ class EIProblem(WhitenedProblem):
 
 
 def prior_matrices(problem, prior):
-    """Roughness S and fixed part F of the prior precision in the problem's parameters."""
+    """Roughness S and fixed part F of the prior precision in the problem's parameters (read-only, kept by value)."""
     n, s = problem.n_elements, problem.n_springs
-    rough = np.zeros((problem.n_params, problem.n_params))
+    scale = 1.0 / problem.theta0 if problem.parameterisation == "compliance" else None
+    return _PRIOR_MATRICES.get((prior, n, s, scale), lambda: _prior_matrices(prior, n, s, scale))
+
+
+_PRIOR_MATRICES = SharedCache(8)  # a verification inverts hundreds of data sets under one prior
+
+
+def _prior_matrices(prior, n, s, scale):
+    rough = np.zeros((n + s, n + s))
     rough[:n, :n] = prior.structure(n)
     fixed = prior.precision(n, s, tau=0.0)
-    if problem.parameterisation == "compliance":
-        # Same quadratic form to first order: d log EI = -d v / v_0.
-        scale = 1.0 / problem.theta0
+    if scale is not None:
+        # compliance: the same quadratic form to first order, d log EI = -d v / v_0
         rough = rough * np.outer(scale, scale)
         fixed = fixed * np.outer(scale, scale)
+    for arr in (rough, fixed):
+        arr.setflags(write=False)
     return rough, fixed

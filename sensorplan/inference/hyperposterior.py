@@ -37,8 +37,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg
 import scipy.optimize
+from scipy.linalg import lapack
 
 from .._cache import Cache
 from .._errors import DataError
@@ -57,6 +57,7 @@ NODE_TOL = 1e-2  # Gauss-Newton decrement at which a node is accepted (its MAP i
 TAIL = 5.0  # a node predicted this far below the largest log weight (< 0.7 %) is taken from the
 TAIL_MOVE = 10.0  # neighbour's linearisation, unless its MAP moves more than this (H-norm squared) from it
 MAX_NODES = 150
+_SYGVD = lapack.dsygvd  # the driver scipy.linalg.eigh uses for a generalized problem
 
 
 @dataclass(frozen=True)
@@ -101,28 +102,33 @@ class _Slice:
         ctx = surrogate.ctx
         self.surrogate, self.log_tau = surrogate, float(log_tau)
         self.precision = math.exp(log_tau) * ctx.rough + ctx.fixed
-        mu, w = scipy.linalg.eigh(surrogate.lin.jtj, self.precision)
+        mu, w = _generalized_eigh(surrogate.lin.jtj, self.precision)
         self.mu, self.w = np.clip(mu, 0.0, None), w
         self.c = w.T @ surrogate.g
+        self.c2, self.mu2 = self.c**2, self.mu**2
 
     def log_posterior_v(self, v):
         """log p(y | alpha, tau) + log p(log alpha) at v = log alpha, with its first two v-derivatives."""
-        ctx, mu, c2 = self.surrogate.ctx, self.mu, self.c**2
+        ctx, mu = self.surrogate.ctx, self.mu
         a = math.exp(2.0 * v)
-        m = ctx.n_data
-        ap = a + mu
-        quad = self.surrogate.yy - np.sum(c2 / ap)
-        value = ctx.constant - m * v - 0.5 * np.sum(np.log1p(mu / a)) - 0.5 * quad / a
-        d1 = -m + np.sum(mu / ap) + self.surrogate.yy / a - np.sum(c2 * (2.0 * a + mu) / (a * ap**2))
-        d2 = (-np.sum(2.0 * a * mu / ap**2) - 2.0 * self.surrogate.yy / a
-              + np.sum(2.0 * c2 * (4.0 * a**2 + 3.0 * a * mu + mu**2) / (a * ap**3)))
+        quad = self.surrogate.yy - np.sum(self.c2 / (a + mu))
+        value = ctx.constant - ctx.n_data * v - 0.5 * np.sum(np.log1p(mu / a)) - 0.5 * quad / a
+        d1, d2 = self._derivatives(v, a)
+        return (float(value + ctx.hyperprior.log_density_log_noise(v)), d1, d2)
+
+    def _derivatives(self, v, a):  # of log_posterior_v at v = log alpha, a = alpha^2
+        ctx, mu, c2, yy = self.surrogate.ctx, self.mu, self.c2, self.surrogate.yy
+        r = 1.0 / (a + mu)
+        r2 = r * r
+        d1 = -ctx.n_data + mu @ r + yy / a - (c2 @ ((2.0 * a + mu) * r2)) / a
+        d2 = -2.0 * a * (mu @ r2) - 2.0 * yy / a + 2.0 * (c2 @ ((4.0 * a * a + 3.0 * a * mu + self.mu2) * (r2 * r))) / a
         s2 = ctx.hyperprior.noise_log_std**2
-        return (float(value + ctx.hyperprior.log_density_log_noise(v)), float(d1 - v / s2), float(d2 - 1.0 / s2))
+        return float(d1 - v / s2), float(d2 - 1.0 / s2)
 
     def best_v(self, v):
         """The conditional mode of log alpha (safeguarded Newton)."""
         for _ in range(100):
-            _, d1, d2 = self.log_posterior_v(v)
+            d1, d2 = self._derivatives(v, math.exp(2.0 * v))
             step = -d1 / d2 if d2 < 0.0 else math.copysign(0.5, d1)
             step = max(-1.0, min(1.0, step))
             v = max(v + step, LOG_NOISE_FLOOR)
@@ -151,6 +157,14 @@ class _Slice:
         a = math.exp(2.0 * v)
         lin = self.surrogate.lin
         return float(step @ (lin.jtj @ step) / a + step @ (self.precision @ step))
+
+
+def _generalized_eigh(a, b):
+    """``scipy.linalg.eigh(a, b)`` (its driver, sygvd, the same values) without scipy's argument handling."""
+    mu, w, info = _SYGVD(a, b) if np.isfinite(a).all() and np.isfinite(b).all() else (None, None, -1)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"the generalized eigenproblem failed (LAPACK sygvd info {info})")
+    return mu, w
 
 
 @dataclass(frozen=True, eq=False)
