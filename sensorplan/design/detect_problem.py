@@ -95,8 +95,7 @@ def _packed_group(model, centres, severity):
     nuis = model.nuisance  # (S, K, n), whitened
     s_count, _, n = nuis.shape
     rows = np.empty((s_count, centres.size, 1 + n))
-    for c in range(centres.size):
-        signal = model.damage(centres[c:c + 1], severity)[0]  # (S, K)
+    for c, signal in enumerate(model.damage_each(centres, severity)):  # (S, K)
         rows[:, c, 0] = np.einsum("sk,sk->s", signal, signal)
         rows[:, c, 1:] = np.matmul(signal[:, None, :], nuis)[:, 0]
     return rows, np.einsum("skm,skn->smn", nuis, nuis)
