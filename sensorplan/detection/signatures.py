@@ -279,7 +279,9 @@ class SignatureModel:
 
     Holds the undamaged readings, the whitened nuisance Jacobian (computed
     once) and its identifiable basis, so that exact damaged readings can be
-    evaluated for any centres and losses (one forward solve per zone).
+    evaluated for any centres and losses (per call, the undamaged diagrams
+    once on a mesh holding every zone edge, and each zone's exact change
+    from its own elements: :class:`~sensorplan.model.forward.ZoneChanges`).
     """
 
     def __init__(self, case, sensors, noise, nuisance, length):
@@ -353,8 +355,8 @@ def whitened_signatures(case, sensors, noise, centres, *, severity, length, nuis
     Returns
     -------
     Signatures
-        For one crossing.  The forward solve per centre is the cost; the
-        nuisance Jacobian is computed once.
+        For one crossing.  The undamaged diagrams and the nuisance Jacobian
+        are computed once; each centre costs its zone's element integrals.
     """
     centres = np.array(centres, dtype=float, ndmin=1)
     model = SignatureModel(case, sensors, noise, nuisance, length)
