@@ -284,6 +284,7 @@ def check_grid(case, args):
 def check_design_resources(case, args):
     """Refuse a candidate grid whose estimated memory or CPU time is beyond the machine
     (:mod:`sensorplan.design.resources`), naming both estimates and a --spacing that fits."""
+    from ..design.detect_problem import detection_resources
     from ..design.resources import check_resources, estimate_resources, largest_fitting, spacing_for
 
     length = case.bridge.length
@@ -292,10 +293,13 @@ def check_design_resources(case, args):
     n_candidates = int(min(_count(length, args.spacing) + 1.0, 1e15)) * n_kinds
     n_params = case.n_elements + (len(case.bridge.spring_parameters) if getattr(args, "springs", False) else 0)
     count = getattr(args, "count", None) or case.sensors.n_sensors
-    detection = getattr(args, "criterion", None) == "detect"
+    detection = getattr(args, "criterion", None) == "detect" or getattr(args, "target_power", None) is not None
 
-    def estimate(c):
-        return estimate_resources(c, n_params, count, n_loads=case.sweep.n_loads, detection=detection)
+    opts = {k: getattr(args, k) for k in ("length", "step", "nuisance") if getattr(args, k, None) is not None}
+
+    def estimate(c):  # detect builds no Fisher blocks: its estimate is the packed information's
+        return (detection_resources(case, c, count, **opts) if detection
+                else estimate_resources(c, n_params, count, n_loads=case.sweep.n_loads))
 
     fitting = largest_fitting(estimate)
     fits = (f"use --spacing >= {spacing_for(length, fitting, n_kinds):.3g}" if fitting >= n_kinds

@@ -10,14 +10,16 @@ number of crossings, packed with the centre-independent nuisance block
 stored once (:mod:`.criteria.detect_algebra`), are the blocks of the
 placement problem.
 
-The damage signatures are formed a group of centres at a time (and the
-nuisance Jacobian a group of sensors at a time, in SignatureModel), so that
-no readings x sensors x centres (or x elements) array is ever held whole:
-the memory is the packed blocks (``n_centres (1 + n) + n^2`` numbers per
-candidate), the whitened nuisance Jacobian (loads x n per candidate) and
-one group's arrays of at most :data:`GROUP_BYTES` (:func:`detection_memory`).
+The damage signatures are formed one centre at a time from undamaged
+diagrams computed once (:meth:`SignatureModel.damage_each`, no forward
+solve per centre), and the nuisance Jacobian a group of sensors at a time,
+so that no readings x sensors x centres (or x elements) array is ever held
+whole: the memory is the packed blocks (``n_centres (1 + n) + n^2`` numbers
+per candidate), the whitened nuisance Jacobian (loads x n per candidate)
+and one group's kernel of at most :data:`GROUP_BYTES`; :func:`detection_resources`
+estimates it, and the CPU time, before anything is built.
 
-Owns: DetectionTarget, the detection blocks of a placement problem and their memory estimate.
+Owns: DetectionTarget, the detection blocks of a placement problem and their resource estimate.
 May import: model, detection, errors, design.
 """
 
@@ -31,11 +33,14 @@ from ..detection.signatures import SignatureModel, centre_grid
 from ..model.fisher import fisher_blocks
 from .criteria.detect import RIDGE, DetectCriterion
 from .criteria.detect_algebra import PackedLayout
+from .resources import RESOURCES, ResourceEstimate
 
-__all__ = ["DetectionTarget", "detection_information", "centres_inside", "detection_memory", "GROUP_BYTES", "MEMORY_LIMIT"]
+__all__ = ["DetectionTarget", "detection_information", "centres_inside", "detection_resources", "GROUP_BYTES"]
 
-GROUP_BYTES = 2**27  # bytes of one group's signatures or influence-line kernel (128 MiB)
-MEMORY_LIMIT = 4 * 2**30  # bytes a detect problem may take (issue 38: <= 4 GiB at 3,000 candidates)
+GROUP_BYTES = 2**27  # bytes of one group of the influence-line kernel (SignatureModel's nuisance, 128 MiB)
+NEWTON_STEPS = 1000  # Newton steps of the relaxation over all its rounds (five-span benchmark: 700-1,900)
+BOUND_PASSES = 60  # passes of the upper bounds over all candidates and centres per sensor (greedy, exchange)
+EFFECTIVE_RATE = 0.4  # of the policy's flop rate (fitted: five-span benchmark, N = 400, C = 3,000, R = 20)
 
 
 @dataclass(frozen=True)
@@ -95,23 +100,38 @@ def _packed_group(model, centres, severity):
     nuis = model.nuisance  # (S, K, n), whitened
     s_count, _, n = nuis.shape
     rows = np.empty((s_count, centres.size, 1 + n))
-    for c in range(centres.size):
-        signal = model.damage(centres[c:c + 1], severity)[0]  # (S, K)
+    for c, signal in enumerate(model.damage_each(centres, severity)):  # (S, K)
         rows[:, c, 0] = np.einsum("sk,sk->s", signal, signal)
         rows[:, c, 1:] = np.matmul(signal[:, None, :], nuis)[:, 0]
     return rows, np.einsum("skm,skn->smn", nuis, nuis)
 
 
-def detection_memory(case, n_candidates, *, length=2.0, step=0.5, nuisance="smooth"):
-    """Bytes the detect criterion needs for ``n_candidates`` on ``case`` (whatever its mesh): the packed
-    blocks and their copies while they are assembled, the candidates' influence lines and nuisance Jacobian
-    (raw and whitened), and a few groups of GROUP_BYTES.  Compare with :data:`MEMORY_LIMIT`."""
+def detection_resources(case, n_candidates, count, *, length=2.0, step=0.5, nuisance="smooth", policy=RESOURCES):
+    """:class:`~sensorplan.design.resources.ResourceEstimate` of a detect design with ``n_candidates`` on
+    ``case`` and ``count`` new sensors.
+
+    Memory (bytes): the packed blocks and their copies while they are assembled (3 x 8 P per candidate,
+    P = n_centres (1 + n) + n^2), the whitened nuisance Jacobian and its raw copy (2 x 8 n_loads n), the
+    undamaged diagrams on the zones' mesh and one centre's products (8 (2 E + 4 n_loads)), and the
+    influence-line groups of the nuisance (4 x GROUP_BYTES).  CPU: the signatures' products (per centre
+    and candidate, n_loads (n + 9) products; per element, n_loads (n + 2)), the relaxation's Newton
+    steps (NEWTON_STEPS x n_active n m^2, m = its working set, n_active = 2/3 of the centres) and the
+    bound passes of greedy and exchange (R x BOUND_PASSES x C n_centres (1 + n)), at the policy's flop
+    rate scaled by EFFECTIVE_RATE (numpy's small products run below the rate of dense BLAS).
+    """
     n_centres = len(centre_grid(case.bridge.length, length, step))
     per_span = 1 if nuisance == "levels" else 3
-    n_nuisance = per_span * case.bridge.n_spans + len(case.bridge.spring_names)
-    n_loads = case.sweep.positions.size
-    per_candidate = 3 * PackedLayout(n_centres, n_nuisance).size + n_loads * (2 * n_nuisance + 1)
-    return 8 * n_candidates * per_candidate + 4 * GROUP_BYTES
+    n = per_span * case.bridge.n_spans + len(case.bridge.spring_names)
+    n_loads, n_el = case.sweep.positions.size, case.n_elements
+    c, r = float(n_candidates), float(max(1, count))
+    zone_elements = n_el + 2 * n_centres
+    per_candidate = 3 * PackedLayout(n_centres, n).size + 2 * n_loads * n + 2 * zone_elements + 4 * n_loads
+    memory = policy.base_bytes + 8 * c * per_candidate + 4 * GROUP_BYTES
+    m = min(c, 8 * r + 90)
+    flops = (2 * c * n_loads * (n_centres * (n + 9) + n_el * (n + 2))
+             + NEWTON_STEPS * (2 * n_centres / 3) * n * m * m + r * BOUND_PASSES * c * n_centres * (1 + n))
+    return ResourceEstimate(int(n_candidates), n_centres, int(count), memory,
+                            flops / (EFFECTIVE_RATE * policy.flop_rate))
 
 
 def detection_information(case, cands, *, n_crossings, region, target, prior, springs, functionals):

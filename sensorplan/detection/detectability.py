@@ -16,7 +16,7 @@ indeterminate ones the moments move away from a softened zone and the exact
 d falls below d_1 r: by 2-3 % at s = 0.1, up to 12 % at s = 0.3 and more
 for larger losses on the embedded examples, enough to turn power 0.9 into
 0.8.  So the linear estimate only starts a root search in log r on the exact
-d (bracketed, Illinois regula falsi, one forward solve per centre and step,
+d (bracketed, Illinois regula falsi, one zone change per centre and step,
 usually 3-5 steps); the result is the upper end of the final bracket, where
 the exact power is >= 0.9.  It is None where even a 99 % loss is not
 detected.  The search assumes that d grows with the loss up to the first

@@ -34,6 +34,36 @@ benchmarks, load average 10-15 throughout, i.e. 5-7 runnable processes per
 core: CPU seconds are inflated by cache and memory-bandwidth contention;
 wall times are meaningless):
 
+* commit 61fea26 (zone signatures by ZoneChanges: the undamaged diagrams
+  once on a mesh holding every zone edge, each zone's exact change by a
+  Woodbury update of the force method, no forward solve per centre; the
+  relaxation's Hessian rows and roots as matrix products), N = 400,
+  C = 3,000, R = 20, load 10-11.5: build_problem 15.7 s CPU, peak 0.98 GiB;
+  recommend() 88.7 s CPU, peak 0.98 GiB: target 120 s and 4 GiB MET; the
+  same layout, d^2 (265.03) and bound (485.36, gap 3.4e-8, 239 active
+  centres, working set 250) as before.  Stages (separate runs on the same
+  problem, same load): build 15.3-17.5 s, greedy 3.1 s, relaxation 61 s
+  (1,924 Newton steps in 18 barrier solves over 11 rounds, 11 certificate
+  LPs), baselines + rounding + exchange + certificate the rest (~10 s).
+  The profile at the previous commit (1ce98a5, 133 s CPU under cProfile)
+  put 76 % in the relaxation (half of it the three-index einsum of the
+  Hessian rows and the transposed copies of its roots), 12.5 % in the
+  build (force-method solves per centre) and 9 % in exchange.
+  Criterion-versus-R curve (what ``recommend --criterion detect`` adds by
+  default, R = 1 .. 20; no per-count relaxation or exchange at this size,
+  C P^2 = 3.8e8 > 2e6): 3.5 s CPU on the same problem (one greedy run to
+  R = 20 and 40 linearisations), 4 % of recommend(): it does not dominate.
+  Its values are 0 below R = 18 (fewer sensors leave a centre near an end
+  unseen) and its bounds (linearisations at the worst centre only) are
+  loose: 159 at R = 1, 2,015 at R = 17, against 485 for R = 20.
+  Tried on the relaxation and not kept (same problem, relaxation alone,
+  61 s CPU): the epigraph level t re-centred exactly after every step (a
+  1-D Newton solve; the early barrier solves then take 60-100 Newton
+  steps instead of up to 300: 1,408 steps in all instead of 1,924, but
+  60.5 s CPU, since the steps saved were the cheap ones: the working set
+  peaks at 749 candidates in rounds 9-10 and a step costs n_centres n m^2);
+  the curvature of centres far from binding left out of the Newton
+  Hessian (2,187 steps, 77 s CPU).
 * commit 7a08a21 (packed information, active centres, chunked nuisance;
   before the zone integrals went through weighted_products and the
   signatures were streamed per centre), N = 400, C = 3,000, R = 20:

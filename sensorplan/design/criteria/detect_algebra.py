@@ -196,12 +196,16 @@ def hessian_rows(layout, blocks, x, centres=None):
     """R (n_blocks, n_c, n): the nuisance rows of B_i(c) u_c = b_Ns,i(c) - B_NN,i x_c."""
     rows = layout.rows(blocks)
     rows = rows if centres is None else rows[:, centres]
-    return rows[:, :, 1:] - np.einsum("inm,cm->icn", layout.nuisance(blocks), x)
+    m, n = rows.shape[0], layout.n_nuisance
+    # one matrix product (n_blocks n, n) x (n, n_c) instead of a three-index einsum
+    nn_x = (layout.nuisance(blocks).reshape(m * n, n) @ x.T).reshape(m, n, -1)
+    return rows[:, :, 1:] - nn_x.transpose(0, 2, 1)
 
 
 def hessian_roots(rows, chol):
     """Y (n_c, n, n_blocks) with d^2 d^2_c / dw_i dw_j = -2 (Y_c^T Y_c)_ij, from :func:`hessian_rows` and
-    the Cholesky factor of :func:`ridged_parts`."""
+    the Cholesky factor of :func:`ridged_parts`.  Y is a transposed view of a C-contiguous
+    (n, n_c, n_blocks) array, so ``Y.transpose(1, 0, 2)`` stacks the Y_c without a copy."""
     m, n_c, n = rows.shape
-    rhs = rows.transpose(2, 1, 0).reshape(n, n_c * m)
-    return scipy.linalg.solve_triangular(chol, rhs, lower=True).reshape(n, n_c, m).transpose(1, 0, 2)
+    inverse = scipy.linalg.solve_triangular(chol, np.eye(n), lower=True)
+    return (inverse @ rows.transpose(2, 1, 0).reshape(n, n_c * m)).reshape(n, n_c, m).transpose(1, 0, 2)

@@ -182,8 +182,8 @@ class _Barrier:
         f, g, r, chol = parts
         m = x.size
         s = f - t
-        y = hessian_roots(r, chol)
-        z = (y * np.sqrt(2.0 / s)[:, None, None]).reshape(-1, m)
+        y = hessian_roots(r, chol).transpose(1, 0, 2)  # (n, n_centres, m), contiguous
+        z = (y * np.sqrt(2.0 / s)[None, :, None]).reshape(-1, m)
         gs = g / s  # (m, n_centres)
         hxx = self.poly.add_barrier_hessian(z.T @ z + gs @ gs.T, 1.0 / sig**2)
         kkt = np.zeros((m + 2, m + 2))
