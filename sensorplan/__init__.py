@@ -40,6 +40,7 @@ _EXPORTS = {
     "CurvePoint": "design.results", "recommend": "design.recommend", "CandidateGrid": "design.recommend",
     "Constraints": "design.recommend", "DetectionTarget": "design.recommend", "Criterion": "design.criteria", "register_criterion": "design.criteria",
     "CRITERIA": "design.criteria", "design_for_target": "design.target",
+    "crossing_trade": "design.crossing_trade", "CrossingTrade": "design.crossing_trade",
     "TargetDesign": "design.target_results", "TargetAnswer": "design.target_results", "CountTrial": "design.target_results",
     "VerificationResult": "verification.results", "LayoutScore": "verification.results",
     "Metric": "verification.results", "Scenario": "verification.scenarios", "Analysis": "analysis", "analyse": "analysis", "verify_layouts": "verification.verify",
