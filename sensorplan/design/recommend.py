@@ -16,6 +16,7 @@ from .._threads import single_threaded
 from ..model.fisher import fisher_blocks
 from ..model.prior import GMRFPrior
 from .baselines import baselines as make_baselines
+from .blocks import candidate_information
 from .candidates import (
     as_kinds,
     candidate_set,
@@ -167,11 +168,18 @@ def build_problem(case, count, criterion="D", *, grid=None, constraints=None, ki
     blocks, q0, crit, posterior_of = _information(case, cands, criterion, detection, n_crossings=n_crossings,
                                                   prior=prior, springs=springs, region=region,
                                                   functionals=functionals, target=target)
-    return DesignProblem(positions, bridge.span_of(positions), np.ascontiguousarray(blocks[:positions.size]), q0,
+    return DesignProblem(positions, bridge.span_of(positions), _candidate_blocks(blocks, positions.size), q0,
                          criterion=crit, count=int(count), costs=c_arr, budget=constraints.budget,
                          span_min=span_min, span_max=span_max, min_spacing=float(constraints.min_spacing),
                          n_spans=bridge.n_spans, posterior_of=posterior_of, kinds=cands.kinds,
                          noise_std=cands.noise_std, fixed=fixed)
+
+
+def _candidate_blocks(blocks, n):
+    """The first ``n`` blocks (the candidates'; detect stacks hold the existing sensors' after them)."""
+    if isinstance(blocks, np.ndarray):
+        return np.ascontiguousarray(blocks[:n])
+    return blocks
 
 
 def _information(case, cands, criterion, detection, *, n_crossings, prior, springs, region, functionals, target):
@@ -180,10 +188,9 @@ def _information(case, cands, criterion, detection, *, n_crossings, prior, sprin
     if detection:
         return detection_information(case, cands, n_crossings=n_crossings, region=region, target=target,
                                      prior=prior, springs=springs, functionals=functionals)
-    blocks = fisher_blocks(case, sensors=cands.layout(), parameterisation="log_ei", springs=springs,
-                           n_crossings=n_crossings).blocks
+    blocks, fixed = candidate_information(case, cands, n_crossings=n_crossings, springs=springs)
     n_springs = len(case.bridge.spring_parameters) if springs else 0
-    q0 = prior.precision(case.n_elements, n_springs) + blocks[cands.n_candidates:].sum(axis=0)
+    q0 = prior.precision(case.n_elements, n_springs) + fixed
     crit = make_criterion(criterion, q0.shape[0], n_elements=case.n_elements, edges=case.mesh.edges,
                           region=region, functionals=functionals)
     return blocks, q0, crit, None

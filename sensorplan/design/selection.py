@@ -95,7 +95,7 @@ def _subproblem(problem, index):
     from dataclasses import replace
 
     return replace(problem, positions=problem.positions[index], spans=problem.spans[index],
-                   blocks=problem.blocks[index], costs=None if problem.costs is None else problem.costs[index],
+                   blocks=problem.subset_blocks(index), costs=None if problem.costs is None else problem.costs[index],
                    kinds=None if problem.kinds is None else tuple(problem.kinds[i] for i in index),
                    noise_std=None if problem.noise_std is None else problem.noise_std[index])
 
