@@ -268,7 +268,8 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
                             region=region, functionals=functionals, target=target)
     search = search_layout(problem, case, solver=solver, n_random=n_random, rng=rng)
     margin = 0.0 if grid is None else float(grid.support_margin)
-    curve = criterion_curve(problem, count, curve_max, search.relaxation.weights, search.layout)
+    curve = criterion_curve(problem, count, curve_max, search.relaxation.weights, search.layout,
+                            greedy_layout=search.greedy_layout)
     return design_result(case, problem, search, curve, n_crossings=n_crossings, support_margin=margin)
 
 
@@ -284,6 +285,7 @@ class Search:
     utility: float
     bound: float | None = None  # a bound on the integer layouts tighter than the relaxation's, if proven
     bound_method: str = "relaxation"
+    greedy_layout: list | None = None  # the greedy layout, in the order greedy chose it (None if it failed)
 
 
 def search_layout(problem, case, *, solver, n_random, rng):
@@ -299,10 +301,10 @@ def search_layout(problem, case, *, solver, n_random, rng):
     method, layout, utility = best_layout(problem, relaxation.weights, base, greedy_layout=g_start, rng=rng)
     proof = problem.criterion.integer_bound(problem, layout, utility, length=case.bridge.length)
     if proof is None or proof.bound >= relaxation.bound:
-        return Search(base, relaxation, method, layout, utility)
+        return Search(base, relaxation, method, layout, utility, greedy_layout=g_start)
     if proof.value > utility:
         method, layout, utility = "exact search (branch and bound)", list(proof.layout), proof.value
-    return Search(base, relaxation, method, layout, utility, proof.bound, proof.method)
+    return Search(base, relaxation, method, layout, utility, proof.bound, proof.method, greedy_layout=g_start)
 
 
 def design_result(case, problem, search, curve, *, n_crossings, support_margin=0.0):

@@ -193,7 +193,7 @@ def run_child(spec):
     method, layout, utility = best_layout(problem, rel.weights, base, greedy_layout=g_start, rng=0)
     stages["best"] = time.process_time() - t
     t = time.process_time()
-    curve = criterion_curve(problem, spec["r"], None, rel.weights, layout)
+    curve = criterion_curve(problem, spec["r"], None, rel.weights, layout, greedy_layout=g_start)
     stages["curve"] = time.process_time() - t
     crit = problem.criterion
     sign = 1.0 if crit.maximise else -1.0
