@@ -163,7 +163,7 @@ def build_problem(case, count, criterion="D", *, grid=None, constraints=None, ki
                    costs=c_arr, budget=constraints.budget)
     n_params = case.n_elements + (len(bridge.spring_parameters) if springs else 0)
     check_resources(estimate_resources(cands.n_candidates, n_params, int(count), n_loads=case.sweep.n_loads,
-                                       detection=detection), what=f"{cands.n_candidates} candidates",
+                                       detection=detection, n_kinds=len(kinds)), what=f"{cands.n_candidates} candidates",
                     fits="use fewer candidates (a larger grid spacing) or fewer elements")
     blocks, q0, crit, posterior_of = _information(case, cands, criterion, detection, n_crossings=n_crossings,
                                                   prior=prior, springs=springs, region=region,

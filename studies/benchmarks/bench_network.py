@@ -197,7 +197,8 @@ def run_child(spec):
     stages["curve"] = time.process_time() - t
     crit = problem.criterion
     sign = 1.0 if crit.maximise else -1.0
-    estimate = estimate_resources(problem.n_candidates, problem.n_params, spec["r"], n_loads=case.sweep.n_loads)
+    estimate = estimate_resources(problem.n_candidates, problem.n_params, spec["r"], n_loads=case.sweep.n_loads,
+                                  n_kinds=len(kinds))
     return {"stages": stages, "total": sum(stages.values()), "gap": rel.relative_gap,
             "efficiency": crit.efficiency(sign * utility, sign * rel.bound), "method": method,
             "curve_counts": [p.count for p in curve if not p.failed],
