@@ -21,10 +21,15 @@ Owns: BlockFamily, StructuredBlocks.  May import: nothing of the package.
 """
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
-__all__ = ["BlockFamily", "StructuredBlocks"]
+from ..._cache import Cache
+
+__all__ = ["BlockFamily", "StructuredBlocks", "DENSE_CACHE_BYTES"]
+
+DENSE_CACHE_BYTES = 2**30  # dense blocks kept (greedy and exchange evaluate the same few candidates many times)
 
 
 def _symmetrise(a):
@@ -75,17 +80,35 @@ class BlockFamily:
         x = self.products
         return x[:f, :, :f, :], x[:f, :, f:, :], x[f:, :, f:, :]
 
+    @cached_property
+    def _pair_matrices(self):
+        """Contiguous (pairs, P * P) products for dense blocks: X_aa and X_ab + X_ba (a < b) of the free
+        matrices, X_ab of free a and masked b, and the same symmetric pairs of the masked ones."""
+        f, n_a = self.n_free, self.products.shape[0]
+        x = self.products
+
+        def symmetric(lo, hi):
+            iu = np.triu_indices(hi - lo)
+            mats = [x[lo + a, :, lo + b, :] + (x[lo + b, :, lo + a, :] if a != b else 0.0) for a, b in zip(*iu)]
+            return iu, np.ascontiguousarray(np.array(mats).reshape(len(mats), -1))
+
+        free = symmetric(0, f)
+        masked = symmetric(f, n_a)
+        cross = np.ascontiguousarray(x[:f, :, f:, :].transpose(0, 2, 1, 3).reshape(f * (n_a - f), -1))
+        return free, cross, masked
+
     def dense(self, local):
         """The blocks of the members at ``local``, shape (k, P, P)."""
-        uu, um, mm = self._split()
+        (iu_f, free), cross, (iu_m, masked) = self._pair_matrices
         f, p = self.n_free, self.n_params
         t = self.coef[local]
         tu, tm = t[:, :f], t[:, f:]
-        out = np.tensordot(tu[:, :, None] * tu[:, None, :], uu, axes=([1, 2], [0, 2]))
+        k = len(t)
+        out = (tu[:, iu_f[0]] * tu[:, iu_f[1]] @ free).reshape(k, p, p)
         cols = np.arange(p)[None, :] >= self.start[local][:, None]  # (k, P) the masked elements
-        y = np.tensordot(tu[:, :, None] * tm[:, None, :], um, axes=([1, 2], [0, 2])) * cols[:, None, :]
+        y = ((tu[:, :, None] * tm[:, None, :]).reshape(k, -1) @ cross).reshape(k, p, p) * cols[:, None, :]
         out += y + np.swapaxes(y, 1, 2)
-        z = np.tensordot(tm[:, :, None] * tm[:, None, :], mm, axes=([1, 2], [0, 2]))
+        z = (tm[:, iu_m[0]] * tm[:, iu_m[1]] @ masked).reshape(k, p, p)
         out += z * (cols[:, :, None] & cols[:, None, :])
         rows = np.arange(len(t))
         e = self.elem[local]
@@ -177,9 +200,13 @@ class StructuredBlocks:
     ndim = 3
     dtype = np.dtype(float)
 
-    def __init__(self, families, n_candidates):
+    def __init__(self, families, n_candidates, *, origin=None, cache=None):
         self.families = tuple(families)
         self.n_candidates = int(n_candidates)
+        # dense blocks kept by their number in the first (full) set, shared by its subsets
+        self._origin = np.arange(self.n_candidates) if origin is None else np.asarray(origin)
+        self._cache = cache if cache is not None else Cache(
+            maxsize=max(1, DENSE_CACHE_BYTES // (8 * self.families[0].n_params ** 2)))
         self.n_params = self.families[0].n_params
         owner = np.full(self.n_candidates, -1)
         local = np.zeros(self.n_candidates, dtype=int)
@@ -205,11 +232,21 @@ class StructuredBlocks:
         single = np.ndim(index) == 0
         index = np.atleast_1d(np.arange(self.n_candidates)[index])
         out = np.empty((index.size, self.n_params, self.n_params))
+        missing = []
+        for n, i in enumerate(index):
+            found, block = self._cache.lookup((), key=int(self._origin[i]))
+            if found:
+                out[n] = block
+            else:
+                missing.append(n)
+        missing = np.array(missing, dtype=int)
         for k, fam in enumerate(self.families):
-            hit = np.flatnonzero(self._owner[index] == k)
+            hit = missing[self._owner[index[missing]] == k]
             for s in range(0, hit.size, 64):
                 part = hit[s:s + 64]
                 out[part] = fam.dense(self._local[index[part]])
+                for n in part:
+                    self._cache.put((), out[n].copy(), key=int(self._origin[index[n]]))
         return out[0] if single else out
 
     def subset(self, index):
@@ -220,7 +257,7 @@ class StructuredBlocks:
             hit = np.flatnonzero(self._owner[index] == k)
             if hit.size:
                 families.append(fam.subset(self._local[index[hit]], hit))
-        return StructuredBlocks(families, index.size)
+        return StructuredBlocks(families, index.size, origin=self._origin[index], cache=self._cache)
 
     def weighted(self, w):
         """sum_c w_c F_c."""
