@@ -111,7 +111,7 @@ def test_resource_estimate_grows_and_states_a_fitting_count():
     # the relaxation's working set (at least 4 R + 20 candidates, 16 P^2 bytes each) is a floor of the estimate
     assert large.memory_bytes >= 16 * (4 * 20 + 20) * 400**2
     # structured blocks: far below the 8 C P^2 bytes of dense blocks at 30,000 candidates
-    assert estimate_resources(30000, 400, 20, n_loads=741).memory_bytes < 8 * 30000 * 400**2 / 10
+    assert estimate_resources(30000, 400, 20, n_loads=741).memory_bytes < 8 * 30000 * 400**2 / 5
     memory = 2 * 2**30
 
     def estimate(c):

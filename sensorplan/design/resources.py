@@ -13,7 +13,9 @@ The model counts what dominates at scale (dense linear algebra, one core):
   structured (:mod:`sensorplan.design.blocks`): per sensor kind the products
   of A fixed matrices, 8 (A P)^2 bytes, plus about 8 (A + 2) C P bytes per
   candidate set (coefficients, cross terms, the build's temporaries),
-  never the 8 C P^2 bytes of dense blocks; plus the relaxation's working
+  never the 8 C P^2 bytes of dense blocks, but a cache of dense blocks of
+  the candidates greedy and exchange evaluate (at most
+  :data:`~sensorplan.design.blocks.algebra.DENSE_CACHE_BYTES`); plus the relaxation's working
   set of m candidates (its dense blocks in double and single precision and
   the whitened copies of a Newton step, about 16 m P^2 bytes at the peak);
   CPU: building the blocks (2 n_loads (A P)^2 + 2 n_loads A P C flops),
@@ -52,6 +54,7 @@ class ResourcePolicy:
     newton_steps: int = 40  # Hessians of the relaxation's Newton steps (lazy: about half the steps)
     bound_passes_per_sensor: int = 3  # bound passes of greedy and exchange per sensor
     evaluations_per_sensor: int = 50  # exact evaluations (Cholesky factorisations) per sensor
+    dense_cache_bytes: float = 2**30  # dense blocks kept by the structured blocks (blocks.algebra.DENSE_CACHE_BYTES)
     fixed_matrices: int = 10  # A: the structured blocks' fixed matrices (support reactions + 2; a 7-support bridge)
     detection_bytes_per_candidate: float = 4 * 2**20  # the detect problem's Gram stacks (issue 38: ~4 MB)
     memory_fraction: float = 0.75  # of the physical memory: the rest for the system and other processes
@@ -107,7 +110,8 @@ def estimate_resources(n_candidates, n_params, count, *, n_loads, detection=Fals
     k = min(p, policy.eigen_split)
     m = min(c, policy.working_set_factor * max(4 * r + 20, min(c / 8, 8 * r + 40)))
     a = float(policy.fixed_matrices)
-    memory = policy.base_bytes + 8 * n_kinds * (a * p) ** 2 + 8 * (a + 2) * c * p + 16 * m * p * p
+    cache = min(float(policy.dense_cache_bytes), 8 * c * p * p)
+    memory = policy.base_bytes + 8 * n_kinds * (a * p) ** 2 + 8 * (a + 2) * c * p + 16 * m * p * p + cache
     flops = (n_kinds * 2 * n_loads * (a * p) ** 2 + 2 * n_loads * a * p * c + policy.newton_steps * 2 * m * p**3 / 3
              + policy.bound_passes_per_sensor * r * 2 * (a * a * p * p * k + c * a * a * k * k)
              + policy.evaluations_per_sensor * r * (p**3 / 3 + 2 * a * a * p * p))
