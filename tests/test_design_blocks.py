@@ -84,3 +84,25 @@ def test_structured_blocks_equal_dense(name):
     sub = blocks.subset(pick)
     assert np.abs(sub[np.arange(3)] - dense[pick]).max() <= 1e-10 * scale
     assert np.abs(blocks[4] - dense[4]).max() <= 1e-10 * scale
+
+
+@pytest.mark.parametrize("criterion", ["D", "A", "E"])
+def test_search_on_structured_blocks_equals_the_search_on_dense_ones(criterion):
+    # reference: the same problem with its blocks stored densely (one block at a time, no batches, no cache)
+    from dataclasses import replace
+
+    from sensorplan.design.recommend import CandidateGrid, build_problem
+    from sensorplan.design.selection import exchange, greedy
+    from sensorplan.io.config import example_case
+
+    problem = build_problem(example_case("three-span"), 4, criterion, grid=CandidateGrid(spacing=1.0))
+    assert problem.structured
+    dense = replace(problem, blocks=problem.blocks[np.arange(problem.n_candidates)])
+    assert not dense.structured
+    g_structured, u_structured = greedy(problem)
+    g_dense, u_dense = greedy(dense)
+    assert g_structured == g_dense and u_structured == pytest.approx(u_dense, rel=1e-12)
+    start = list(range(0, problem.n_candidates, problem.n_candidates // 4))[:4]
+    e_structured, v_structured = exchange(problem, start)
+    e_dense, v_dense = exchange(dense, start)
+    assert sorted(e_structured) == sorted(e_dense) and v_structured == pytest.approx(v_dense, rel=1e-12)
