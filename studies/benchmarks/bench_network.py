@@ -62,6 +62,9 @@ certified efficiency of the recommended layout; peak: measured peak RSS
     configuration                      build  base greedy  relax   best  curve  total     gap   eff  peak
     D N=400 C=800  R=20 (98f4b74)        0.5   6.7    9.6   62.5   40.5   10.0  129.8  2.9e-11 0.990 2.37
     D N=400 C=3000 R=20 (f66e326, *)     1.4   8.5   71.5  119.0  192.3   12.3  404.9  1.1e-8 0.989  2.18
+    D N=400 C=3000 R=20 (98f4b74)        1.2   8.1   63.4  108.6  130.6    9.7  321.5  1.1e-8 0.989  2.19
+    A N=400 C=800  R=20 (98f4b74)        0.7   6.4   42.9   89.5  107.9    9.4  256.7  7.1e-8 0.928  2.78
+    mixed D N=400 C=800 R=20 (98f4b74)   1.0  11.6    9.8   55.3   63.9   17.1  158.8  7.1e-9 0.990  2.44
     previous (dense blocks, 79499f2):
     D N=400 C=800  R=20                  9.5   7.8    6.7   50.4   47.2   11.8  133.4  8.5e-10 0.990 2.20
     D N=400 C=3000 R=20                 28.4  16.7   24.9  138.4   96.9   41.7  346.9  3.1e-8 0.989  4.67
@@ -97,15 +100,20 @@ first working set of 4 R + 20 and at most 2 R entering per round took
 
 E at N = 400, C = 800 ran more than 11 min of CPU (peak above 3 GiB) and
 was stopped: its small eigen-subspace SDPs fell back to cvxpy + Clarabel.
-A and the mixed design at the target were not run in the session (one
-target-size run at a time, each about 30 min wall on the shared machine).
+A and the mixed design (rotation + deflection at 400 positions, costs 1
+and 3, budget 40) ran at C = 800 only (the last three rows of the table ran
+concurrently, after the load had dropped to about 6); at C = 3,000 they were
+not run in the session (one target-size run at a time, each about 30 min
+wall on the shared machine).
 
 Acceptance (issue 38) at N = 400, C = 3,000, R = 20:
 
-* D: 405 s CPU before the batches (not met: < 60 s), gap 1.1e-8 (met:
-  <= 1e-6), peak 2.18 GiB (met: <= 4 GiB).
+* D: 321.5 s CPU (not met: < 60 s; 346.9 s with dense blocks), gap 1.1e-8
+  (met: <= 1e-6), peak 2.19 GiB (met: <= 4 GiB; 4.67 GiB with dense
+  blocks); the curve reaches R = 20.
 * A, E (< 60 s each) and mixed kinds (< 120 s): not measured at the
-  target in this session (see above); not met.
+  target in this session; at C = 800 A takes 256.7 s and the mixed design
+  158.8 s, so neither is met.
 
 Cost growth (D, previous commit 79499f2, least squares on the logs): time
 ~ C^0.61 at N = 400, C = 200 -> 3,000; time ~ N^2.2 at C = 800, N = 60 ->
