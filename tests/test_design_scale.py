@@ -57,7 +57,10 @@ def test_curve_reaches_the_requested_count_and_keeps_the_recommendation():
     result = sp.recommend(case, 14, "D", grid=CandidateGrid(spacing=1.0), n_random=5)
     assert [p.count for p in result.curve] == list(range(1, 15))  # not cut at 12
     at_r = result.curve[-1]
-    assert at_r.value == result.value and at_r.bound == result.bound
+    # the point at R takes the recommendation's value and the tighter of the two bounds (the curve's own
+    # linearisations may be tighter than the relaxation's by round-off)
+    assert at_r.value == result.value and at_r.bound == pytest.approx(result.bound, rel=1e-12)
+    assert at_r.bound <= result.bound
 
 
 def test_curve_with_a_budget_uses_feasible_layouts():
@@ -84,7 +87,9 @@ def test_block_products_match_dense_sums():
     np.testing.assert_allclose(problem.block_dot(g, index), dense, rtol=1e-10, atol=1e-12 * np.abs(dense).max())
     many = list(range(problem.n_candidates))
     reference = problem.q0 + sum(problem.blocks[i] for i in many)
-    np.testing.assert_allclose(problem.layout_precision(many), reference, rtol=1e-12)
+    # structured sums (cumulative over candidates) and dense blocks round differently: to 1e-12 of the largest entry
+    np.testing.assert_allclose(problem.layout_precision(many), reference, rtol=1e-10,
+                               atol=1e-12 * np.abs(reference).max())
 
 
 def test_whitened_blocks_match_the_definition():
@@ -103,9 +108,11 @@ def test_resource_estimate_grows_and_states_a_fitting_count():
     small = estimate_resources(200, 60, 6, n_loads=300)
     large = estimate_resources(3000, 400, 20, n_loads=741)
     assert large.memory_bytes > small.memory_bytes and large.cpu_seconds > small.cpu_seconds
-    # the blocks alone: 8 C P^2 bytes is a floor of the estimate
-    assert large.memory_bytes >= 8 * 3000 * 400**2
-    memory = 4 * 2**30
+    # the relaxation's working set (at least 4 R + 20 candidates, 16 P^2 bytes each) is a floor of the estimate
+    assert large.memory_bytes >= 16 * (4 * 20 + 20) * 400**2
+    # structured blocks: far below the 8 C P^2 bytes of dense blocks at 30,000 candidates
+    assert estimate_resources(30000, 400, 20, n_loads=741).memory_bytes < 8 * 30000 * 400**2 / 5
+    memory = 2 * 2**30
 
     def estimate(c):
         return estimate_resources(c, 400, 20, n_loads=741)

@@ -17,7 +17,7 @@ __all__ = ["criterion_curve", "SEARCH_PER_COUNT_ENTRIES"]
 SEARCH_PER_COUNT_ENTRIES = 2_000_000  # C P^2 up to which each count gets its own exchange and relaxation
 
 
-def criterion_curve(problem, count, curve_max=None, weights=None, layout=None):
+def criterion_curve(problem, count, curve_max=None, weights=None, layout=None, *, greedy_layout=None):
     """Criterion versus R, for R = 1 .. ``curve_max`` (default the requested count, or up to 3 more while
     that stays <= 12); a count whose constraints cannot be met is reported as failed, not dropped.
 
@@ -30,13 +30,14 @@ def criterion_curve(problem, count, curve_max=None, weights=None, layout=None):
     in R); with side constraints (each count an LP) a count takes the relaxation's and its own layout's.
     On small problems (C P^2 <= ``SEARCH_PER_COUNT_ENTRIES``) each count also gets an exchange from its
     greedy layout and its own relaxation (the better value, the tighter bound); beyond, no relaxation is
-    solved and no exchange is run per count.
+    solved and no exchange is run per count.  ``greedy_layout``, the greedy layout of ``problem`` (in the
+    order greedy chose it) when already computed, gives the greedy run's prefixes without running it again.
     """
     if curve_max == 0:
         return ()
     r_max = max(count, min(count + 3, 12)) if curve_max is None else int(curve_max)
     r_max = min(r_max, problem.n_candidates)
-    layouts, failures = _curve_layouts(problem, count, r_max)
+    layouts, failures = _curve_layouts(problem, count, r_max, greedy_layout)
     around = {} if layout is None else _around_layout(problem, list(layout), r_max)
     crit = problem.criterion
     scaled = {} if weights is None else {r: np.asarray(weights, dtype=float) * (r / count) for r in range(1, r_max + 1)}
@@ -94,19 +95,25 @@ def _indicator(problem, layout):
     return w
 
 
-def _curve_layouts(problem, count, r_max):
+def _curve_layouts(problem, count, r_max, greedy_layout=None):
     """({count: greedy layout}, {count: reason it failed}).
 
     The prefixes of one greedy run are feasible for every smaller count unless a per-span minimum applies
     (a prefix may miss it); with a budget the run is for the requested count (a larger count may not fit
-    the budget at all), and the counts beyond it get a greedy run each.
+    the budget at all), and the counts beyond it get a greedy run each.  A given ``greedy_layout`` of
+    ``problem`` (its count, in greedy order) is the run's start: greedy is deterministic, so its prefixes are
+    the run's first layouts.
     """
     layouts, failures = {}, {}
     nested_to = 0
     if problem.span_min is None or not np.any(problem.span_min > 0):
         nested_to = count if problem.budget is not None else r_max
+        start = [] if greedy_layout is None else list(greedy_layout)[:nested_to]
+        if len(start) != min(nested_to, problem.count) or problem.count > nested_to:
+            start = []
+        layouts.update({r: start[:r] for r in range(1, len(start) + 1)})
         try:
-            for chosen, _ in iter_greedy(replace(problem, count=nested_to)):
+            for chosen, _ in iter_greedy(replace(problem, count=nested_to), start=start):
                 layouts[len(chosen)] = list(chosen)
         except SensorplanError as exc:
             reason = " ".join(str(exc).split())

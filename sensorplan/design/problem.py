@@ -34,7 +34,7 @@ class DesignProblem:
 
     positions: np.ndarray  # (C,) candidate positions [m]
     spans: np.ndarray  # (C,) span index of each candidate
-    blocks: np.ndarray  # (C, P, P) information of one sensor at each candidate
+    blocks: object  # (C, P, P) array, or StructuredBlocks: information of one sensor at each candidate
     q0: np.ndarray  # (P, P) prior + fixed sensors
     _: KW_ONLY
     criterion: object
@@ -64,13 +64,35 @@ class DesignProblem:
     def n_params(self):
         return self.q0.shape[0]
 
+    @property
+    def structured(self):
+        """Whether the blocks are held as :class:`~sensorplan.design.blocks.StructuredBlocks` (never all dense)."""
+        return not isinstance(self.blocks, np.ndarray)
+
     @cached_property
     def flat_blocks(self):
         return self.blocks.reshape(self.n_candidates, -1)
 
+    def subset_blocks(self, index):
+        """The blocks of the candidates at ``index`` in the same form (array or structured)."""
+        return self.blocks.subset(index) if self.structured else self.blocks[index]
+
+    def congruence(self, v, index=None):
+        """V^T I_i V for every candidate (or those at ``index``), shape (C, k, k)."""
+        if self.structured:
+            return (self.blocks if index is None else self.blocks.subset(index)).congruence(v)
+        if index is not None:
+            return np.matmul(v.T, np.matmul(self.blocks[index], v))
+        c, p = self.blocks.shape[:2]
+        k = v.shape[1]
+        bv = (self.blocks.reshape(c * p, p) @ v).reshape(c, p, k).transpose(0, 2, 1).reshape(c * k, p)
+        return (bv @ v).reshape(c, k, k)
+
     def precision(self, w):
         """Q(w) for weights ``w`` (C,) (from the candidates with a weight only, when they are few)."""
         w = np.asarray(w, dtype=float)
+        if self.structured:
+            return self.q0 + self.blocks.weighted(w)
         nonzero = np.flatnonzero(w)
         if nonzero.size > w.size // 4:
             return self.q0 + (w @ self.flat_blocks).reshape(self.q0.shape)
@@ -82,6 +104,8 @@ class DesignProblem:
 
     def layout_precision(self, index):
         index = list(index)
+        if self.structured:
+            return self.q0 + self.blocks.weighted(np.bincount(index, minlength=self.n_candidates).astype(float))
         step = self._chunk
         if len(index) <= step:
             return self.q0 + self.blocks[index].sum(axis=0)
@@ -97,6 +121,8 @@ class DesignProblem:
 
     def block_dot(self, g, index=None):
         """<G, I_i> for every candidate (or those at ``index``), without copying all their blocks."""
+        if self.structured:
+            return self.blocks.dot(g, index)
         g = np.asarray(g, dtype=float).ravel()
         if index is None:
             return self.flat_blocks @ g

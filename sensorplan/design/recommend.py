@@ -16,6 +16,7 @@ from .._threads import single_threaded
 from ..model.fisher import fisher_blocks
 from ..model.prior import GMRFPrior
 from .baselines import baselines as make_baselines
+from .blocks import candidate_information
 from .candidates import (
     as_kinds,
     candidate_set,
@@ -162,16 +163,23 @@ def build_problem(case, count, criterion="D", *, grid=None, constraints=None, ki
                    costs=c_arr, budget=constraints.budget)
     n_params = case.n_elements + (len(bridge.spring_parameters) if springs else 0)
     check_resources(estimate_resources(cands.n_candidates, n_params, int(count), n_loads=case.sweep.n_loads,
-                                       detection=detection), what=f"{cands.n_candidates} candidates",
+                                       detection=detection, n_kinds=len(kinds)), what=f"{cands.n_candidates} candidates",
                     fits="use fewer candidates (a larger grid spacing) or fewer elements")
     blocks, q0, crit, posterior_of = _information(case, cands, criterion, detection, n_crossings=n_crossings,
                                                   prior=prior, springs=springs, region=region,
                                                   functionals=functionals, target=target)
-    return DesignProblem(positions, bridge.span_of(positions), np.ascontiguousarray(blocks[:positions.size]), q0,
+    return DesignProblem(positions, bridge.span_of(positions), _candidate_blocks(blocks, positions.size), q0,
                          criterion=crit, count=int(count), costs=c_arr, budget=constraints.budget,
                          span_min=span_min, span_max=span_max, min_spacing=float(constraints.min_spacing),
                          n_spans=bridge.n_spans, posterior_of=posterior_of, kinds=cands.kinds,
                          noise_std=cands.noise_std, fixed=fixed)
+
+
+def _candidate_blocks(blocks, n):
+    """The first ``n`` blocks (the candidates'; detect stacks hold the existing sensors' after them)."""
+    if isinstance(blocks, np.ndarray):
+        return np.ascontiguousarray(blocks[:n])
+    return blocks
 
 
 def _information(case, cands, criterion, detection, *, n_crossings, prior, springs, region, functionals, target):
@@ -180,10 +188,9 @@ def _information(case, cands, criterion, detection, *, n_crossings, prior, sprin
     if detection:
         return detection_information(case, cands, n_crossings=n_crossings, region=region, target=target,
                                      prior=prior, springs=springs, functionals=functionals)
-    blocks = fisher_blocks(case, sensors=cands.layout(), parameterisation="log_ei", springs=springs,
-                           n_crossings=n_crossings).blocks
+    blocks, fixed = candidate_information(case, cands, n_crossings=n_crossings, springs=springs)
     n_springs = len(case.bridge.spring_parameters) if springs else 0
-    q0 = prior.precision(case.n_elements, n_springs) + blocks[cands.n_candidates:].sum(axis=0)
+    q0 = prior.precision(case.n_elements, n_springs) + fixed
     crit = make_criterion(criterion, q0.shape[0], n_elements=case.n_elements, edges=case.mesh.edges,
                           region=region, functionals=functionals)
     return blocks, q0, crit, None
@@ -261,7 +268,8 @@ def recommend(case: "Case", count: int, criterion: str = "D", *, grid: Candidate
                             region=region, functionals=functionals, target=target)
     search = search_layout(problem, case, solver=solver, n_random=n_random, rng=rng)
     margin = 0.0 if grid is None else float(grid.support_margin)
-    curve = criterion_curve(problem, count, curve_max, search.relaxation.weights, search.layout)
+    curve = criterion_curve(problem, count, curve_max, search.relaxation.weights, search.layout,
+                            greedy_layout=search.greedy_layout)
     return design_result(case, problem, search, curve, n_crossings=n_crossings, support_margin=margin)
 
 
@@ -277,6 +285,7 @@ class Search:
     utility: float
     bound: float | None = None  # a bound on the integer layouts tighter than the relaxation's, if proven
     bound_method: str = "relaxation"
+    greedy_layout: list | None = None  # the greedy layout, in the order greedy chose it (None if it failed)
 
 
 def search_layout(problem, case, *, solver, n_random, rng):
@@ -292,10 +301,10 @@ def search_layout(problem, case, *, solver, n_random, rng):
     method, layout, utility = best_layout(problem, relaxation.weights, base, greedy_layout=g_start, rng=rng)
     proof = problem.criterion.integer_bound(problem, layout, utility, length=case.bridge.length)
     if proof is None or proof.bound >= relaxation.bound:
-        return Search(base, relaxation, method, layout, utility)
+        return Search(base, relaxation, method, layout, utility, greedy_layout=g_start)
     if proof.value > utility:
         method, layout, utility = "exact search (branch and bound)", list(proof.layout), proof.value
-    return Search(base, relaxation, method, layout, utility, proof.bound, proof.method)
+    return Search(base, relaxation, method, layout, utility, proof.bound, proof.method, greedy_layout=g_start)
 
 
 def design_result(case, problem, search, curve, *, n_crossings, support_margin=0.0):

@@ -9,21 +9,26 @@ would fit.
 
 The model counts what dominates at scale (dense linear algebra, one core):
 
-* Fisher criteria (D, Ds, A, E): the candidates' information blocks,
-  8 C P^2 bytes, plus the relaxation's working set of m candidates (its
-  blocks in double and single precision and the whitened copies of a Newton
-  step, about 16 m P^2 bytes at the peak) and the eigen-split of the upper bounds
-  (3 x 8 C P k bytes, k = 16); CPU: building the blocks (2 C n_loads P^2
-  flops), the relaxation's Newton steps (~ 40 x 2 m P^3 / 3), the bound
-  passes of greedy and exchange (~ 3 R passes of 2 C P^2 k) and their exact
-  evaluations (~ 50 R Cholesky factorisations of P^3 / 3);
+* Fisher criteria (D, Ds, A, E): the candidates' information blocks are
+  structured (:mod:`sensorplan.design.blocks`): per sensor kind the products
+  of A fixed matrices, 8 (A P)^2 bytes, plus about 8 (A + 2) C P bytes per
+  candidate set (coefficients, cross terms, the build's temporaries),
+  never the 8 C P^2 bytes of dense blocks, but a cache of dense blocks of
+  the candidates greedy and exchange evaluate (at most
+  :data:`~sensorplan.design.blocks.algebra.DENSE_CACHE_BYTES`); plus the relaxation's working
+  set of m candidates (its dense blocks in double and single precision and
+  the whitened copies of a Newton step, about 16 m P^2 bytes at the peak);
+  CPU: building the blocks (2 n_loads (A P)^2 + 2 n_loads A P C flops),
+  the relaxation's Newton steps (~ 40 x 2 m P^3 / 3), the bound passes of
+  greedy and exchange (~ 3 R passes of 2 A^2 P^2 k + 2 C A^2 k^2, k = 16)
+  and their exact evaluations (~ 50 R Cholesky factorisations of P^3 / 3
+  and dense blocks of 2 A^2 P^2);
 * the detect criterion: :attr:`ResourcePolicy.detection_bytes_per_candidate`
   per candidate whatever N is (its Gram stacks), no Fisher blocks.
 
-The constants were fitted on the five-span benchmark
-(studies/benchmarks/bench_network.py: N = 400, C = 200 to 3,000, R = 20,
-measured peaks 0.90 to 4.7 GiB); the estimate is meant to be right within
-a factor of about two, erring high.
+The constants are checked against the five-span benchmark
+(studies/benchmarks/bench_network.py: N = 400, C = 200 to 3,000, R = 20);
+the estimate is meant to be right within a factor of about two, erring high.
 
 Owns: ResourceEstimate, estimate_resources, check_resources.  May import: errors.
 """
@@ -49,6 +54,8 @@ class ResourcePolicy:
     newton_steps: int = 40  # Hessians of the relaxation's Newton steps (lazy: about half the steps)
     bound_passes_per_sensor: int = 3  # bound passes of greedy and exchange per sensor
     evaluations_per_sensor: int = 50  # exact evaluations (Cholesky factorisations) per sensor
+    dense_cache_bytes: float = 2**30  # dense blocks kept by the structured blocks (blocks.algebra.DENSE_CACHE_BYTES)
+    fixed_matrices: int = 10  # A: the structured blocks' fixed matrices (support reactions + 2; a 7-support bridge)
     detection_bytes_per_candidate: float = 4 * 2**20  # the detect problem's Gram stacks (issue 38: ~4 MB)
     memory_fraction: float = 0.75  # of the physical memory: the rest for the system and other processes
     max_cpu_seconds: float = 6 * 3600.0  # beyond, a design is a batch job: say so instead of starting it
@@ -92,9 +99,9 @@ def _duration(seconds):
     return f"{seconds / 3600:.2g} h"
 
 
-def estimate_resources(n_candidates, n_params, count, *, n_loads, detection=False, policy=RESOURCES):
+def estimate_resources(n_candidates, n_params, count, *, n_loads, detection=False, n_kinds=1, policy=RESOURCES):
     """:class:`ResourceEstimate` of a placement problem with ``n_candidates`` candidates, ``n_params``
-    parameters, ``count`` new sensors and ``n_loads`` load positions per crossing."""
+    parameters, ``count`` new sensors, ``n_loads`` load positions per crossing and ``n_kinds`` sensor kinds."""
     c, p, r = float(n_candidates), float(n_params), float(max(1, count))
     if detection:
         memory = policy.base_bytes + c * policy.detection_bytes_per_candidate
@@ -102,9 +109,12 @@ def estimate_resources(n_candidates, n_params, count, *, n_loads, detection=Fals
         return ResourceEstimate(int(n_candidates), int(n_params), int(count), memory, flops / policy.flop_rate)
     k = min(p, policy.eigen_split)
     m = min(c, policy.working_set_factor * max(4 * r + 20, min(c / 8, 8 * r + 40)))
-    memory = policy.base_bytes + 8 * c * p * p + 16 * m * p * p + 24 * c * p * k
-    flops = (2 * c * n_loads * p * p + policy.newton_steps * 2 * m * p**3 / 3
-             + policy.bound_passes_per_sensor * r * 2 * c * p * p * k + policy.evaluations_per_sensor * r * p**3 / 3)
+    a = float(policy.fixed_matrices)
+    cache = min(float(policy.dense_cache_bytes), 8 * c * p * p)
+    memory = policy.base_bytes + 8 * n_kinds * (a * p) ** 2 + 8 * (a + 2) * c * p + 16 * m * p * p + cache
+    flops = (n_kinds * 2 * n_loads * (a * p) ** 2 + 2 * n_loads * a * p * c + policy.newton_steps * 2 * m * p**3 / 3
+             + policy.bound_passes_per_sensor * r * 2 * (a * a * p * p * k + c * a * a * k * k)
+             + policy.evaluations_per_sensor * r * (p**3 / 3 + 2 * a * a * p * p))
     return ResourceEstimate(int(n_candidates), int(n_params), int(count), memory, flops / policy.flop_rate)
 
 

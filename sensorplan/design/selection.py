@@ -58,10 +58,10 @@ def iter_greedy(problem, *, start=()):
                 bounds = _upper_bounds(problem, q)[1] - u_q + _slack(u_q)
             order = sorted(ok, key=lambda i: -bounds[i])
             best, best_gain = None, -np.inf
-            for i in order:
+            for i, block in _blocks_in_order(problem, order, lambda i: bounds[i] > best_gain):
                 if bounds[i] <= best_gain:
                     break
-                gain = crit.utility(q + problem.blocks[i]) - u_q
+                gain = crit.utility(q + block) - u_q
                 bounds[i] = gain + _slack(u_q)
                 if gain > best_gain:
                     best, best_gain = i, gain
@@ -70,14 +70,31 @@ def iter_greedy(problem, *, start=()):
             _, ub = _upper_bounds(problem, q)
             ok = np.array(ok)
             best, best_u = None, -np.inf
-            for i in ok[np.argsort(-ub[ok], kind="stable")]:
+            for i, block in _blocks_in_order(problem, ok[np.argsort(-ub[ok], kind="stable")],
+                                             lambda i: ub[i] + _slack(ub[i]) > best_u):
                 if ub[i] + _slack(ub[i]) <= best_u:
                     break
-                u = crit.utility(q + problem.blocks[i])
+                u = crit.utility(q + block)
                 if u > best_u:
                     best, best_u = int(i), u
             chosen.append(best)
         yield list(chosen), problem.utility_of(chosen)
+
+
+def _blocks_in_order(problem, order, still_open):
+    """(i, I_i) for the candidates of ``order`` while ``still_open(i)``; structured blocks are formed
+    densely ``STRUCTURED_BATCH`` at a time (one pass over their shared products per batch)."""
+    batch = STRUCTURED_BATCH if problem.structured else 1
+    order = [int(i) for i in order]
+    pos = 0
+    while pos < len(order):
+        group = []
+        while pos < len(order) and len(group) < batch and still_open(order[pos]):
+            group.append(order[pos])
+            pos += 1
+        if not group:
+            return
+        yield from zip(group, problem.blocks[group])
 
 
 def greedy(problem, *, start=()):
@@ -95,12 +112,13 @@ def _subproblem(problem, index):
     from dataclasses import replace
 
     return replace(problem, positions=problem.positions[index], spans=problem.spans[index],
-                   blocks=problem.blocks[index], costs=None if problem.costs is None else problem.costs[index],
+                   blocks=problem.subset_blocks(index), costs=None if problem.costs is None else problem.costs[index],
                    kinds=None if problem.kinds is None else tuple(problem.kinds[i] for i in index),
                    noise_std=None if problem.noise_std is None else problem.noise_std[index])
 
 
 COARSE_ABOVE = 300  # candidates above which exchange searches a coarse grid first
+STRUCTURED_BATCH = 8  # candidates exchange evaluates together when the blocks are structured
 
 
 def exchange(problem, layout, *, max_sweeps=50, coarse_above=None, polish=True):
@@ -166,6 +184,8 @@ def _best_replacement(problem, rest, q_rest, taken, best, order, ub=None):
     crit = problem.criterion
     cand_best, cand_util = None, best + 1e-12 * max(1.0, abs(best))
     pending = []  # evaluated together, crit.batch_size at a time (cheaper per candidate for some criteria)
+    # structured blocks are formed densely a batch at a time: one pass over the shared products per batch
+    batch = max(crit.batch_size, STRUCTURED_BATCH) if problem.structured else crit.batch_size
 
     def flush():
         nonlocal cand_best, cand_util
@@ -181,7 +201,7 @@ def _best_replacement(problem, rest, q_rest, taken, best, order, ub=None):
         if i in taken or not problem.partial_ok(rest + [i]):
             continue
         pending.append(i)
-        if len(pending) >= crit.batch_size:
+        if len(pending) >= batch:
             flush()
     if pending:
         flush()

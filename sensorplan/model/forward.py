@@ -51,7 +51,7 @@ from .sensors import SensorLayout
 from .structure import Bridge, Mesh
 
 __all__ = ["InfluenceLines", "influence_lines", "response_change", "ZoneChanges", "bending_moments",
-           "support_reactions", "expand_ei", "sensor_actions"]
+           "support_reactions", "expand_ei", "sensor_actions", "load_actions"]
 
 PARAMETERISATIONS = ("compliance", "ei", "log_ei")
 
@@ -159,6 +159,11 @@ def sensor_actions(sensors):
     kinds = np.array([STEP if k == "rotation" else RAMP for k in sensors.kinds])
     weights = np.where(kinds == STEP, 1.0, -1.0)  # unit couple / unit downward force
     return sensors.positions[:, None], weights[:, None], kinds[:, None]
+
+
+def load_actions(bridge, vehicle, positions):
+    """Point actions (positions, weights, kinds), each (n_loads, n_axles), of the vehicle's axles on the bridge."""
+    return _load_actions(bridge, vehicle, positions)
 
 
 def _load_actions(bridge, vehicle, positions):

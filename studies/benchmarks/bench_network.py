@@ -49,50 +49,77 @@ timeout of ``TIMEOUT_S``; a child that times out or fails is reported as such.
 
 Last run
 --------
-2026-11-27, commit 79499f2 (the stages measured there; later commits only
-make Q(w), the elimination baseline and D's evaluations cheaper), a 2-core
-machine shared with other jobs (load average 12-14 throughout: CPU seconds,
-not wall time, are the measure; each child got about 15 % of a core).
+2026-11-27, commits 81005e0..98f4b74 of branch s14-dae (structured Fisher
+blocks, sensorplan.design.blocks), a 2-core machine shared with five other
+helpers (load average 9-12 throughout: each child got 10-25 % of a core;
+CPU seconds, not wall time, are the measure).  Children run one at a time
+except where said; one BLAS thread.
 
-CPU seconds per stage, one BLAS thread; gap: certified relative gap of the
-relaxation; eff: certified efficiency of the recommended layout; peak:
-measured peak RSS [GiB]; est: the up-front estimate of
-sensorplan.design.resources at that commit (its constants were refitted
-afterwards to these peaks and times: 5.7 GiB / 357 s at C = 3,000)::
+CPU seconds per stage; gap: certified relative gap of the relaxation; eff:
+certified efficiency of the recommended layout; peak: measured peak RSS
+[GiB]::
 
-    configuration            build  base greedy  relax   best  curve  total     gap   eff  peak
-    D N=400 C=200  R=20        2.0   3.0    1.8   12.2   38.6    3.7   61.3  2.8e-9 0.990  0.90
-    D N=400 C=400  R=20        5.3   3.2    3.4   52.5   45.8    6.5  116.6  3.1e-8 0.990  1.71
-    D N=400 C=800  R=20        9.5   7.8    6.7   50.4   47.2   11.8  133.4  8.5e-10 0.990 2.20
-    D N=400 C=1600 R=20       15.0   8.7   14.8  103.9   72.1   22.4  236.8  3.2e-11 0.989 3.20
-    D N=400 C=3000 R=20       28.4  16.7   24.9  138.4   96.9   41.7  346.9  3.1e-8 0.989  4.67
-    D N=60  C=800  R=20        0.4   0.1    0.2    0.1    0.8    0.3    1.9  1.4e-10 0.972 0.23
-    D N=120 C=800  R=20        1.1   0.3    0.4    0.7    5.0    0.9    8.4  1.1e-9 0.980  0.34
-    D N=240 C=800  R=20        4.1   1.9    2.1    7.9   13.2    3.6   32.6  2.4e-10 0.985 0.78
+    configuration                      build  base greedy  relax   best  curve  total     gap   eff  peak
+    D N=400 C=800  R=20 (98f4b74)        0.5   6.7    9.6   62.5   40.5   10.0  129.8  2.9e-11 0.990 2.37
+    D N=400 C=3000 R=20 (f66e326, *)     1.4   8.5   71.5  119.0  192.3   12.3  404.9  1.1e-8 0.989  2.18
+    D N=400 C=3000 R=20 (98f4b74)        1.2   8.1   63.4  108.6  130.6    9.7  321.5  1.1e-8 0.989  2.19
+    A N=400 C=800  R=20 (98f4b74)        0.7   6.4   42.9   89.5  107.9    9.4  256.7  7.1e-8 0.928  2.78
+    mixed D N=400 C=800 R=20 (98f4b74)   1.0  11.6    9.8   55.3   63.9   17.1  158.8  7.1e-9 0.990  2.44
+    previous (dense blocks, 79499f2):
+    D N=400 C=800  R=20                  9.5   7.8    6.7   50.4   47.2   11.8  133.4  8.5e-10 0.990 2.20
+    D N=400 C=3000 R=20                 28.4  16.7   24.9  138.4   96.9   41.7  346.9  3.1e-8 0.989  4.67
 
-A and E at N = 400, C = 3,000 and the mixed design did not finish within
-the session on the shared machine: A had used 14 min of CPU when it was
-stopped (before the mixed run could start); E at N = 400, C = 800 17 min
-(its eigen-subspace
-rounds solve small SDPs afresh, and their Schur complements cost
-2 m k^3 + m^2 k^2 / 2 for a subspace k that grows with P).
+(*) under cProfile, and before greedy and exchange formed the evaluated
+candidates' dense blocks in batches: each exact evaluation then formed one
+block from the shared products (about 4-8 ms, memory-bound, against 1 ms
+for the Cholesky factorisation it feeds), which made greedy (39,000 block
+formations, 58,700 factorisations over greedy and exchange) and exchange
+slower than with stored dense blocks.  The C = 800 row (98f4b74) has the
+batches: greedy 9.6 s, exchange 40.5 s; its relaxation (62.5 s against
+50.4 s) now also forms the working set's dense blocks each round (382
+blocks, partly from the cache).
+
+What the structured blocks changed: building the problem no longer forms
+C dense P x P blocks (N = 400: 28.4 -> 1.4 s at C = 3,000, 9.5 -> 0.5 s at
+C = 800), the memory no longer grows as 8 C P^2 (peak 4.67 -> 2.18 GiB at
+C = 3,000, of which 1 GiB is the cache of dense blocks that greedy and
+exchange evaluate, and about 0.5 GiB the relaxation's working set), sums,
+gradients <G, I_c> over all candidates and the eigen-split congruences
+cost O(A^2 P^2 + C P) (A = 8 fixed matrices here) instead of C P^2.
+
+Where the time still goes (profile of the C = 3,000 run): the
+relaxation's Newton Hessians (116 of them, each whitening every working-set
+block: m P^3 with m = 256-388; 80 s CPU) and the exact evaluations of
+greedy and exchange (58,700 Cholesky factorisations of 400 x 400, about
+65 s CPU).  The relaxed D optimum is not sparse: at C = 800 it puts weight
+above 1e-6 on 374 of the 800 candidates (neighbouring candidates carry
+nearly the same information), so a smaller working set does not help: a
+first working set of 4 R + 20 and at most 2 R entering per round took
+79.2 s CPU (17 rounds, 179 Newton iterations) against 58.7 s (10 rounds,
+110 Newton iterations) with the default rules.
+
+E at N = 400, C = 800 ran more than 11 min of CPU (peak above 3 GiB) and
+was stopped: its small eigen-subspace SDPs fell back to cvxpy + Clarabel.
+A and the mixed design (rotation + deflection at 400 positions, costs 1
+and 3, budget 40) ran at C = 800 only (the last three rows of the table ran
+concurrently, after the load had dropped to about 6); at C = 3,000 they were
+not run in the session (one target-size run at a time, each about 30 min
+wall on the shared machine).
+
 Acceptance (issue 38) at N = 400, C = 3,000, R = 20:
 
-* D: 347 s CPU (target < 60 s: not met), gap 3.1e-8 (<= 1e-6: met), peak
-  4.67 GiB (<= 4 GiB: not met; the candidates' dense double-precision
-  Fisher blocks alone are 3,000 x 400^2 x 8 B = 3.84 GB, and they are
-  numerically of full rank: a moving load gives a sensor 741 readings per
-  crossing, and the blocks of the five-span bridge keep 356-398 of 400
-  eigenvalues above 1e-12 of the largest, so a low-rank factor saves
-  nothing at an accuracy a certificate can use); the curve reaches R = 20.
-  The issue measured D at N = 400, C = 800 at 324 s CPU and 2.4 GiB; at
-  C = 800 it is now 133 s and 2.2 GiB.
-* A, E (< 60 s each) and mixed kinds (< 120 s): not met (see above).
-Cost growth (least squares on the logs): time ~ C^0.61 for D at N = 400,
-C = 200 -> 3,000 (stages: build C^0.93, relaxation C^0.82, rounding +
-exchange C^0.34: the exact evaluations and the Newton steps cost P^3 each
-and grow with R and the working set more than with C); time ~ N^2.2 at
-C = 800, N = 60 -> 400 (N = 400 from the C series: the same configuration).
+* D: 321.5 s CPU (not met: < 60 s; 346.9 s with dense blocks), gap 1.1e-8
+  (met: <= 1e-6), peak 2.19 GiB (met: <= 4 GiB; 4.67 GiB with dense
+  blocks); the curve reaches R = 20.
+* A, E (< 60 s each) and mixed kinds (< 120 s): not measured at the
+  target in this session; at C = 800 A takes 256.7 s and the mixed design
+  158.8 s, so neither is met.
+
+Cost growth (D, previous commit 79499f2, least squares on the logs): time
+~ C^0.61 at N = 400, C = 200 -> 3,000; time ~ N^2.2 at C = 800, N = 60 ->
+400.  Not re-measured with the structured blocks: the build stage now
+grows as C^0.9 from 0.5 s (C = 800) to 1.4 s (C = 3,000); the relaxation
+and the exact evaluations dominate and grow with the working set and R.
 """
 
 import os
@@ -193,11 +220,12 @@ def run_child(spec):
     method, layout, utility = best_layout(problem, rel.weights, base, greedy_layout=g_start, rng=0)
     stages["best"] = time.process_time() - t
     t = time.process_time()
-    curve = criterion_curve(problem, spec["r"], None, rel.weights, layout)
+    curve = criterion_curve(problem, spec["r"], None, rel.weights, layout, greedy_layout=g_start)
     stages["curve"] = time.process_time() - t
     crit = problem.criterion
     sign = 1.0 if crit.maximise else -1.0
-    estimate = estimate_resources(problem.n_candidates, problem.n_params, spec["r"], n_loads=case.sweep.n_loads)
+    estimate = estimate_resources(problem.n_candidates, problem.n_params, spec["r"], n_loads=case.sweep.n_loads,
+                                  n_kinds=len(kinds))
     return {"stages": stages, "total": sum(stages.values()), "gap": rel.relative_gap,
             "efficiency": crit.efficiency(sign * utility, sign * rel.bound), "method": method,
             "curve_counts": [p.count for p in curve if not p.failed],

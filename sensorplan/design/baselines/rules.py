@@ -65,7 +65,7 @@ def effective_independence(problem, context):
         own = getattr(problem.criterion, "information_share", None)
         if own is not None:  # a criterion with its own information layout (detect) says how to weigh it
             q = problem.layout_precision(remaining)
-            share = problem.flat_blocks[remaining] @ own(q).ravel()
+            share = problem.block_dot(own(q), remaining)
         else:
             # many candidates left: the precision updated by the dropped blocks (one pass over all blocks in all)
             q = problem.layout_precision(remaining) if q is None or len(remaining) <= EXACT_BELOW else \

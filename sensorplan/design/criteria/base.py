@@ -121,7 +121,7 @@ class Criterion(ABC):
     def upper_bounds(self, problem, q):
         """(utility(Q), b) with b_i >= utility(Q + I_i) for every candidate (concavity)."""
         u = self.utility(q)
-        return u, u + problem.flat_blocks @ self.gradient_matrix(q).ravel()
+        return u, u + problem.block_dot(self.gradient_matrix(q))
 
     def bound(self, problem, w):
         """Certified bound on the relaxed optimum of the utility, from weights ``w``.
@@ -130,7 +130,7 @@ class Criterion(ABC):
         relaxed feasible set (the Frank-Wolfe gap).
         """
         q = problem.precision(w)
-        g = problem.flat_blocks @ self.gradient_matrix(q).ravel()
+        g = problem.block_dot(self.gradient_matrix(q))
         best, _ = problem.linear_max(g)
         return self.utility(q) + max(0.0, best - float(g @ w))
 
@@ -152,7 +152,7 @@ class Criterion(ABC):
     def cvxpy_precision(self, cp, problem, w, idx):
         """Q(w) as a cvxpy expression (weights ``w`` on the candidates ``idx``)."""
         p = problem.n_params
-        q = problem.q0 + cp.reshape(problem.flat_blocks[idx].T @ w, (p, p), order="C")
+        q = problem.q0 + cp.reshape(np.asarray(problem.blocks[idx]).reshape(len(idx), -1).T @ w, (p, p), order="C")
         return 0.5 * (q + q.T)
 
     @abstractmethod

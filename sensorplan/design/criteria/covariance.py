@@ -80,7 +80,7 @@ class ACriterion(Criterion):
         lam, v, w, small = eigen_split(problem, q)
         k = v.shape[1]
         trace = np.trace(np.linalg.inv(small), axis1=1, axis2=2)
-        first = problem.flat_blocks @ ((w / lam[k:] ** 2) @ w.T).ravel()
+        first = problem.block_dot((w / lam[k:] ** 2) @ w.T)
         return -float(np.sum(1.0 / lam)), -(trace + float(np.sum(1.0 / lam[k:])) - first)
 
     def cvxpy_objective(self, cp, q_expr, constraints):

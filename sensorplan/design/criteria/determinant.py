@@ -47,7 +47,7 @@ class DCriterion(Criterion):
         lam, v, w, small = eigen_split(problem, q)
         k = v.shape[1]
         logdet = 2.0 * np.log(np.diagonal(np.linalg.cholesky(small), axis1=1, axis2=2)).sum(axis=1)
-        first = problem.flat_blocks @ ((w / lam[k:]) @ w.T).ravel()
+        first = problem.block_dot((w / lam[k:]) @ w.T)
         return float(np.sum(np.log(lam))), logdet + float(np.sum(np.log(lam[k:]))) + first
 
     def cvxpy_objective(self, cp, q_expr, constraints):

@@ -53,7 +53,7 @@ class ECriterion(Criterion):
         if vals.sum() <= 0:
             return np.inf
         z = (vecs * (vals / vals.sum())) @ vecs.T
-        best, _ = problem.linear_max(problem.flat_blocks @ z.ravel())
+        best, _ = problem.linear_max(problem.block_dot(z))
         return float(np.sum(z * problem.q0)) + best
 
     def cvxpy_objective(self, cp, q_expr, constraints):

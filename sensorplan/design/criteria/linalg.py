@@ -62,8 +62,6 @@ def eigen_split(problem, q, k=16):
     k = min(p, k)
     lam, vec = np.linalg.eigh(symmetrise(q))
     v, w = vec[:, :k], vec[:, k:]
-    c = problem.n_candidates
-    bv = (problem.blocks.reshape(c * p, p) @ v).reshape(c, p, k).transpose(0, 2, 1).reshape(c * k, p)
-    small = (bv @ v).reshape(c, k, k)
+    small = problem.congruence(v)
     small[:, np.arange(k), np.arange(k)] += lam[:k]
     return lam, v, w, small

@@ -38,7 +38,7 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
     w = np.full(c, r / c)
     lam, vec = np.linalg.eigh(problem.precision(w))
     basis = vec[:, : min(p, k0)]
-    g = problem.flat_blocks @ (basis @ basis.T).ravel()
+    g = problem.block_dot(basis @ basis.T)
     working = set(np.argsort(-g, kind="stable")[:initial_size(c, r, 4)].tolist())
     if start_layout is not None:
         working |= set(int(i) for i in start_layout)
@@ -77,7 +77,7 @@ def _grow_working_set(problem, working, idx, sdp, bound, tol):
     c, r = problem.n_candidates, problem.count
     grown = False
     trace = max(float(np.trace(z)), 1e-300)
-    gz = problem.flat_blocks @ (z / trace).ravel()
+    gz = problem.block_dot(z / trace)
     threshold = nu / trace
     if small_value < bound - 0.1 * tol * max(1.0, abs(bound)) and len(working) < c:
         outside = np.setdiff1d(np.arange(c), idx)
@@ -111,7 +111,7 @@ def _small_e_sdp(problem, idx, basis, *, tol):
     start = time.perf_counter()
     m = idx.size
     b0 = basis.T @ problem.q0 @ basis
-    bmat = np.matmul(basis.T, np.matmul(problem.blocks[idx], basis))
+    bmat = problem.congruence(basis, idx)
     bmat = 0.5 * (bmat + bmat.transpose(0, 2, 1))
     a_ub, b_ub = problem.inequalities
     rows, rhs = np.zeros((0, m)), np.zeros(0)

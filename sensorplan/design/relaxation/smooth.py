@@ -69,7 +69,7 @@ def _solve_round(problem, working, idx, w_prev, inner):
     crit = problem.criterion
     q = problem.precision(weights)
     utility = crit.utility(q)
-    grad = problem.flat_blocks @ crit.gradient_matrix(q).ravel()
+    grad = problem.block_dot(crit.gradient_matrix(q))
     best, s = problem.linear_max(grad)
     bound = utility + max(0.0, best - float(grad @ weights))
     gap = (bound - utility) / max(1.0, abs(bound))

@@ -1,0 +1,10 @@
+"""Candidates' Fisher blocks held in the structure of the beam's kernel instead of one dense P x P block each.
+
+Owns: :class:`StructuredBlocks` (:mod:`.algebra`) and their assembly from the
+force method (:mod:`.build`).  May import: model, errors.
+"""
+
+from .algebra import BlockFamily, StructuredBlocks
+from .build import candidate_information, structured_fisher
+
+__all__ = ["BlockFamily", "StructuredBlocks", "structured_fisher", "candidate_information"]

@@ -1,0 +1,281 @@
+"""Algebra of Fisher blocks that share a few fixed matrices: sums, inner products and congruences in O(P^2).
+
+On a beam the actual moment diagram of a sensor's unit action at x is the
+free-body atom at x (a step H(s - x) for a tiltmeter's unit couple, a ramp
+-(s - x)_+ for a deflection gauge's unit force) plus a combination of the
+support reactions' fixed unit diagrams, whose coefficients are the
+sensor's own reactions.  The whitened Jacobian of candidate c is therefore
+
+    J_c = sum_a t_ca Psi_a M_a(c) + g_c e_{j_c}^T
+
+with a few fixed (whitened) readings x parameters matrices Psi_a: the
+reactions' element integrals (M_a = I) and the integrals of the load
+moment times 1 and s (M_a(c) keeps only the elements after j_c, the element
+holding x); g_c is the integral over the part of element j_c after x.
+Hence F_c = J_c^T J_c needs only the products X_ab = Psi_a^T Psi_b, the
+coefficients t_c, r_c = (J_c - g_c e_j^T)^T g_c and g_c^T g_c: sums over
+candidates become cumulative sums over the mask's first element, and
+<G, F_c> for all c costs O(A^2 P^2 + C (A^2 + P)) instead of C P^2.
+
+Owns: BlockFamily, StructuredBlocks.  May import: nothing of the package.
+"""
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from ..._cache import Cache
+
+__all__ = ["BlockFamily", "StructuredBlocks", "DENSE_CACHE_BYTES"]
+
+DENSE_CACHE_BYTES = 2**30  # dense blocks kept (greedy and exchange evaluate the same few candidates many times)
+
+
+def _symmetrise(a):
+    return 0.5 * (a + np.swapaxes(a, -1, -2))
+
+
+def _suffix(values, n):
+    """Suffix sums over the first axis with a trailing zero: out[s] = sum_{j >= s} values[j], shape (n + 1, ...)."""
+    out = np.zeros((n + 1,) + values.shape[1:])
+    out[:n] = np.cumsum(values[::-1], axis=0)[::-1]
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class BlockFamily:
+    """Candidates whose Jacobians share the fixed matrices (one sensor kind's whitening).
+
+    ``products`` (A, P, A, P) holds X_ab = Psi_a^T Psi_b; the first
+    ``n_free`` matrices act on all parameters, the others on the elements
+    from ``start`` on; ``coef`` (k, A) the t_ca; ``elem`` (k,) j_c;
+    ``cross`` (k, P) r_c; ``own`` (k,) g_c^T g_c; ``index`` (k,) the
+    candidates' numbers in the problem.
+    """
+
+    index: np.ndarray
+    products: np.ndarray
+    n_free: int
+    coef: np.ndarray
+    elem: np.ndarray
+    cross: np.ndarray
+    own: np.ndarray
+
+    @property
+    def start(self):
+        return self.elem + 1
+
+    @property
+    def n_params(self):
+        return self.products.shape[1]
+
+    def subset(self, local, index):
+        """The members at positions ``local`` renumbered as ``index``."""
+        return BlockFamily(np.asarray(index), self.products, self.n_free, self.coef[local], self.elem[local],
+                           self.cross[local], self.own[local])
+
+    def _split(self):
+        f = self.n_free
+        x = self.products
+        return x[:f, :, :f, :], x[:f, :, f:, :], x[f:, :, f:, :]
+
+    @cached_property
+    def _pair_matrices(self):
+        """Contiguous (pairs, P * P) products for dense blocks: X_aa and X_ab + X_ba (a < b) of the free
+        matrices, X_ab of free a and masked b, and the same symmetric pairs of the masked ones."""
+        f, n_a = self.n_free, self.products.shape[0]
+        x = self.products
+
+        def symmetric(lo, hi):
+            iu = np.triu_indices(hi - lo)
+            mats = [x[lo + a, :, lo + b, :] + (x[lo + b, :, lo + a, :] if a != b else 0.0) for a, b in zip(*iu)]
+            return iu, np.ascontiguousarray(np.array(mats).reshape(len(mats), -1))
+
+        free = symmetric(0, f)
+        masked = symmetric(f, n_a)
+        cross = np.ascontiguousarray(x[:f, :, f:, :].transpose(0, 2, 1, 3).reshape(f * (n_a - f), -1))
+        return free, cross, masked
+
+    def dense(self, local):
+        """The blocks of the members at ``local``, shape (k, P, P)."""
+        (iu_f, free), cross, (iu_m, masked) = self._pair_matrices
+        f, p = self.n_free, self.n_params
+        t = self.coef[local]
+        tu, tm = t[:, :f], t[:, f:]
+        k = len(t)
+        out = (tu[:, iu_f[0]] * tu[:, iu_f[1]] @ free).reshape(k, p, p)
+        cols = np.arange(p)[None, :] >= self.start[local][:, None]  # (k, P) the masked elements
+        y = ((tu[:, :, None] * tm[:, None, :]).reshape(k, -1) @ cross).reshape(k, p, p) * cols[:, None, :]
+        out += y + np.swapaxes(y, 1, 2)
+        z = (tm[:, iu_m[0]] * tm[:, iu_m[1]] @ masked).reshape(k, p, p)
+        out += z * (cols[:, :, None] & cols[:, None, :])
+        rows = np.arange(len(t))
+        e = self.elem[local]
+        out[rows, e, :] += self.cross[local]
+        out[rows, :, e] += self.cross[local]
+        out[rows, e, e] += self.own[local]
+        return _symmetrise(out)
+
+    def _cumulative(self, values):
+        """S[j] = sum of ``values`` over the members whose mask starts at or before j, shape (P, ...)."""
+        p = self.n_params
+        spread = np.zeros((p + 1,) + values.shape[1:])
+        np.add.at(spread, self.start, values)
+        return np.cumsum(spread, axis=0)[:p]
+
+    def weighted(self, w):
+        """sum_c w_c F_c over the members (``w`` in member order)."""
+        uu, um, mm = self._split()
+        f, p = self.n_free, self.n_params
+        wt = self.coef * w[:, None]
+        pair = wt.T @ self.coef
+        out = np.tensordot(pair[:f, :f], uu, axes=([0, 1], [0, 2]))
+        s = self._cumulative(wt[:, :f, None] * self.coef[:, None, f:])  # (P, f, m)
+        y = np.einsum("aibj,jab->ij", um, s)
+        out += y + y.T
+        s2 = self._cumulative(wt[:, f:, None] * self.coef[:, None, f:])  # (P, m, m)
+        low = np.minimum.outer(np.arange(p), np.arange(p))
+        out += np.einsum("aibj,ijab->ij", mm, s2[low])
+        part = np.zeros((p, p))
+        np.add.at(part, self.elem, w[:, None] * self.cross)
+        out += part + part.T
+        np.add.at(out, (self.elem, self.elem), w * self.own)
+        return _symmetrise(out)
+
+    def dot(self, g):
+        """<G, F_c> for every member (``g`` symmetric)."""
+        uu, um, mm = self._split()
+        f, p = self.n_free, self.n_params
+        tu, tm = self.coef[:, :f], self.coef[:, f:]
+        zu = np.tensordot(uu, g, axes=([1, 3], [0, 1]))
+        out = np.einsum("ca,ab,cb->c", tu, zu, tu)
+        v = _suffix(np.einsum("aibj,ij->jab", um, g), p)  # (P + 1, f, m): sum over j >= s of column sums
+        out += 2.0 * np.einsum("ca,cab,cb->c", tu, v[self.start], tm)
+        n_m = mm.shape[0]
+        q = np.zeros((p + 1, n_m, n_m))  # q[s] = sum over i, j >= s of G (.) X_ab
+        for a in range(n_m):
+            for b in range(n_m):
+                e = mm[a, :, b, :] * g
+                q[:, a, b] = _suffix(np.triu(e).sum(axis=1) + np.tril(e, -1).sum(axis=0), p)
+        out += np.einsum("ca,cab,cb->c", tm, q[self.start], tm)
+        out += 2.0 * np.einsum("ck,ck->c", g[self.elem], self.cross) + self.own * g[self.elem, self.elem]
+        return out
+
+    def congruence(self, v):
+        """V^T F_c V for every member, shape (k, m, m)."""
+        uu, um, mm = self._split()
+        f, p = self.n_free, self.n_params
+        tu, tm = self.coef[:, :f], self.coef[:, f:]
+        xv = np.matmul(self.products, v)  # (A, P, A, m): X_ab V
+        z = np.einsum("ip,aibq->abpq", v, xv[:f, :, :f, :])
+        out = np.einsum("ca,abpq,cb->cpq", tu, z, tu)
+        # X_ab M V for a free, b masked: sum over j >= s of (X_ba V)[j] (x) V[j]
+        d = np.einsum("bjap,jq->jabpq", xv[f:, :, :f, :], v)
+        y = np.einsum("ca,cabpq,cb->cpq", tu, _suffix(d, p)[self.start], tm)
+        out += y + np.swapaxes(y, 1, 2)
+        n_m = mm.shape[0]
+        q = np.zeros((p + 1, n_m, n_m) + (v.shape[1],) * 2)
+        for a in range(n_m):
+            for b in range(n_m):
+                x = mm[a, :, b, :]
+                a1 = np.triu(x) @ v  # a1[s] = sum_{j >= s} X[s, j] V[j]
+                a2 = np.tril(x, -1).T @ v  # a2[s] = sum_{i > s} X[i, s] V[i]
+                q[:, a, b] = _suffix(v[:, :, None] * a1[:, None, :] + a2[:, :, None] * v[:, None, :], p)
+        out += np.einsum("ca,cabpq,cb->cpq", tm, q[self.start], tm)
+        rv, vj = self.cross @ v, v[self.elem]
+        out += rv[:, :, None] * vj[:, None, :] + vj[:, :, None] * rv[:, None, :]
+        out += self.own[:, None, None] * vj[:, :, None] * vj[:, None, :]
+        return _symmetrise(out)
+
+
+class StructuredBlocks:
+    """The candidates' Fisher blocks as :class:`BlockFamily` members; indexing gives dense blocks.
+
+    Stands in for the (C, P, P) array of a :class:`~sensorplan.design.problem.DesignProblem`:
+    ``blocks[index]`` forms the dense blocks of a few candidates, while
+    sums, inner products and congruences over all candidates never form them.
+    """
+
+    ndim = 3
+    dtype = np.dtype(float)
+
+    def __init__(self, families, n_candidates, *, origin=None, cache=None):
+        self.families = tuple(families)
+        self.n_candidates = int(n_candidates)
+        # dense blocks kept by their number in the first (full) set, shared by its subsets
+        self._origin = np.arange(self.n_candidates) if origin is None else np.asarray(origin)
+        self._cache = cache if cache is not None else Cache(
+            maxsize=max(1, DENSE_CACHE_BYTES // (8 * self.families[0].n_params ** 2)))
+        self.n_params = self.families[0].n_params
+        owner = np.full(self.n_candidates, -1)
+        local = np.zeros(self.n_candidates, dtype=int)
+        for k, fam in enumerate(self.families):
+            owner[fam.index] = k
+            local[fam.index] = np.arange(fam.index.size)
+        if np.any(owner < 0):
+            raise ValueError("every candidate must belong to one family")
+        self._owner, self._local = owner, local
+
+    @property
+    def shape(self):
+        return (self.n_candidates, self.n_params, self.n_params)
+
+    def __len__(self):
+        return self.n_candidates
+
+    @property
+    def nbytes(self):
+        return sum(f.products.nbytes + f.cross.nbytes + f.coef.nbytes for f in self.families)
+
+    def __getitem__(self, index):
+        single = np.ndim(index) == 0
+        index = np.atleast_1d(np.arange(self.n_candidates)[index])
+        out = np.empty((index.size, self.n_params, self.n_params))
+        missing = []
+        for n, i in enumerate(index):
+            found, block = self._cache.lookup((), key=int(self._origin[i]))
+            if found:
+                out[n] = block
+            else:
+                missing.append(n)
+        missing = np.array(missing, dtype=int)
+        for k, fam in enumerate(self.families):
+            hit = missing[self._owner[index[missing]] == k]
+            for s in range(0, hit.size, 64):
+                part = hit[s:s + 64]
+                out[part] = fam.dense(self._local[index[part]])
+                for n in part:
+                    self._cache.put((), out[n].copy(), key=int(self._origin[index[n]]))
+        return out[0] if single else out
+
+    def subset(self, index):
+        """The candidates at ``index`` as structured blocks (renumbered 0 .. len(index) - 1)."""
+        index = np.asarray(index, dtype=int)
+        families = []
+        for k, fam in enumerate(self.families):
+            hit = np.flatnonzero(self._owner[index] == k)
+            if hit.size:
+                families.append(fam.subset(self._local[index[hit]], hit))
+        return StructuredBlocks(families, index.size, origin=self._origin[index], cache=self._cache)
+
+    def weighted(self, w):
+        """sum_c w_c F_c."""
+        w = np.asarray(w, dtype=float)
+        return sum(fam.weighted(w[fam.index]) for fam in self.families)
+
+    def dot(self, g, index=None):
+        """<G, F_c> for every candidate (or those at ``index``)."""
+        g = _symmetrise(np.asarray(g, dtype=float).reshape(self.n_params, self.n_params))
+        out = np.empty(self.n_candidates)
+        for fam in self.families:
+            out[fam.index] = fam.dot(g)
+        return out if index is None else out[np.asarray(index, dtype=int)]
+
+    def congruence(self, v):
+        """V^T F_c V for every candidate, shape (C, m, m)."""
+        v = np.asarray(v, dtype=float)
+        out = np.empty((self.n_candidates, v.shape[1], v.shape[1]))
+        for fam in self.families:
+            out[fam.index] = fam.congruence(v)
+        return out
