@@ -87,11 +87,14 @@ def test_structured_blocks_equal_dense(name):
 
 
 @pytest.mark.parametrize("criterion", ["D", "A", "E"])
-def test_search_on_structured_blocks_equals_the_search_on_dense_ones(criterion):
+def test_search_on_structured_blocks_equals_the_search_on_dense_ones(monkeypatch, criterion):
     # reference: the same problem with its blocks stored densely (one block at a time, no batches, no cache)
     from dataclasses import replace
 
+    from sensorplan.design import recommend as module
     from sensorplan.design.recommend import CandidateGrid, build_problem
+
+    monkeypatch.setattr(module, "DENSE_CACHE_BYTES", 0)  # structured blocks even where dense ones fit
     from sensorplan.design.selection import exchange, greedy
     from sensorplan.io.config import example_case
 
@@ -106,3 +109,22 @@ def test_search_on_structured_blocks_equals_the_search_on_dense_ones(criterion):
     e_structured, v_structured = exchange(problem, start)
     e_dense, v_dense = exchange(dense, start)
     assert sorted(e_structured) == sorted(e_dense) and v_structured == pytest.approx(v_dense, rel=1e-12)
+
+
+@pytest.mark.parametrize("example, criterion, kind", [("three-span", "D", "rotation"),
+                                                      ("openlab-like", "A", ("rotation", "deflection"))])
+def test_recommend_on_structured_blocks_equals_recommend_on_dense_ones(monkeypatch, example, criterion, kind):
+    # recommend holds dense blocks while they fit DENSE_CACHE_BYTES, structured ones beyond: forced here
+    from sensorplan.design import recommend as module
+    from sensorplan.io.config import example_case
+
+    case = example_case(example)
+    noise = {"rotation": 5e-6, "deflection": 2e-5}
+    options = dict(kind=kind, noise_std=noise if isinstance(kind, tuple) else None, curve_max=4)
+    dense = module.recommend(case, 4, criterion, **options)
+    monkeypatch.setattr(module, "DENSE_CACHE_BYTES", 0)
+    structured = module.recommend(case, 4, criterion, **options)
+    assert structured.layout_m == dense.layout_m and structured.layout_kind == dense.layout_kind
+    assert structured.value == pytest.approx(dense.value, rel=1e-9)
+    assert structured.bound == pytest.approx(dense.bound, rel=1e-6)
+    assert [p.value for p in structured.curve] == pytest.approx([p.value for p in dense.curve], rel=1e-9)

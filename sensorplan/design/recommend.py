@@ -16,7 +16,7 @@ from .._threads import single_threaded
 from ..model.fisher import fisher_blocks
 from ..model.prior import GMRFPrior
 from .baselines import baselines as make_baselines
-from .blocks import candidate_information
+from .blocks import DENSE_CACHE_BYTES, candidate_information
 from .candidates import (
     as_kinds,
     candidate_set,
@@ -188,8 +188,15 @@ def _information(case, cands, criterion, detection, *, n_crossings, prior, sprin
     if detection:
         return detection_information(case, cands, n_crossings=n_crossings, region=region, target=target,
                                      prior=prior, springs=springs, functionals=functionals)
-    blocks, fixed = candidate_information(case, cands, n_crossings=n_crossings, springs=springs)
     n_springs = len(case.bridge.spring_parameters) if springs else 0
+    n_params = case.n_elements + n_springs
+    if 8.0 * cands.n_candidates * n_params**2 <= DENSE_CACHE_BYTES:
+        # dense blocks fit the memory the structured ones would cache: faster to use directly
+        blocks = fisher_blocks(case, sensors=cands.layout(), parameterisation="log_ei", springs=springs,
+                               n_crossings=n_crossings).blocks
+        fixed = blocks[cands.n_candidates:].sum(axis=0)
+    else:
+        blocks, fixed = candidate_information(case, cands, n_crossings=n_crossings, springs=springs)
     q0 = prior.precision(case.n_elements, n_springs) + fixed
     crit = make_criterion(criterion, q0.shape[0], n_elements=case.n_elements, edges=case.mesh.edges,
                           region=region, functionals=functionals)

@@ -4,7 +4,7 @@ Owns: :class:`StructuredBlocks` (:mod:`.algebra`) and their assembly from the
 force method (:mod:`.build`).  May import: model, errors.
 """
 
-from .algebra import BlockFamily, StructuredBlocks
+from .algebra import DENSE_CACHE_BYTES, BlockFamily, StructuredBlocks
 from .build import candidate_information, structured_fisher
 
-__all__ = ["BlockFamily", "StructuredBlocks", "structured_fisher", "candidate_information"]
+__all__ = ["DENSE_CACHE_BYTES", "BlockFamily", "StructuredBlocks", "structured_fisher", "candidate_information"]
