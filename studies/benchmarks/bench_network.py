@@ -79,6 +79,14 @@ batches: greedy 9.6 s, exchange 40.5 s; its relaxation (62.5 s against
 50.4 s) now also forms the working set's dense blocks each round (382
 blocks, partly from the cache).
 
+Since the merge (s14-int), ``recommend`` holds dense blocks while
+8 C P^2 bytes fit ``DENSE_CACHE_BYTES`` (1 GiB) and structured blocks
+beyond: the C <= 800 rows at N = 400 (1.02 GB of dense blocks) run the
+dense path again (the previous rows), typical designs keep their speed and
+bit-identical results (openlab-like / three-span, D, A, E: same CPU as
+before), and the target size (3.84 GB of dense blocks) takes the
+structured path measured above.
+
 What the structured blocks changed: building the problem no longer forms
 C dense P x P blocks (N = 400: 28.4 -> 1.4 s at C = 3,000, 9.5 -> 0.5 s at
 C = 800), the memory no longer grows as 8 C P^2 (peak 4.67 -> 2.18 GiB at
