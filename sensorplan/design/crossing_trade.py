@@ -140,6 +140,8 @@ def crossing_trade(case: "Case", sensors: "SensorLayout", *, speeds: "Sequence[f
         lam = np.maximum(lam, 0.0)
         variance = (vecs**2) @ (1.0 / (1.0 + np.outer(lam, counts)))
         table[i] = np.mean(np.sqrt(variance), axis=0)
-    ref = fisher_blocks(case, sensors=sensors, noise=noise, parameterisation="log_ei").total()
-    return CrossingTrade(grid, counts, table, trace / np.trace(ref), speed, float(grid[np.argmax(trace)]),
+    at_case = np.flatnonzero(grid == speed)
+    ref = trace[at_case[0]] if at_case.size else np.trace(
+        fisher_blocks(case, sensors=sensors, noise=noise, parameterisation="log_ei").total())
+    return CrossingTrade(grid, counts, table, trace / ref, speed, float(grid[np.argmax(trace)]),
                          float(np.mean(np.sqrt(prior_var))))

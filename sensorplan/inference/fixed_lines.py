@@ -24,21 +24,13 @@ Owns: :class:`FixedLines`.  May import: model and the foundations.
 
 import numpy as np
 
-from ..model.diagrams import RAMP, element_products
+from ..model.diagrams import element_products
 from ..model.force_method import SharedCache, free_actions, shared_force_method
-from ..model.forward import InfluenceLines, expand_ei, sensor_actions
+from ..model.forward import InfluenceLines, expand_ei, load_actions, sensor_actions
 
 __all__ = ["FixedLines"]
 
 _PRODUCTS = SharedCache(16)  # the EI-independent integrals of the last few (mesh, actions, support layout)
-
-
-def _vehicle_actions(bridge, vehicle, positions):
-    """Point actions (positions, weights, kinds), each (n_loads, n_axles): the axles on the bridge (as the forward model's)."""
-    axles = vehicle.axle_positions(positions)
-    on = (axles >= 0.0) & (axles <= bridge.length)
-    weights = np.where(on, -np.asarray(vehicle.axle_loads)[None, :], 0.0)
-    return np.where(on, axles, 0.0), weights, np.full(axles.shape, RAMP)
 
 
 class FixedLines:
@@ -61,7 +53,7 @@ class FixedLines:
         self.mesh, self.sensors, self.vehicle = mesh, sensors, vehicle
         self.positions = np.asarray(positions, dtype=float)
         edges, length = mesh.edges, float(bridge.length)
-        self.load_actions = (edges, length) + _vehicle_actions(bridge, vehicle, self.positions)
+        self.load_actions = (edges, length) + load_actions(bridge, vehicle, self.positions)
         self.unit_actions = (edges, length) + sensor_actions(sensors)
         self.loads = free_actions(*self.load_actions)  # free-body diagrams F and their end values
         self.units = free_actions(*self.unit_actions)  # free-body diagrams f of the sensors' unit actions

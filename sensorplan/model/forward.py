@@ -163,10 +163,6 @@ def sensor_actions(sensors):
 
 def load_actions(bridge, vehicle, positions):
     """Point actions (positions, weights, kinds), each (n_loads, n_axles), of the vehicle's axles on the bridge."""
-    return _load_actions(bridge, vehicle, positions)
-
-
-def _load_actions(bridge, vehicle, positions):
     axles = vehicle.axle_positions(positions)
     on = (axles >= 0.0) & (axles <= bridge.length)
     weights = np.where(on, -np.asarray(vehicle.axle_loads)[None, :], 0.0)
@@ -217,7 +213,7 @@ def influence_lines(bridge: Bridge, mesh: Mesh, ei: "ArrayLike", sensors: Sensor
     positions = _check_inputs(bridge, mesh, sensors, positions)
     ei = expand_ei(bridge, mesh, ei)
     method = shared_force_method(bridge, mesh, ei)
-    load_diagrams, load_reactions = method.solve(*_load_actions(bridge, vehicle, positions))
+    load_diagrams, load_reactions = method.solve(*load_actions(bridge, vehicle, positions))
     sensor_diagrams, sensor_reactions = method.solve(*sensor_actions(sensors))
     kernel = element_products(mesh.edges, sensor_diagrams, load_diagrams)
     c = method.compliance
@@ -253,7 +249,7 @@ def response_change(bridge: Bridge, mesh: Mesh, ei: "ArrayLike", changed_ei: "Ar
     if changed.size == 0:
         return np.zeros((sensors.n_sensors, at.size))
     j0, j1 = int(changed[0]), int(changed[-1]) + 1
-    loads, _ = ForceMethod(bridge, mesh, 1.0 / (v0 + dv)).solve(*_load_actions(bridge, vehicle, at))
+    loads, _ = ForceMethod(bridge, mesh, 1.0 / (v0 + dv)).solve(*load_actions(bridge, vehicle, at))
     units, _ = ForceMethod(bridge, mesh, 1.0 / v0).solve(*sensor_actions(sensors))
     return weighted_products(mesh.edges[j0:j1 + 1], _restrict(units, j0, j1), _restrict(loads, j0, j1), dv[j0:j1])
 
@@ -285,7 +281,7 @@ class ZoneChanges:
         at = np.asarray(_check_inputs(bridge, mesh, sensors, positions), dtype=float)
         self.mesh, self.ei = mesh, expand_ei(bridge, mesh, ei)
         self.method = method = shared_force_method(bridge, mesh, self.ei)
-        self.loads, _ = method.solve(*_load_actions(bridge, vehicle, at))
+        self.loads, _ = method.solve(*load_actions(bridge, vehicle, at))
         self.units, _ = method.solve(*sensor_actions(sensors))
         self.g = scipy.linalg.lu_solve(method.lu, np.eye(method.n_u + 2))[:method.n_u, :method.n_u]
 
@@ -317,7 +313,7 @@ def bending_moments(bridge, mesh, ei, vehicle, positions, x):
     """
     positions = _check_inputs(bridge, mesh, None, positions)
     method = shared_force_method(bridge, mesh, expand_ei(bridge, mesh, ei))
-    diagrams, _ = method.solve(*_load_actions(bridge, vehicle, positions))
+    diagrams, _ = method.solve(*load_actions(bridge, vehicle, positions))
     return diagrams.evaluate(mesh.edges, x)
 
 
@@ -331,7 +327,7 @@ def support_reactions(bridge, mesh, ei, vehicle, positions):
     """
     positions = _check_inputs(bridge, mesh, None, positions)
     method = shared_force_method(bridge, mesh, expand_ei(bridge, mesh, ei))
-    _, reactions = method.solve(*_load_actions(bridge, vehicle, positions))
+    _, reactions = method.solve(*load_actions(bridge, vehicle, positions))
     n_sup = bridge.support_positions.size
     forces = np.zeros((positions.size, n_sup))
     couples = np.zeros((positions.size, n_sup))
