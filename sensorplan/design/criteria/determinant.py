@@ -13,7 +13,8 @@ import numpy as np
 
 from ..._errors import ConfigError
 from .base import Criterion
-from .linalg import cholesky, eigen_split, inverse, log_det, symmetric_gram, symmetrise, whitened_blocks
+from .linalg import (cholesky, congruence, eigen_split, inverse, inverse_from_cholesky, log_det, packed_upper,
+                     symmetric_gram, symmetrise, whitened_blocks)
 from .registry import register_criterion
 
 __all__ = ["DCriterion", "DsCriterion"]
@@ -41,6 +42,14 @@ class DCriterion(Criterion):
         # H_ij = -<A_i, A_j>, A_i = L^-1 I_i L^-T (Q = L L^T), symmetric: a Gram
         # matrix on the upper triangles (off-diagonals scaled by sqrt 2)
         return -symmetric_gram(whitened_blocks(chol, blocks))
+
+    def hessian_factors(self, q, chol, blocks):
+        return ((-1.0, packed_upper(whitened_blocks(chol, blocks))),)
+
+    def hessian_operator(self, q, chol):
+        # (H v)_i = -tr(Q^-1 I_i Q^-1 S): G = -Q^-1 S Q^-1
+        w = inverse_from_cholesky(chol)
+        return lambda s: -congruence(w, s)
 
     def upper_bounds(self, problem, q):
         # Fischer's inequality on V (k smallest eigenvectors), concavity of log det on W
@@ -103,6 +112,29 @@ class DsCriterion(DCriterion):
             ls = np.linalg.inv(np.linalg.cholesky(symmetrise(q)[k:, k:])).astype(blocks.dtype)
             h = h + symmetric_gram(np.matmul(ls, np.matmul(blocks[:, k:, k:], ls.T)))
         return h
+
+    def hessian_factors(self, q, chol, blocks):
+        factors = super().hessian_factors(q, chol, blocks)
+        k = self.n_keep
+        if k == q.shape[0]:
+            return factors
+        ls = np.linalg.inv(np.linalg.cholesky(symmetrise(q)[k:, k:])).astype(blocks.dtype)
+        return factors + ((1.0, packed_upper(np.matmul(ls, np.matmul(blocks[:, k:, k:], ls.T)))),)
+
+    def hessian_operator(self, q, chol):
+        # D's product plus Q22^-1 S22 Q22^-1 on the nuisance block (the Hessian of -log det Q22)
+        full = super().hessian_operator(q, chol)
+        k = self.n_keep
+        if k == q.shape[0]:
+            return full
+        w22 = inverse(symmetrise(q)[k:, k:])
+
+        def product(s):
+            g = full(s)
+            g[k:, k:] += congruence(w22, s[k:, k:])
+            return g
+
+        return product
 
     def upper_bounds(self, problem, q):
         return Criterion.upper_bounds(self, problem, q)

@@ -8,7 +8,8 @@ import scipy.linalg
 
 from ..._errors import ConfigError
 
-__all__ = ["symmetrise", "cholesky", "log_det", "inverse", "whitened_blocks", "symmetric_gram", "eigen_split"]
+__all__ = ["symmetrise", "cholesky", "log_det", "inverse", "whitened_blocks", "symmetric_gram", "packed_upper", "inverse_from_cholesky",
+           "congruence", "eigen_split"]
 
 
 def symmetrise(q):
@@ -43,13 +44,30 @@ def whitened_blocks(chol, blocks):
     return np.matmul(linv, y)
 
 
+def inverse_from_cholesky(chol):
+    """Q^-1 (symmetric) from the lower Cholesky factor of Q."""
+    w = scipy.linalg.cho_solve((chol, True), np.eye(chol.shape[0]), check_finite=False)
+    return symmetrise(w)
+
+
+def congruence(w, s):
+    """W S W for symmetric W and S (symmetric, by construction)."""
+    return symmetrise(w @ symmetrise(s) @ w)
+
+
 def symmetric_gram(a):
     """<A_i, A_j>_F for symmetric A (m, P, P), from the upper triangles, in double precision."""
+    v = packed_upper(a)
+    return (v @ v.T).astype(float)
+
+
+def packed_upper(a):
+    """The upper triangles of symmetric A (m, P, P) as rows, off-diagonals scaled by sqrt 2, so that
+    <A_i, A_j>_F is the dot product of rows i and j."""
     p = a.shape[1]
     iu = np.triu_indices(p)
     scale = np.where(iu[0] == iu[1], 1.0, np.sqrt(2.0)).astype(a.dtype)
-    v = a[:, iu[0], iu[1]] * scale
-    return (v @ v.T).astype(float)
+    return a[:, iu[0], iu[1]] * scale
 
 
 def eigen_split(problem, q, k=16):

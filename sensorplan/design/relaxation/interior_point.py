@@ -19,7 +19,8 @@ import scipy.optimize
 
 from ..._errors import SolverError
 
-__all__ = ["working_rows", "RestrictedPolytope", "boundary_step", "solve_kkt", "solve_with_sum"]
+__all__ = ["working_rows", "RestrictedPolytope", "boundary_step", "solve_kkt", "solve_with_sum", "step_length",
+           "residual_norm"]
 
 
 def working_rows(problem, idx):
@@ -151,3 +152,28 @@ def solve_with_sum(kmat, rhs_x, sum_residual):
         kkt[:m, m] = kkt[m, :m] = 1.0
         sol = np.linalg.lstsq(kkt, np.concatenate([rhs_x, [sum_residual]]), rcond=None)[0]
         return sol[:m], sol[m]
+
+
+def step_length(smooth, poly, point, direction, gdx, slack, t, r0, *, alpha=0.01, beta=0.5):
+    """Step length of a primal-dual Newton step: 99 % of the way to the boundary, then backtracking until the
+    residual norm decreases by the fraction ``alpha`` of the step (0 when no step does).  ``smooth`` has
+    ``derivatives(x, hessian=False) -> (utility, gradient, _)``."""
+    (x, lam, nu), (dx, dlam, dnu) = point, direction
+    step = 0.99 * boundary_step(lam, dlam)
+    step = min(step, 0.99 * boundary_step(slack, -gdx, np.inf))
+    while step > 1e-12:
+        un, rn = residual_norm(smooth, poly, x + step * dx, lam + step * dlam, nu + step * dnu, t)
+        if np.isfinite(un) and rn <= (1.0 - alpha * step) * r0:
+            break
+        step *= beta
+    return step
+
+
+def residual_norm(smooth, poly, x, lam, nu, t):
+    """(utility, norm of the primal-dual residuals: dual, centring, primal) at a trial point."""
+    u, g, _ = smooth.derivatives(x, hessian=False)
+    sl = poly.slack(x)
+    r_dual = -g + poly.apply_transpose(lam) + nu * poly.sum_row
+    r_cent = lam * sl - 1.0 / t
+    r_pri = x.sum() - poly.count
+    return u, np.sqrt(r_dual @ r_dual + r_cent @ r_cent + r_pri * r_pri)

@@ -21,7 +21,8 @@ import numpy as np
 from ..._errors import SolverError
 from .base import Relaxation, repair_weights
 from .column_generation import Round, WorkingSet, column_generation, initial_size
-from .interior_point import RestrictedPolytope, boundary_step, solve_with_sum
+from .interior_point import RestrictedPolytope, solve_with_sum, step_length
+from .newton_cg import StaleHessian, restricted_newton_cg
 from .registry import register_fast_method
 
 __all__ = ["solve_column_generation", "restricted_interior_point"]
@@ -44,25 +45,30 @@ def solve_column_generation(problem, *, tol=1e-7, start_layout=None, max_rounds=
     # the support of the relaxed optimum is a few times R (the rounds add what is missing)
     first = np.argsort(-g, kind="stable")[:initial_size(c, problem.count, 8, cap=8 * problem.count + 40)].tolist()
     working = WorkingSet(c, first, start_layout=start_layout)
-    last, rounds, newton_iters = column_generation(problem, working, partial(_solve_round, problem), tol=tol,
+    tally = {"hessians": 0, "cg_iterations": 0, "stale": StaleHessian(problem) if problem.structured else None}
+    last, rounds, newton_iters = column_generation(problem, working, partial(_solve_round, problem, tally), tol=tol,
                                                    max_rounds=max_rounds)
-    stats = {"solver": "column-generation+interior-point",
+    if problem.structured:
+        tally["hessians"], tally["hessian_rows"] = tally["stale"].refreshes, tally["stale"].rows
+    stats = {"solver": "column-generation+interior-point" + ("+newton-cg" if problem.structured else ""),
              "status": "optimal" if last.gap <= tol else "gap above tolerance",
              "rounds": rounds, "working_set": len(working), "newton_iterations": newton_iters,
-             "time_s": time.perf_counter() - t0}
+             **{k: v for k, v in tally.items() if k != "stale"}, "time_s": time.perf_counter() - t0}
     return Relaxation(last.weights, last.utility, max(last.bound, last.utility), "fast", stats)
 
 
-def _solve_round(problem, working, idx, w_prev, inner):
+def _solve_round(problem, tally, working, idx, w_prev, inner):
     """The restricted interior point on ``idx`` (all candidates if the constraints need more) and the
-    Frank-Wolfe certificate over all candidates."""
+    Frank-Wolfe certificate over all candidates; ``tally`` counts the exact Hessians."""
+    solve = partial(restricted_newton_cg, stale=tally["stale"]) if problem.structured else restricted_interior_point
     try:
-        x, nu, it = restricted_interior_point(problem, idx, w_prev, tol=inner)
+        x, nu, it, count = solve(problem, idx, w_prev, tol=inner)
     except SolverError:
         if idx.size == problem.n_candidates:
             raise
         idx = working.fill()  # the constraints need candidates outside the working set
-        x, nu, it = restricted_interior_point(problem, idx, None, tol=inner)
+        x, nu, it, count = solve(problem, idx, None, tol=inner)
+    tally["cg_iterations" if problem.structured else "hessians"] += count
     weights = np.zeros(problem.n_candidates)
     weights[idx] = x
     weights = repair_weights(problem, weights)
@@ -126,8 +132,8 @@ def restricted_interior_point(problem, idx, w_prev, *, tol, max_iter=200):
 
     Boyd & Vandenberghe, Convex Optimization (2004), section 11.7: inequalities
     G x <= h (side constraints and the box), equality sum(x) = R; returns
-    (x, nu, iterations) with nu the multiplier of the equality (the
-    threshold a candidate's gradient must exceed to enter).
+    (x, nu, iterations, exact Hessians computed) with nu the multiplier of
+    the equality (the threshold a candidate's gradient must exceed to enter).
     """
     poly = RestrictedPolytope.for_working_set(problem, idx)
     smooth = _Restricted(problem, idx)
@@ -137,7 +143,7 @@ def restricted_interior_point(problem, idx, w_prev, *, tol, max_iter=200):
     nu = 0.0
     ones = poly.sum_row
     u, g, hess = smooth.derivatives(x)
-    stale = 0  # Newton steps taken since the Hessian was computed
+    stale, n_exact = 0, 1  # Newton steps taken since the Hessian was computed; Hessians computed
     for it in range(1, max_iter + 1):
         eta = float(slack @ lam)  # the surrogate duality gap
         t = 10.0 * poly.n_ineq / eta  # barrier parameter: aim at a tenth of the gap
@@ -152,9 +158,9 @@ def restricted_interior_point(problem, idx, w_prev, *, tol, max_iter=200):
         gdx = poly.apply(dx)
         dlam = (lam * gdx - (lam * slack - 1.0 / t)) / slack
         r0 = np.sqrt(r_dual @ r_dual + np.sum((lam * slack - 1.0 / t) ** 2) + (x.sum() - poly.count) ** 2)
-        step = _step(smooth, poly, (x, lam, nu), (dx, dlam, dnu), gdx, slack, t, r0)
+        step = step_length(smooth, poly, (x, lam, nu), (dx, dlam, dnu), gdx, slack, t, r0)
         if stale and step < LAZY_HESSIAN.min_step:  # a reused Hessian gave a short step: refresh it, retry
-            hess, stale = smooth.derivatives(x)[2], 0
+            hess, stale, n_exact = smooth.derivatives(x)[2], 0, n_exact + 1
             continue
         if step <= 1e-12:
             break
@@ -165,28 +171,5 @@ def restricted_interior_point(problem, idx, w_prev, *, tol, max_iter=200):
         refresh = step < LAZY_HESSIAN.min_step or stale + 1 >= LAZY_HESSIAN.max_reuse
         u, g, new_hess = smooth.derivatives(x, hessian=refresh)
         hess, stale = (new_hess, 0) if refresh else (hess, stale + 1)
-    return np.clip(x, 0.0, 1.0), float(nu), it
-
-
-def _step(smooth, poly, point, direction, gdx, slack, t, r0, *, alpha=0.01, beta=0.5):
-    """Step length: 99 % of the way to the boundary, then backtracking until the residual norm
-    decreases by the fraction ``alpha`` of the step (0 when no step does)."""
-    (x, lam, nu), (dx, dlam, dnu) = point, direction
-    step = 0.99 * boundary_step(lam, dlam)
-    step = min(step, 0.99 * boundary_step(slack, -gdx, np.inf))
-    while step > 1e-12:
-        un, rn = _residual_norm(smooth, poly, x + step * dx, lam + step * dlam, nu + step * dnu, t)
-        if np.isfinite(un) and rn <= (1.0 - alpha * step) * r0:
-            break
-        step *= beta
-    return step
-
-
-def _residual_norm(smooth, poly, x, lam, nu, t):
-    """(utility, norm of the primal-dual residuals: dual, centring, primal) at a trial point."""
-    u, g, _ = smooth.derivatives(x, hessian=False)
-    sl = poly.slack(x)
-    r_dual = -g + poly.apply_transpose(lam) + nu * poly.sum_row
-    r_cent = lam * sl - 1.0 / t
-    r_pri = x.sum() - poly.count
-    return u, np.sqrt(r_dual @ r_dual + r_cent @ r_cent + r_pri * r_pri)
+        n_exact += refresh
+    return np.clip(x, 0.0, 1.0), float(nu), it, n_exact

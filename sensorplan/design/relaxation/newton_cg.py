@@ -1,0 +1,225 @@
+"""Newton-CG for the restricted interior point on structured blocks: exact Hessian products, rare exact Hessians.
+
+On a working set of m candidates the criterion's exact Hessian costs m P^3
+(every block whitened); its product with a vector v costs about P^3
+whatever m is: S = sum_j v_j I_j and the inner products <G, I_i> come from
+the structured blocks (:class:`~sensorplan.design.blocks.StructuredBlocks`)
+without dense blocks, and G from :meth:`Criterion.hessian_operator`.  The
+Newton systems K dx + dnu 1 = r, 1^T dx = s (K = -H + the barrier's
+Hessian) are therefore solved by conjugate gradients projected on
+1^T dx = s and preconditioned by the constraint preconditioner built on
+K~ = -H~ + the current barrier's Hessian, H~ an exact Hessian of an
+earlier iterate (Gould, Hribar & Nocedal, SIAM J. Sci. Comput. 23 (2001),
+projected preconditioned CG): every step uses the exact current Hessian,
+and a new H~ is computed only when the stale one preconditions badly.
+
+Owns: StructuredRestricted, projected_pcg.  May import: design.relaxation.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from ..._cache import Cache
+from .interior_point import RestrictedPolytope, step_length
+from .working_blocks import WorkingBlocks
+
+__all__ = ["StructuredRestricted", "StaleHessian", "projected_pcg", "restricted_newton_cg", "NewtonCG", "NEWTON_CG"]
+
+
+@dataclass(frozen=True)
+class NewtonCG:
+    """Tolerances of the inexact Newton steps."""
+
+    rtol: float = 1e-3  # relative residual of the projected CG (in the preconditioner's norm)
+    max_iter: int = 60  # CG iterations per Newton step at most
+    refresh_after: int = 25  # more CG iterations than this: the next step gets a new exact Hessian
+
+
+NEWTON_CG = NewtonCG()
+
+
+@dataclass(frozen=True)
+class Point:
+    """A precision Q of the restricted problem and its lower Cholesky factor."""
+
+    q: np.ndarray
+    chol: np.ndarray
+
+
+class StructuredRestricted:
+    """Utility, gradient, Hessian products and (rarely) the exact Hessian of the criterion in the weights ``x``
+    of the working set ``idx``, on structured blocks (no dense block but for the exact Hessian)."""
+
+    products = True
+
+    def __init__(self, problem, idx):
+        self.problem = problem
+        self.idx = idx
+        self.sub = WorkingBlocks(problem.blocks.subset(idx))
+        self._last = Cache(maxsize=2)  # the line search's accepted trial point is the next iterate
+
+    def derivatives(self, x, *, hessian=False):
+        """(utility, gradient, :class:`Point`) at ``x``; (-inf, None, None) outside the domain."""
+        return self._last.get((x,), lambda: self._derivatives(x))
+
+    def _derivatives(self, x):
+        crit = self.problem.criterion
+        q = self.problem.q0 + self.sub.weighted(x)
+        q = 0.5 * (q + q.T)
+        try:
+            chol = np.linalg.cholesky(q)
+        except np.linalg.LinAlgError:
+            return -np.inf, None, None
+        return crit.utility(q), self.sub.dot(crit.gradient_matrix(q)), Point(q, chol)
+
+    def hessian_operator(self, point):
+        """v -> H v at ``point`` (exact, through the criterion's Hessian products)."""
+        product = self.problem.criterion.hessian_operator(point.q, point.chol)
+        return lambda v: self.sub.dot(product(self.sub.weighted(v)))
+
+
+class StaleHessian:
+    """The exact Hessian of an earlier iterate on the working set: the Newton-CG preconditioner.
+
+    Kept across the rounds of column generation: where the criterion gives its
+    Hessian as Gram matrices of per-block rows (:meth:`Criterion.hessian_factors`),
+    the rows of the candidates entering the working set are computed at the
+    stored iterate and the Hessian extended (the members' rows are kept), so
+    that a round costs the entering candidates' rows only; :meth:`refresh`
+    recomputes every row at a new iterate.  ``rows`` counts the block rows computed.
+    """
+
+    def __init__(self, problem):
+        self.problem = problem
+        self.point = None
+        self.members = np.zeros(0, dtype=int)
+        self.factors = None
+        self.matrix = None
+        self.rows = 0
+        self.refreshes = 0
+
+    def _factors(self, index):
+        blocks = self.problem.blocks[index].astype(np.float32)
+        self.rows += index.size
+        return self.problem.criterion.hessian_factors(self.point.q, self.point.chol, blocks), blocks
+
+    def refresh(self, idx, point):
+        """The exact Hessian on ``idx`` at ``point`` (stored)."""
+        self.point, self.members, self.refreshes = point, np.asarray(idx), self.refreshes + 1
+        self.factors, blocks = self._factors(self.members)
+        if self.factors is None:
+            h = self.problem.criterion.hessian(point.q, point.chol, blocks)
+        else:
+            h = sum(sign * (f @ f.T).astype(float) for sign, f in self.factors)
+        self.matrix = 0.5 * (h + h.T)
+        return self.matrix
+
+    def on(self, idx, point):
+        """The stored Hessian on the sorted working set ``idx``, extended to its new members at the stored
+        iterate (computed at ``point`` when there is none or the criterion has no Gram form)."""
+        if self.factors is None or np.setdiff1d(idx, self.members).size > idx.size // 2:
+            return self.refresh(idx, point)
+        keep = np.flatnonzero(np.isin(self.members, idx))
+        new = np.setdiff1d(idx, self.members)
+        factors = [(sign, f[keep]) for sign, f in self.factors]
+        h = self.matrix[np.ix_(keep, keep)]
+        members = self.members[keep]
+        if new.size:
+            extra, _ = self._factors(new)
+            cross = sum(sign * (f @ g.T).astype(float) for (sign, f), (_, g) in zip(factors, extra))
+            corner = sum(sign * (g @ g.T).astype(float) for sign, g in extra)
+            h = np.block([[h, cross], [cross.T, 0.5 * (corner + corner.T)]])
+            factors = [(sign, np.concatenate([f, g])) for (sign, f), (_, g) in zip(factors, extra)]
+            members = np.concatenate([members, new])
+        order = np.argsort(members, kind="stable")
+        self.members, self.matrix = members[order], h[np.ix_(order, order)]
+        self.factors = [(sign, f[order]) for sign, f in factors]
+        return self.matrix
+
+
+def projected_pcg(factor, apply_k, rhs, sum_residual, *, rtol, max_iter):
+    """(dx, dnu, iterations) of K dx + dnu 1 = ``rhs``, 1^T dx = ``sum_residual``, K positive definite given by
+    ``apply_k``; ``factor`` the Cholesky factor (scipy ``cho_factor``) of the preconditioner K~.
+
+    The preconditioner's own solution is the start (exact when K~ = K); conjugate gradients then correct it in
+    the null space of 1^T, preconditioned by the projection z = K~^-1 r - (1^T K~^-1 r / 1^T K~^-1 1) K~^-1 1,
+    until the preconditioned residual is below ``rtol`` times that of ``rhs``.
+    """
+    y1 = scipy.linalg.cho_solve(factor, np.ones(rhs.size), check_finite=False)
+    s1 = y1.sum()
+
+    def precondition(r):
+        z = scipy.linalg.cho_solve(factor, r, check_finite=False)
+        return z - (z.sum() / s1) * y1
+
+    y0 = scipy.linalg.cho_solve(factor, rhs, check_finite=False)
+    dx = y0 - ((y0.sum() - sum_residual) / s1) * y1
+    r = rhs - apply_k(dx)
+    z = precondition(r)
+    rz = float(r @ z)
+    target = rtol**2 * max(float(rhs @ precondition(rhs)), 1e-300)
+    p = z
+    it = 0
+    while it < max_iter and rz > target:
+        it += 1
+        kp = apply_k(p)
+        curvature = float(p @ kp)
+        if curvature <= 0.0:
+            break
+        alpha = rz / curvature
+        dx = dx + alpha * p
+        r = r - alpha * kp
+        z = precondition(r)
+        rz, rz_old = float(r @ z), rz
+        p = z + (rz / rz_old) * p
+    dnu = float(scipy.linalg.cho_solve(factor, r, check_finite=False).sum() / s1)
+    return dx, dnu, it
+
+
+def restricted_newton_cg(problem, idx, w_prev, *, tol, stale, max_iter=200, options=NEWTON_CG):
+    """The restricted interior point of :func:`~.smooth.restricted_interior_point` (same iterates up to the
+    Newton systems' tolerance) with Newton-CG steps on structured blocks, preconditioned by ``stale``
+    (a :class:`StaleHessian`, kept across rounds).
+
+    Returns (x, nu, iterations, CG iterations).
+    """
+    poly = RestrictedPolytope.for_working_set(problem, idx)
+    smooth = StructuredRestricted(problem, idx)
+    x = poly.interior_start(w_prev, idx)
+    slack = poly.slack(x)
+    lam = 1.0 / slack
+    nu = 0.0
+    ones = poly.sum_row
+    u, g, point = smooth.derivatives(x)
+    hess, refresh, cg_total = stale.on(idx, point), False, 0
+    for it in range(1, max_iter + 1):
+        eta = float(slack @ lam)  # the surrogate duality gap
+        t = 10.0 * poly.n_ineq / eta  # barrier parameter: aim at a tenth of the gap
+        r_dual = -g + poly.apply_transpose(lam) + nu * ones
+        scale = max(1.0, float(np.max(np.abs(g))))
+        if eta <= tol * max(1.0, abs(u)) and np.max(np.abs(r_dual)) <= tol * scale \
+                and abs(x.sum() - poly.count) <= 1e-9 * poly.count:
+            break
+        if refresh:
+            hess = stale.refresh(idx, point)
+        d = lam / slack
+        hess_v = smooth.hessian_operator(point)
+        factor = scipy.linalg.cho_factor(poly.add_barrier_hessian(-hess, d), check_finite=False)
+        dx, dnu, n_cg = projected_pcg(factor, lambda v: poly.apply_transpose(d * poly.apply(v)) - hess_v(v),
+                                      g - nu * ones - poly.apply_transpose(1.0 / (t * slack)),
+                                      poly.count - x.sum(), rtol=options.rtol, max_iter=options.max_iter)
+        gdx = poly.apply(dx)
+        dlam = (lam * gdx - (lam * slack - 1.0 / t)) / slack
+        r0 = np.sqrt(r_dual @ r_dual + np.sum((lam * slack - 1.0 / t) ** 2) + (x.sum() - poly.count) ** 2)
+        step = step_length(smooth, poly, (x, lam, nu), (dx, dlam, dnu), gdx, slack, t, r0)
+        if step <= 1e-12:
+            break
+        x = x + step * dx
+        lam = lam + step * dlam
+        nu = nu + step * dnu
+        slack = poly.slack(x)
+        u, g, point = smooth.derivatives(x)
+        refresh, cg_total = n_cg > options.refresh_after, cg_total + n_cg
+    return np.clip(x, 0.0, 1.0), float(nu), it, cg_total

@@ -1,0 +1,104 @@
+"""Sums and inner products of a working set's structured Fisher blocks, many times over the same set.
+
+The Newton-CG interior point (:mod:`.newton_cg`) applies S = sum_i v_i I_i
+and <G, I_i> to the same working set a few hundred times.  The
+:class:`~sensorplan.design.blocks.StructuredBlocks` forms give both in
+O(A^2 P^2) from the family's fixed products X_ab (see
+:mod:`sensorplan.design.blocks.algebra` for the algebra); here the products
+are laid out once per working set in the order the contractions read them
+(free-free pairs as rows of P^2, free-masked and masked-masked pairs last,
+per column), so that each sum or inner product is a few matrix-vector
+products and no transposed copy of the products is made per call.
+
+Owns: WorkingBlocks.  May import: nothing of the package.
+"""
+
+import numpy as np
+
+__all__ = ["WorkingBlocks"]
+
+
+def _suffix(values):
+    """out[s] = sum_{j >= s} values[j], with a trailing zero row (a mask that starts past the last element)."""
+    out = np.zeros((values.shape[0] + 1,) + values.shape[1:])
+    out[:-1] = np.cumsum(values[::-1], axis=0)[::-1]
+    return out
+
+
+class _Family:
+    """One :class:`~sensorplan.design.blocks.BlockFamily`'s members, with its products laid out for the
+    contractions (``index`` the members' positions in the working set)."""
+
+    def __init__(self, fam):
+        x, f, p = fam.products, fam.n_free, fam.n_params
+        n_m = x.shape[0] - f
+        self.index, self.f, self.p = np.asarray(fam.index), f, p
+        self.coef, self.elem, self.cross, self.own = fam.coef, fam.elem, fam.cross, fam.own
+        self.start = fam.elem + 1
+        self.uu = np.ascontiguousarray(x[:f, :, :f, :].transpose(0, 2, 1, 3).reshape(f * f, p * p))
+        # um[j, i, (a, b)] = X_ab[i, j] (a free, b masked); mm[i, j, (a, b)] = X_ab[i, j] (both masked)
+        self.um = np.ascontiguousarray(x[:f, :, f:, :].transpose(3, 1, 0, 2).reshape(p, p, f * n_m))
+        self.mm = np.ascontiguousarray(x[f:, :, f:, :].transpose(1, 3, 0, 2).reshape(p, p, n_m * n_m))
+        upper = np.triu(np.ones((p, p)))[:, :, None]
+        self.mm_upper, self.mm_lower = self.mm * upper, self.mm * (1.0 - upper)  # j >= i, and i > j
+        self.low = np.minimum.outer(np.arange(p), np.arange(p))
+
+    def _cumulative(self, values):
+        """S[j] = sum of ``values`` over the members whose mask starts at or before j, shape (P, ...)."""
+        spread = np.zeros((self.p + 1,) + values.shape[1:])
+        np.add.at(spread, self.start, values)
+        return np.cumsum(spread, axis=0)[:self.p]
+
+    def weighted(self, w):
+        """sum_c w_c F_c over the members (not yet symmetrised)."""
+        f, p, t = self.f, self.p, self.coef
+        wt = t * w[:, None]
+        out = ((wt[:, :f].T @ t[:, :f]).ravel() @ self.uu).reshape(p, p)
+        s = self._cumulative((wt[:, :f, None] * t[:, None, f:]).reshape(len(w), -1))  # (P, f * m)
+        y = np.matmul(self.um, s[:, :, None])[:, :, 0]  # y[j, i] = sum_k X_k[i, j] s[j, k]
+        out += y + y.T
+        s2 = self._cumulative((wt[:, f:, None] * t[:, None, f:]).reshape(len(w), -1))  # (P, m * m)
+        out += np.einsum("ijk,ijk->ij", self.mm, s2[self.low])
+        part = np.zeros((p, p))
+        np.add.at(part, self.elem, w[:, None] * self.cross)
+        out += part + part.T
+        np.add.at(out, (self.elem, self.elem), w * self.own)
+        return out
+
+    def dot(self, g):
+        """<G, F_c> for every member (``g`` symmetric)."""
+        f, p, t = self.f, self.p, self.coef
+        tu, tm = t[:, :f], t[:, f:]
+        zu = (self.uu @ g.ravel()).reshape(f, f)
+        out = np.einsum("ca,ab,cb->c", tu, zu, tu)
+        v = _suffix(np.einsum("jik,ij->jk", self.um, g))  # sum over j >= s of column j of X_k (.) G
+        out += 2.0 * np.einsum("ca,cab,cb->c", tu, v[self.start].reshape(-1, f, tm.shape[1]), tm)
+        # sum over i, j >= s of X_k (.) G: each pair counted once, at the smaller of i and j
+        q = _suffix(np.einsum("ijk,ij->ik", self.mm_upper, g) + np.einsum("ijk,ij->jk", self.mm_lower, g))
+        n_m = tm.shape[1]
+        out += np.einsum("ca,cab,cb->c", tm, q[self.start].reshape(-1, n_m, n_m), tm)
+        out += 2.0 * np.einsum("ck,ck->c", g[self.elem], self.cross) + self.own * g[self.elem, self.elem]
+        return out
+
+
+class WorkingBlocks:
+    """Sums sum_i w_i I_i and inner products <G, I_i> of a working set given as
+    :class:`~sensorplan.design.blocks.StructuredBlocks` (``blocks.subset(idx)``)."""
+
+    def __init__(self, blocks):
+        self.n = blocks.n_candidates
+        self.p = blocks.n_params
+        self.families = [_Family(fam) for fam in blocks.families]
+
+    def weighted(self, w):
+        """sum_i w_i I_i (symmetric)."""
+        out = sum(fam.weighted(w[fam.index]) for fam in self.families)
+        return 0.5 * (out + out.T)
+
+    def dot(self, g):
+        """<G, I_i> for every member."""
+        g = 0.5 * (g + g.T)
+        out = np.empty(self.n)
+        for fam in self.families:
+            out[fam.index] = fam.dot(g)
+        return out

@@ -1,0 +1,134 @@
+"""Hessian products of the smooth criteria and the Newton-CG interior point on structured blocks.
+
+References: the criteria's exact Hessians (``Criterion.hessian``, their own
+closed forms, checked against finite differences in tests/test_conformance.py),
+central differences of the gradient in the weights (independent of both),
+and the exact-Hessian interior point on dense blocks (a different Newton
+system solver: one Cholesky factorisation per step, no conjugate gradients).
+"""
+
+import dataclasses
+import pathlib
+import sys
+
+import numpy as np
+import pytest
+
+import sensorplan as sp
+from sensorplan.design.recommend import build_problem
+
+sys.path.insert(0, str(pathlib.Path(__file__).parent))
+
+
+def small_case():
+    # two spans with an elastic end spring (so Ds has a nuisance parameter), 8 elements
+    bridge = sp.Bridge((12.0, 12.0), rotational_springs=(2e9, 0.0, 2e9))
+    return sp.Case(bridge, sp.Mesh.uniform(bridge, 8), 1e10, sp.Vehicle((0.0, 2.0), (5e4, 5e4)),
+                   sp.SensorLayout([6.0], noise_std=2e-6), sweep=sp.LoadSweep.from_range(0.0, 26.0, 0.5))
+
+
+def problem_for(criterion, **options):
+    return build_problem(small_case(), 3, criterion, grid=sp.CandidateGrid(spacing=2.0),
+                         springs=criterion == "Ds", **options)
+
+
+def point(problem, seed):
+    rng = np.random.default_rng(seed)
+    w = rng.uniform(0.1, 0.4, problem.n_candidates)
+    q = problem.precision(w)
+    q = 0.5 * (q + q.T)
+    return rng, w, q
+
+
+@pytest.mark.parametrize("criterion", ["D", "Ds", "A", "A-region"])
+def test_hessian_product_equals_the_exact_hessian_times_v(criterion):
+    options = {"region": (3.0, 9.0)} if criterion == "A-region" else {}
+    problem = problem_for(criterion.split("-")[0], **options)
+    crit = problem.criterion
+    rng, w, q = point(problem, 0)
+    chol = np.linalg.cholesky(q)
+    h = crit.hessian(q, chol, problem.blocks)
+    for _ in range(3):
+        v = rng.standard_normal(problem.n_candidates)
+        g = crit.hessian_product(q, chol, np.einsum("c,cij->ij", v, problem.blocks))
+        np.testing.assert_allclose(g, g.T, rtol=0, atol=1e-12 * np.abs(g).max())
+        hv = problem.block_dot(g)
+        np.testing.assert_allclose(hv, h @ v, rtol=1e-8, atol=1e-10 * np.abs(h @ v).max())
+
+
+@pytest.mark.parametrize("criterion", ["D", "Ds", "A", "A-region"])
+def test_hessian_factors_give_the_exact_hessian(criterion):
+    options = {"region": (3.0, 9.0)} if criterion == "A-region" else {}
+    problem = problem_for(criterion.split("-")[0], **options)
+    crit = problem.criterion
+    _, _, q = point(problem, 2)
+    chol = np.linalg.cholesky(q)
+    h = crit.hessian(q, chol, problem.blocks)
+    factors = crit.hessian_factors(q, chol, problem.blocks)
+    np.testing.assert_allclose(sum(sign * f @ f.T for sign, f in factors), h, rtol=1e-10,
+                               atol=1e-12 * np.abs(h).max())
+    # rows one block at a time: the factors of a subset are the subset's rows
+    part = crit.hessian_factors(q, chol, problem.blocks[3:7])
+    for (_, f), (_, g) in zip(factors, part):
+        np.testing.assert_allclose(g, f[3:7], rtol=1e-12, atol=1e-14 * np.abs(f).max())
+
+
+@pytest.mark.parametrize("criterion", ["D", "Ds", "A", "logdiag"])
+def test_hessian_product_equals_finite_differences_of_the_gradient(criterion):
+    if criterion == "logdiag":  # the protocol's default (central differences of gradient_matrix) on a toy criterion
+        problem = problem_for("D")
+        problem = dataclasses.replace(problem, criterion=LogDiagonal(problem.n_params))
+    else:
+        problem = problem_for(criterion)
+    rng, w, q = point(problem, 1)
+    chol = np.linalg.cholesky(q)
+    v = rng.standard_normal(problem.n_candidates)
+    hv = problem.block_dot(problem.criterion.hessian_product(q, chol, np.einsum("c,cij->ij", v, problem.blocks)))
+    step = 1e-6
+    fd = (problem.gradient(w + step * v) - problem.gradient(w - step * v)) / (2 * step)
+    np.testing.assert_allclose(hv, fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
+
+
+class LogDiagonal(sp.Criterion):
+    """A toy criterion (not registered): sum of log of the precision's diagonal, concave in the weights."""
+
+    name = "logdiag-test"
+
+    def value(self, q):
+        return float(np.sum(np.log(np.diag(q))))
+
+    def gradient_matrix(self, q):
+        return np.diag(1.0 / np.diag(q))
+
+    def cvxpy_objective(self, cp, q, constraints):
+        return cp.Maximize(cp.sum(cp.log(cp.diag(q)))), None
+
+
+def structured_problem(monkeypatch, criterion, example="three-span", **options):
+    from sensorplan.design import recommend as module
+    from sensorplan.io.config import example_case
+
+    monkeypatch.setattr(module, "DENSE_CACHE_BYTES", 0)  # structured blocks even where dense ones fit
+    problem = build_problem(example_case(example), 4, criterion, grid=sp.CandidateGrid(spacing=1.0), **options)
+    assert problem.structured
+    return problem, dataclasses.replace(problem, blocks=problem.blocks[np.arange(problem.n_candidates)])
+
+
+@pytest.mark.parametrize("criterion", ["D", "A"])
+def test_newton_cg_relaxation_equals_the_exact_hessian_relaxation(monkeypatch, criterion):
+    # reference: the same problem on dense blocks, solved with exact Hessians and direct Newton systems
+    from sensorplan.design.relaxation import solve_relaxation
+
+    problem, dense = structured_problem(monkeypatch, criterion)
+    cg = solve_relaxation(problem, "fast")
+    exact = solve_relaxation(dense, "fast")
+    assert "newton-cg" in cg.stats["solver"] and "newton-cg" not in exact.stats["solver"]
+    assert cg.relative_gap <= 1e-7 and exact.relative_gap <= 1e-7
+    # both certified: each bound is above the other's feasible utility
+    assert cg.bound >= exact.utility - 1e-9 * abs(exact.utility)
+    assert exact.bound >= cg.utility - 1e-9 * abs(cg.utility)
+    assert cg.utility == pytest.approx(exact.utility, rel=2e-7)
+    # the optimal weights need not be unique (neighbouring candidates carry nearly the same information), the
+    # optimal precision is (log det and trace of the inverse are strictly concave / convex in Q)
+    q_cg, q_exact = dense.precision(cg.weights), dense.precision(exact.weights)
+    np.testing.assert_allclose(q_cg, q_exact, rtol=0, atol=1e-3 * np.abs(q_exact).max())
