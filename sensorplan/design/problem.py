@@ -21,6 +21,7 @@ from .._errors import ConfigError, SolverError
 __all__ = ["DesignProblem", "CHUNK_BYTES"]
 
 CHUNK_BYTES = 2**27  # blocks copied at a time when many are gathered (bounds the temporaries)
+SMALL_LAYOUT = 64  # structured blocks: layouts up to this size are summed from their dense blocks
 
 
 @dataclass(frozen=True, eq=False)
@@ -105,6 +106,8 @@ class DesignProblem:
     def layout_precision(self, index):
         index = list(index)
         if self.structured:
+            if len(index) <= SMALL_LAYOUT:  # a layout's dense blocks (greedy and exchange keep them in the cache)
+                return self.q0 + self.blocks[index].sum(axis=0)
             return self.q0 + self.blocks.weighted(np.bincount(index, minlength=self.n_candidates).astype(float))
         step = self._chunk
         if len(index) <= step:

@@ -5,13 +5,14 @@ bounds, submodularity), so a registered criterion gets greedy and exchange
 without changes here.
 
 Owns: greedy, exchange, rounding, the best layout from several starts.
-May import: errors, design.problem, design.feasibility.
+May import: errors, design.problem, design.feasibility, design.screening.
 """
 
 import numpy as np
 
 from .._errors import SolverError
 from .feasibility import packing
+from .screening import REFINE_K, best_candidate, slack
 
 __all__ = ["iter_greedy", "greedy", "exchange", "round_weights", "sample_roundings", "best_layout"]
 
@@ -25,11 +26,6 @@ def _upper_bounds(problem, q):
     return problem.criterion.upper_bounds(problem, q)
 
 
-def _slack(u):
-    """Round-off allowance on a bound (the bound and the exact value are computed differently)."""
-    return 1e-9 * max(1.0, abs(u))
-
-
 def iter_greedy(problem, *, start=()):
     """Yield ``(index, utility)`` as candidates are added greedily.
 
@@ -39,12 +35,14 @@ def iter_greedy(problem, *, start=()):
     criteria evaluate candidates in
     decreasing order of the upper bound of :func:`_upper_bounds` and
     stop when no remaining bound beats the best gain found: the result is
-    the exact greedy step.
+    the exact greedy step.  On structured blocks the candidates a bound
+    cannot exclude get tighter bounds first (:func:`~sensorplan.design.screening.best_candidate`).
     """
     chosen = list(start)
     crit = problem.criterion
     lazy = crit.submodular
     bounds = None
+    batch = STRUCTURED_BATCH if problem.structured else 1
     while len(chosen) < problem.count:
         q = problem.layout_precision(chosen)
         taken = set(chosen)
@@ -55,46 +53,36 @@ def iter_greedy(problem, *, start=()):
         if lazy:
             u_q = crit.utility(q)
             if bounds is None:  # first step: the bounds of _upper_bounds, as gains
-                bounds = _upper_bounds(problem, q)[1] - u_q + _slack(u_q)
-            order = sorted(ok, key=lambda i: -bounds[i])
-            best, best_gain = None, -np.inf
-            for i, block in _blocks_in_order(problem, order, lambda i: bounds[i] > best_gain):
-                if bounds[i] <= best_gain:
-                    break
-                gain = crit.utility(q + block) - u_q
-                bounds[i] = gain + _slack(u_q)
-                if gain > best_gain:
-                    best, best_gain = i, gain
-            chosen.append(best)
+                bounds = _upper_bounds(problem, q)[1] - u_q + slack(u_q)
+
+            def gains(group, q=q, u_q=u_q):
+                out = [crit.utility(q + block) - u_q for block in problem.blocks[group]]
+                bounds[group] = np.asarray(out) + slack(u_q)  # gains only shrink: bounds for later steps
+                return out
+
+            best, _ = best_candidate(problem, q, sorted(ok, key=lambda i: -bounds[i]), bounds, gains, batch=batch,
+                                     refine=REFINE_K if problem.structured else (), shift=u_q)
         else:
-            _, ub = _upper_bounds(problem, q)
+            ub, eig = _first_bounds(problem, q)
             ok = np.array(ok)
-            best, best_u = None, -np.inf
-            for i, block in _blocks_in_order(problem, ok[np.argsort(-ub[ok], kind="stable")],
-                                             lambda i: ub[i] + _slack(ub[i]) > best_u):
-                if ub[i] + _slack(ub[i]) <= best_u:
-                    break
-                u = crit.utility(q + block)
-                if u > best_u:
-                    best, best_u = int(i), u
-            chosen.append(best)
+            best, _ = best_candidate(problem, q, ok[np.argsort(-ub[ok], kind="stable")],
+                                     ub + 1e-9 * np.maximum(1.0, np.abs(ub)),
+                                     lambda group, q=q: [crit.utility(q + b) for b in problem.blocks[group]],
+                                     batch=batch, refine=REFINE_K[1:] if problem.structured else (), eig=eig)
+        chosen.append(int(best))
         yield list(chosen), problem.utility_of(chosen)
 
 
-def _blocks_in_order(problem, order, still_open):
-    """(i, I_i) for the candidates of ``order`` while ``still_open(i)``; structured blocks are formed
-    densely ``STRUCTURED_BATCH`` at a time (one pass over their shared products per batch)."""
-    batch = STRUCTURED_BATCH if problem.structured else 1
-    order = [int(i) for i in order]
-    pos = 0
-    while pos < len(order):
-        group = []
-        while pos < len(order) and len(group) < batch and still_open(order[pos]):
-            group.append(order[pos])
-            pos += 1
-        if not group:
-            return
-        yield from zip(group, problem.blocks[group])
+def _first_bounds(problem, q):
+    """(b, eig): the bounds of :func:`_upper_bounds` and Q's eigendecomposition when they came from it (so that
+    tighter bounds on the survivors reuse it), else None."""
+    method = getattr(problem.criterion, "subset_bounds", None)
+    if problem.structured and method is not None:
+        eig = np.linalg.eigh(0.5 * (q + q.T))
+        ub = method(problem, q, k=16, eig=eig)
+        if ub is not None:
+            return ub, eig
+    return _upper_bounds(problem, q)[1], None
 
 
 def greedy(problem, *, start=()):
@@ -175,37 +163,25 @@ def _local_moves(problem, layout, radius, *, max_sweeps=50):
     return layout
 
 
-def _best_replacement(problem, rest, q_rest, taken, best, order, ub=None):
+def _best_replacement(problem, rest, q_rest, taken, best, order, ub=None, eig=None):
     """The candidate of ``order`` whose addition to ``rest`` beats ``best`` the most (None if none does).
 
     Utilities are exact; with upper bounds ``ub`` (``order`` by decreasing
-    bound) the scan stops once no bound beats the best value found.
+    bound) the candidates no bound can exclude are evaluated (on structured
+    blocks after tighter bounds for the survivors, ``eig`` the
+    eigendecomposition of ``q_rest`` if known), ties going to the first in ``order``.
     """
     crit = problem.criterion
-    cand_best, cand_util = None, best + 1e-12 * max(1.0, abs(best))
-    pending = []  # evaluated together, crit.batch_size at a time (cheaper per candidate for some criteria)
-    # structured blocks are formed densely a batch at a time: one pass over the shared products per batch
+    # evaluated together, crit.batch_size at a time (cheaper per candidate for some criteria); structured
+    # blocks are formed densely a batch at a time: one pass over the shared products per batch
     batch = max(crit.batch_size, STRUCTURED_BATCH) if problem.structured else crit.batch_size
-
-    def flush():
-        nonlocal cand_best, cand_util
-        for j, u in zip(pending, crit.utilities(q_rest, problem.blocks[pending])):
-            if u > cand_util:
-                cand_best, cand_util = j, u
-        pending.clear()
-
-    for i in order:
-        if ub is not None and ub[i] + _slack(ub[i]) <= cand_util:
-            break
-        i = int(i)
-        if i in taken or not problem.partial_ok(rest + [i]):
-            continue
-        pending.append(i)
-        if len(pending) >= batch:
-            flush()
-    if pending:
-        flush()
-    return cand_best
+    bound = np.full(problem.n_candidates, np.inf) if ub is None else ub + 1e-9 * np.maximum(1.0, np.abs(ub))
+    cand, _ = best_candidate(problem, q_rest, [int(i) for i in order], bound,
+                             lambda group: crit.utilities(q_rest, problem.blocks[group]),
+                             floor=best + 1e-12 * max(1.0, abs(best)),
+                             usable=lambda i: i not in taken and problem.partial_ok(rest + [i]), batch=batch,
+                             refine=REFINE_K[1:] if problem.structured and ub is not None else (), eig=eig)
+    return cand
 
 
 def _exchange(problem, layout, *, max_sweeps=50):
@@ -227,8 +203,9 @@ def _exchange(problem, layout, *, max_sweeps=50):
     while quiet < n and visited < max_sweeps * n:
         rest = layout[:pos] + layout[pos + 1:]
         q_rest = problem.layout_precision(rest)
-        _, ub = _upper_bounds(problem, q_rest)
-        cand_best = _best_replacement(problem, rest, q_rest, set(layout), best, np.argsort(-ub, kind="stable"), ub)
+        ub, eig = _first_bounds(problem, q_rest)
+        cand_best = _best_replacement(problem, rest, q_rest, set(layout), best, np.argsort(-ub, kind="stable"), ub,
+                                      eig)
         if cand_best is not None:
             layout = rest[:pos] + [cand_best] + rest[pos:]
             best = problem.utility_of(layout)

@@ -163,26 +163,46 @@ class BlockFamily:
         return out
 
     def congruence(self, v):
-        """V^T F_c V for every member, shape (k, m, m)."""
-        uu, um, mm = self._split()
+        """V^T F_c V for every member, shape (k, m, m).
+
+        The parts of F_c on the masked elements are sums over the elements
+        from the member's ``start`` on; they are accumulated from the last
+        element down, one group of members sharing a start at a time (tall
+        products over the rows in between), so the memory is O(A^2 m^2), not
+        O(P A^2 m^2), whatever m.
+        """
         f, p = self.n_free, self.n_params
+        n_m, k, n = self.products.shape[0] - f, v.shape[1], self.coef.shape[0]
         tu, tm = self.coef[:, :f], self.coef[:, f:]
         xv = np.matmul(self.products, v)  # (A, P, A, m): X_ab V
-        z = np.einsum("ip,aibq->abpq", v, xv[:f, :, :f, :])
-        out = np.einsum("ca,abpq,cb->cpq", tu, z, tu)
-        # X_ab M V for a free, b masked: sum over j >= s of (X_ba V)[j] (x) V[j]
-        d = np.einsum("bjap,jq->jabpq", xv[f:, :, :f, :], v)
-        y = np.einsum("ca,cabpq,cb->cpq", tu, _suffix(d, p)[self.start], tm)
-        out += y + np.swapaxes(y, 1, 2)
-        n_m = mm.shape[0]
-        q = np.zeros((p + 1, n_m, n_m) + (v.shape[1],) * 2)
+        z = np.tensordot(v, xv[:f, :, :f, :], axes=([0], [1])).transpose(1, 2, 0, 3).reshape(f * f, k * k)
+        out = ((tu[:, :, None] * tu[:, None, :]).reshape(n, f * f) @ z).reshape(n, k, k)
+        # rows j of X_ba V (a free, b masked), and of triu(X_ab) V, tril(X_ab, -1)^T V (a, b masked)
+        rows_y = np.ascontiguousarray(xv[f:, :, :f, :].transpose(1, 2, 0, 3)).reshape(p, f * n_m * k)
+        upper = np.empty((p, n_m, n_m, k))
+        lower = np.empty((p, n_m, n_m, k))
         for a in range(n_m):
             for b in range(n_m):
-                x = mm[a, :, b, :]
-                a1 = np.triu(x) @ v  # a1[s] = sum_{j >= s} X[s, j] V[j]
-                a2 = np.tril(x, -1).T @ v  # a2[s] = sum_{i > s} X[i, s] V[i]
-                q[:, a, b] = _suffix(v[:, :, None] * a1[:, None, :] + a2[:, :, None] * v[:, None, :], p)
-        out += np.einsum("ca,cabpq,cb->cpq", tm, q[self.start], tm)
+                x = self.products[f + a, :, f + b, :]
+                upper[:, a, b] = np.triu(x) @ v
+                lower[:, a, b] = np.tril(x, -1).T @ v
+        upper, lower = upper.reshape(p, -1), lower.reshape(p, -1)
+        s_y, s_1, s_2 = np.zeros((f * n_m * k, k)), np.zeros((k, n_m * n_m * k)), np.zeros((n_m * n_m * k, k))
+        by_start = np.argsort(-self.start, kind="stable")
+        cuts = np.flatnonzero(np.diff(self.start[by_start])) + 1
+        hi = p
+        for group in np.split(by_start, cuts):
+            lo = int(self.start[group[0]])
+            if lo < hi:  # add the elements lo .. hi - 1 to the suffix sums
+                s_y += rows_y[lo:hi].T @ v[lo:hi]
+                s_1 += v[lo:hi].T @ upper[lo:hi]
+                s_2 += lower[lo:hi].T @ v[lo:hi]
+                hi = lo
+            y = ((tu[group, :, None] * tm[group, None, :]).reshape(-1, f * n_m) @ s_y.reshape(f * n_m, k * k))
+            y = y.reshape(-1, k, k)
+            sq = s_1.reshape(k, n_m, n_m, k).transpose(1, 2, 0, 3) + s_2.reshape(n_m, n_m, k, k)
+            out[group] += y + np.swapaxes(y, 1, 2) + ((tm[group, :, None] * tm[group, None, :]).reshape(-1, n_m * n_m)
+                                                      @ sq.reshape(n_m * n_m, k * k)).reshape(-1, k, k)
         rv, vj = self.cross @ v, v[self.elem]
         out += rv[:, :, None] * vj[:, None, :] + vj[:, :, None] * rv[:, None, :]
         out += self.own[:, None, None] * vj[:, :, None] * vj[:, None, :]

@@ -98,12 +98,20 @@ class ACriterion(Criterion):
     def upper_bounds(self, problem, q):
         if not self.all_parameters:
             return Criterion.upper_bounds(self, problem, q)
-        # tr(M^-1) >= tr(V^T M V)^-1 + tr(W^T M W)^-1, then convexity of tr X^-1 on W
-        lam, v, w, small = eigen_split(problem, q)
+        eig = np.linalg.eigh(symmetrise(q))
+        return -float(np.sum(1.0 / eig[0])), self.subset_bounds(problem, q, eig=eig)
+
+    def subset_bounds(self, problem, q, index=None, *, k=16, eig=None):
+        """b_i >= utility(Q + I_i) for the candidates at ``index`` (all if None) from the eigen-split with
+        the ``k`` smallest eigenvectors of Q, tighter for larger k; None unless C is the identity.
+        tr(M^-1) >= tr(V^T M V)^-1 + tr(W^T M W)^-1, then convexity of tr X^-1 on W."""
+        if not self.all_parameters:
+            return None
+        lam, v, w, small = eigen_split(problem, q, k, index=index, eig=eig)
         k = v.shape[1]
         trace = np.trace(np.linalg.inv(small), axis1=1, axis2=2)
-        first = problem.block_dot((w / lam[k:] ** 2) @ w.T)
-        return -float(np.sum(1.0 / lam)), -(trace + float(np.sum(1.0 / lam[k:])) - first)
+        first = problem.block_dot((w / lam[k:] ** 2) @ w.T, index)
+        return -(trace + float(np.sum(1.0 / lam[k:])) - first)
 
     def cvxpy_objective(self, cp, q_expr, constraints):
         return cp.Minimize(cp.matrix_frac(self.targets.T, q_expr)), None

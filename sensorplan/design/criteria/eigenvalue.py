@@ -33,9 +33,15 @@ class ECriterion(Criterion):
         return np.outer(u, u)
 
     def upper_bounds(self, problem, q):
-        # Cauchy interlacing: lambda_min(Q + I_i) <= lambda_min(V^T (Q + I_i) V)
-        lam, _, _, small = eigen_split(problem, q)
-        return float(lam[0]), np.linalg.eigvalsh(small)[:, 0]
+        eig = np.linalg.eigh(symmetrise(q))
+        return float(eig[0][0]), self.subset_bounds(problem, q, eig=eig)
+
+    def subset_bounds(self, problem, q, index=None, *, k=16, eig=None):
+        """b_i >= lambda_min(Q + I_i) for the candidates at ``index`` (all if None), by Cauchy interlacing:
+        lambda_min(Q + I_i) <= lambda_min(V^T (Q + I_i) V), V the ``k`` smallest eigenvectors of Q (tighter
+        for larger k)."""
+        _, _, _, small = eigen_split(problem, q, k, index=index, eig=eig)
+        return np.linalg.eigvalsh(small)[:, 0]
 
     def bound(self, problem, w):
         return self.bound_from_dual(problem, self.gradient_matrix(problem.precision(w)))

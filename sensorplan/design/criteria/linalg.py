@@ -70,16 +70,18 @@ def packed_upper(a):
     return a[:, iu[0], iu[1]] * scale
 
 
-def eigen_split(problem, q, k=16):
+def eigen_split(problem, q, k=16, *, index=None, eig=None):
     """Eigen-split of Q for the upper bounds: R^P = V (k smallest eigenvectors) + W.
 
     Returns (lambda, V, W, S) with S_i = V^T (Q + I_i) V = Lambda_V + V^T I_i V
-    for every candidate of ``problem`` (two tall products).
+    for every candidate of ``problem`` (or those at ``index``; two tall products).
+    ``eig``, the (eigenvalues, eigenvectors) of Q when already computed, saves
+    the eigendecomposition (several k on one Q: a larger k gives tighter bounds).
     """
     p = q.shape[0]
     k = min(p, k)
-    lam, vec = np.linalg.eigh(symmetrise(q))
+    lam, vec = np.linalg.eigh(symmetrise(q)) if eig is None else eig
     v, w = vec[:, :k], vec[:, k:]
-    small = problem.congruence(v)
+    small = problem.congruence(v, index)
     small[:, np.arange(k), np.arange(k)] += lam[:k]
     return lam, v, w, small

@@ -1,0 +1,104 @@
+"""The exact best candidate to add to a precision, most candidates settled by bounds refined on the survivors.
+
+Greedy and exchange need argmax_i utility(Q + I_i) exactly.  On large
+candidate grids the criterion's cheap bounds (the eigen-split with a few
+eigenvectors) leave hundreds of candidates whose bound beats the best
+value found, and each exact evaluation forms a dense block and factorises
+it.  The criterion's ``subset_bounds`` with more eigenvectors (tighter for
+a larger k) computed for those survivors only leave a handful, which are
+evaluated exactly.  The answer is the one of evaluating every candidate
+whose first bound beats the best value: the largest exact value, ties
+going to the candidate first in the order of the first bounds.
+
+Owns: best_candidate, slack, REFINE_K.  May import: nothing of the package.
+"""
+
+import numpy as np
+
+__all__ = ["best_candidate", "slack", "REFINE_K"]
+
+# (k, n): the eigen-split bounds with k eigenvectors, in turn, for the survivors of the previous ones when more
+# than n survive (each costs about as many exact evaluations: a fixed part growing with k, then k^2 a candidate)
+REFINE_K = ((16, 16), (32, 16), (64, 32))
+
+
+def slack(u):
+    """Round-off allowance on a bound (the bound and the exact value are computed differently)."""
+    return 1e-9 * max(1.0, abs(u))
+
+
+def best_candidate(problem, q, order, bound, evaluate, *, floor=-np.inf, usable=None, batch=8, refine=(),
+                   shift=0.0, eig=None):
+    """(index, value) of the candidate of ``order`` with the largest exact value above ``floor``, or (None, floor).
+
+    ``order`` lists candidates by decreasing ``bound`` (an array over all
+    candidates, bound[i] >= value of i, round-off allowance included);
+    ``evaluate(list)`` gives the exact values (utility(Q + I_i) - ``shift``)
+    of a list, ``batch`` at a time; ``usable(i)`` whether a candidate may be
+    taken (checked only for those a bound cannot exclude).  With ``refine``
+    (eigen-split sizes k), while more than ``REFINE_ABOVE`` candidates
+    survive, their bounds are replaced by the criterion's tighter
+    ``subset_bounds`` (``eig``: Q's eigendecomposition, computed if needed);
+    ``bound`` is updated in place (still a valid bound).
+    """
+    rank = {int(i): n for n, i in enumerate(order)}
+    best = [None, floor]
+    seen = set()
+
+    def take(group):
+        seen.update(group)
+        for i, u in zip(group, evaluate(group) if group else ()):
+            if u > best[1] or (u == best[1] and best[0] is not None and rank[i] < rank[best[0]]):
+                best[:] = [i, u]
+
+    def survivors(candidates):
+        return [i for i in candidates if i not in seen and bound[i] > best[1]]
+
+    alive = [int(i) for i in order if bound[i] > floor]
+    first = []
+    for i in alive:  # the best few by the first bounds set the value to beat
+        if len(first) == batch:
+            break
+        if usable is None or usable(i):
+            first.append(i)
+        else:
+            seen.add(i)
+    take(first)
+    alive = [i for i in survivors(alive) if usable is None or usable(i)]
+    for k, above in refine:
+        if len(alive) <= above:
+            continue
+        tight = _tighter(problem, q, alive, k, eig)
+        if tight is None:
+            break
+        if eig is None:
+            eig = tight[1]
+        bound[alive] = np.minimum(bound[alive], tight[0] - shift)
+        alive = sorted(survivors(alive), key=lambda i: -bound[i])
+        take(alive[:batch])
+        alive = survivors(alive)
+    pending = []
+    for i in sorted(alive, key=lambda i: -bound[i]):
+        if bound[i] <= best[1]:
+            break
+        pending.append(i)
+        if len(pending) == batch:
+            take(pending)
+            pending = []
+    take(pending)
+    return best[0], best[1]
+
+
+def _tighter(problem, q, index, k, eig):
+    """(bounds on utility(Q + I_i) for ``index`` with the round-off allowance, Q's eigendecomposition), or None
+    when the criterion has no eigen-split bounds."""
+    method = getattr(problem.criterion, "subset_bounds", None)
+    if method is None:
+        return None
+    if eig is None:
+        eig = np.linalg.eigh(0.5 * (q + q.T))
+    tight = method(problem, q, np.asarray(index, dtype=int), k=k, eig=eig)
+    if tight is None:
+        return None
+    tight = np.asarray(tight, dtype=float)
+    return tight + 1e-9 * np.maximum(1.0, np.abs(tight)), eig
