@@ -54,6 +54,10 @@ def test_hessian_product_equals_the_exact_hessian_times_v(criterion):
         np.testing.assert_allclose(g, g.T, rtol=0, atol=1e-12 * np.abs(g).max())
         hv = problem.block_dot(g)
         np.testing.assert_allclose(hv, h @ v, rtol=1e-8, atol=1e-10 * np.abs(h @ v).max())
+        # the same product in single precision (a few digits: what a Newton direction needs)
+        g32 = crit.hessian_operator(q, chol, dtype=np.float32)(np.einsum("c,cij->ij", v, problem.blocks))
+        assert g32.dtype == np.float32
+        np.testing.assert_allclose(g32, g, rtol=0, atol=1e-4 * np.abs(g).max())
 
 
 @pytest.mark.parametrize("criterion", ["D", "Ds", "A", "A-region"])

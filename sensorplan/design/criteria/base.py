@@ -130,10 +130,10 @@ class Criterion(ABC):
         ``q``).  Same as ``hessian_operator(q, chol)(s)``."""
         return self.hessian_operator(q, chol)(s)
 
-    def hessian_operator(self, q, chol):
+    def hessian_operator(self, q, chol, *, dtype=np.float64):
         """The function S -> G of :meth:`hessian_product` at ``q`` (what it needs of ``q`` computed once, for
-        many products at the same point); default: central differences of ``gradient_matrix`` along S
-        (exact forms override it)."""
+        many products at the same point), computed in ``dtype`` where the form allows; default: central
+        differences of ``gradient_matrix`` along S in double precision (exact forms override it)."""
         scale = max(1.0, float(np.abs(q).max()))
 
         def product(s):

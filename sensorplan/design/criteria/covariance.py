@@ -83,13 +83,15 @@ class ACriterion(Criterion):
         y = (blocks.reshape(m * p, p) @ n.astype(dtype)).reshape(m, p, nt).transpose(0, 2, 1).reshape(m * nt, p)
         return ((-2.0, (y @ li.T.astype(dtype)).reshape(m, -1)),)
 
-    def hessian_operator(self, q, chol):
+    def hessian_operator(self, q, chol, *, dtype=np.float64):
         # (H v)_i = -2 tr(M I_i Q^-1 S), M = N N^T, N = Q^-1 C^T: G = -(Q^-1 S M + M S Q^-1)
         w = inverse_from_cholesky(chol)
         n = w @ self.targets.T
-        m = n @ n.T
+        m = (n @ n.T).astype(dtype)
+        w = w.astype(dtype)
 
         def product(s):
+            s = np.asarray(s, dtype=dtype)
             x = w @ (0.5 * (s + s.T)) @ m
             return -(x + x.T)
 
