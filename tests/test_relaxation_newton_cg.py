@@ -60,23 +60,6 @@ def test_hessian_product_equals_the_exact_hessian_times_v(criterion):
         np.testing.assert_allclose(g32, g, rtol=0, atol=1e-4 * np.abs(g).max())
 
 
-@pytest.mark.parametrize("criterion", ["D", "Ds", "A", "A-region"])
-def test_hessian_factors_give_the_exact_hessian(criterion):
-    options = {"region": (3.0, 9.0)} if criterion == "A-region" else {}
-    problem = problem_for(criterion.split("-")[0], **options)
-    crit = problem.criterion
-    _, _, q = point(problem, 2)
-    chol = np.linalg.cholesky(q)
-    h = crit.hessian(q, chol, problem.blocks)
-    factors = crit.hessian_factors(q, chol, problem.blocks)
-    np.testing.assert_allclose(sum(sign * f @ f.T for sign, f in factors), h, rtol=1e-10,
-                               atol=1e-12 * np.abs(h).max())
-    # rows one block at a time: the factors of a subset are the subset's rows
-    part = crit.hessian_factors(q, chol, problem.blocks[3:7])
-    for (_, f), (_, g) in zip(factors, part):
-        np.testing.assert_allclose(g, f[3:7], rtol=1e-12, atol=1e-14 * np.abs(f).max())
-
-
 @pytest.mark.parametrize("criterion", ["D", "Ds", "A", "logdiag"])
 def test_hessian_product_equals_finite_differences_of_the_gradient(criterion):
     if criterion == "logdiag":  # the protocol's default (central differences of gradient_matrix) on a toy criterion

@@ -117,13 +117,6 @@ class Criterion(ABC):
             h[:, j] = flat @ ((plus - minus) / (2.0 * step)).ravel()
         return 0.5 * (h + h.T)
 
-    def hessian_factors(self, q, chol, blocks):
-        """The Hessian of :meth:`hessian` as a sum of Gram matrices, ((sign, F), ...) with
-        H = sum sign F F^T and one row of F per block, or None (the default: no such form).  A Hessian whose
-        rows come one block at a time can be extended to new blocks at the same ``q`` without recomputing
-        the others (the relaxation's working set grows by a few candidates a round)."""
-        return None
-
     def hessian_product(self, q, chol, s):
         """Symmetric G with (H v)_i = <G, I_i>, where S = sum_j v_j I_j: the Hessian of the utility in the
         weights applied to ``v`` without the per-candidate blocks (``chol`` the lower Cholesky factor of

@@ -100,7 +100,7 @@ class StaleHessian:
     the recomputations.
     """
 
-    def __init__(self, problem, *, core_weight=1e-5):
+    def __init__(self, problem, *, core_weight=1e-3):
         self.problem = problem
         self.core_weight = core_weight
         self.members = np.zeros(0, dtype=int)
@@ -113,13 +113,7 @@ class StaleHessian:
         """Recompute the rows of the members of ``idx`` whose weight ``x`` is above ``core_weight`` at
         ``point``; the preconditioner's Hessian on ``idx`` (gradient ``grad``)."""
         core = idx[x > self.core_weight]
-        blocks = self.problem.blocks[core].astype(np.float32)
-        crit = self.problem.criterion
-        factors = crit.hessian_factors(point.q, point.chol, blocks)
-        if factors is None:
-            h = crit.hessian(point.q, point.chol, blocks)
-        else:
-            h = sum(sign * (f @ f.T).astype(float) for sign, f in factors)
+        h = self.problem.criterion.hessian(point.q, point.chol, self.problem.blocks[core].astype(np.float32))
         self.members, self.matrix = core, 0.5 * (h + h.T)
         self.rows, self.refreshes = self.rows + core.size, self.refreshes + 1
         ratio = np.diag(self.matrix) / -np.maximum(grad[x > self.core_weight] ** 2, 1e-300)
