@@ -117,23 +117,16 @@ class Criterion(ABC):
             h[:, j] = flat @ ((plus - minus) / (2.0 * step)).ravel()
         return 0.5 * (h + h.T)
 
-    def hessian_factors(self, q, chol, blocks):
-        """The Hessian of :meth:`hessian` as a sum of Gram matrices, ((sign, F), ...) with
-        H = sum sign F F^T and one row of F per block, or None (the default: no such form).  A Hessian whose
-        rows come one block at a time can be extended to new blocks at the same ``q`` without recomputing
-        the others (the relaxation's working set grows by a few candidates a round)."""
-        return None
-
     def hessian_product(self, q, chol, s):
         """Symmetric G with (H v)_i = <G, I_i>, where S = sum_j v_j I_j: the Hessian of the utility in the
         weights applied to ``v`` without the per-candidate blocks (``chol`` the lower Cholesky factor of
         ``q``).  Same as ``hessian_operator(q, chol)(s)``."""
         return self.hessian_operator(q, chol)(s)
 
-    def hessian_operator(self, q, chol):
+    def hessian_operator(self, q, chol, *, dtype=np.float64):
         """The function S -> G of :meth:`hessian_product` at ``q`` (what it needs of ``q`` computed once, for
-        many products at the same point); default: central differences of ``gradient_matrix`` along S
-        (exact forms override it)."""
+        many products at the same point), computed in ``dtype`` where the form allows; default: central
+        differences of ``gradient_matrix`` along S in double precision (exact forms override it)."""
         scale = max(1.0, float(np.abs(q).max()))
 
         def product(s):

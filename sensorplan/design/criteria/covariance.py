@@ -73,23 +73,15 @@ class ACriterion(Criterion):
         b = (y @ li.T.astype(dtype)).reshape(m, -1)
         return -2.0 * (b @ b.T).astype(float)
 
-    def hessian_factors(self, q, chol, blocks):
-        # H = -2 B B^T with the rows B_i = L^-1 I_i N of :meth:`hessian`
-        m, p, _ = blocks.shape
-        dtype = blocks.dtype
-        n = scipy.linalg.cho_solve((chol, True), self.targets.T)
-        nt = n.shape[1]
-        li = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True)
-        y = (blocks.reshape(m * p, p) @ n.astype(dtype)).reshape(m, p, nt).transpose(0, 2, 1).reshape(m * nt, p)
-        return ((-2.0, (y @ li.T.astype(dtype)).reshape(m, -1)),)
-
-    def hessian_operator(self, q, chol):
+    def hessian_operator(self, q, chol, *, dtype=np.float64):
         # (H v)_i = -2 tr(M I_i Q^-1 S), M = N N^T, N = Q^-1 C^T: G = -(Q^-1 S M + M S Q^-1)
         w = inverse_from_cholesky(chol)
         n = w @ self.targets.T
-        m = n @ n.T
+        m = (n @ n.T).astype(dtype)
+        w = w.astype(dtype)
 
         def product(s):
+            s = np.asarray(s, dtype=dtype)
             x = w @ (0.5 * (s + s.T)) @ m
             return -(x + x.T)
 

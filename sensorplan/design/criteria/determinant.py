@@ -13,8 +13,8 @@ import numpy as np
 
 from ..._errors import ConfigError
 from .base import Criterion
-from .linalg import (cholesky, congruence, eigen_split, inverse, inverse_from_cholesky, log_det, packed_upper,
-                     symmetric_gram, symmetrise, whitened_blocks)
+from .linalg import (cholesky, congruence, eigen_split, inverse, inverse_from_cholesky, log_det, symmetric_gram,
+                     symmetrise, whitened_blocks)
 from .registry import register_criterion
 
 __all__ = ["DCriterion", "DsCriterion"]
@@ -43,13 +43,10 @@ class DCriterion(Criterion):
         # matrix on the upper triangles (off-diagonals scaled by sqrt 2)
         return -symmetric_gram(whitened_blocks(chol, blocks))
 
-    def hessian_factors(self, q, chol, blocks):
-        return ((-1.0, packed_upper(whitened_blocks(chol, blocks))),)
-
-    def hessian_operator(self, q, chol):
+    def hessian_operator(self, q, chol, *, dtype=np.float64):
         # (H v)_i = -tr(Q^-1 I_i Q^-1 S): G = -Q^-1 S Q^-1
-        w = inverse_from_cholesky(chol)
-        return lambda s: -congruence(w, s)
+        w = inverse_from_cholesky(chol).astype(dtype)
+        return lambda s: -congruence(w, np.asarray(s, dtype=dtype))
 
     def upper_bounds(self, problem, q):
         eig = np.linalg.eigh(symmetrise(q))
@@ -119,25 +116,17 @@ class DsCriterion(DCriterion):
             h = h + symmetric_gram(np.matmul(ls, np.matmul(blocks[:, k:, k:], ls.T)))
         return h
 
-    def hessian_factors(self, q, chol, blocks):
-        factors = super().hessian_factors(q, chol, blocks)
-        k = self.n_keep
-        if k == q.shape[0]:
-            return factors
-        ls = np.linalg.inv(np.linalg.cholesky(symmetrise(q)[k:, k:])).astype(blocks.dtype)
-        return factors + ((1.0, packed_upper(np.matmul(ls, np.matmul(blocks[:, k:, k:], ls.T)))),)
-
-    def hessian_operator(self, q, chol):
+    def hessian_operator(self, q, chol, *, dtype=np.float64):
         # D's product plus Q22^-1 S22 Q22^-1 on the nuisance block (the Hessian of -log det Q22)
-        full = super().hessian_operator(q, chol)
+        full = super().hessian_operator(q, chol, dtype=dtype)
         k = self.n_keep
         if k == q.shape[0]:
             return full
-        w22 = inverse(symmetrise(q)[k:, k:])
+        w22 = inverse(symmetrise(q)[k:, k:]).astype(dtype)
 
         def product(s):
             g = full(s)
-            g[k:, k:] += congruence(w22, s[k:, k:])
+            g[k:, k:] += congruence(w22, np.asarray(s, dtype=dtype)[k:, k:])
             return g
 
         return product

@@ -11,9 +11,11 @@ Hessian) are therefore solved by conjugate gradients projected on
 K~ = -H~ + the current barrier's Hessian, H~ an exact Hessian of an
 earlier iterate (Gould, Hribar & Nocedal, SIAM J. Sci. Comput. 23 (2001),
 projected preconditioned CG): every step uses the exact current Hessian,
-and a new H~ is computed only when the stale one preconditions badly.
+and a new H~ is computed (on the candidates with a weight, the others by a
+diagonal estimate, :class:`StaleHessian`) only when the stale one
+preconditions badly.
 
-Owns: StructuredRestricted, projected_pcg.  May import: design.relaxation.
+Owns: StructuredRestricted, StaleHessian, projected_pcg, restricted_newton_cg.  May import: design.relaxation.
 """
 
 from dataclasses import dataclass
@@ -32,9 +34,11 @@ __all__ = ["StructuredRestricted", "StaleHessian", "projected_pcg", "restricted_
 class NewtonCG:
     """Tolerances of the inexact Newton steps."""
 
-    rtol: float = 1e-3  # relative residual of the projected CG (in the preconditioner's norm)
+    rtol: float = 1e-2  # relative residual of the projected CG (in the preconditioner's norm)
     max_iter: int = 60  # CG iterations per Newton step at most
-    refresh_after: int = 25  # more CG iterations than this: the next step gets a new exact Hessian
+    refresh_after: int = 6  # more CG iterations than this: the next step gets a new exact Hessian ...
+    min_age: int = 3  # ... if the current one has served this many steps
+    centring: float = 10.0  # each step aims at the surrogate duality gap divided by this
 
 
 NEWTON_CG = NewtonCG()
@@ -57,7 +61,8 @@ class StructuredRestricted:
     def __init__(self, problem, idx):
         self.problem = problem
         self.idx = idx
-        self.sub = WorkingBlocks(problem.blocks.subset(idx))
+        blocks = problem.blocks.subset(idx)
+        self.sub = WorkingBlocks(blocks)
         self._last = Cache(maxsize=2)  # the line search's accepted trial point is the next iterate
 
     def derivatives(self, x, *, hessian=False):
@@ -81,62 +86,49 @@ class StructuredRestricted:
 
 
 class StaleHessian:
-    """The exact Hessian of an earlier iterate on the working set: the Newton-CG preconditioner.
+    """The Newton-CG preconditioner: the exact Hessian of an earlier iterate on the working set's core.
 
-    Kept across the rounds of column generation: where the criterion gives its
-    Hessian as Gram matrices of per-block rows (:meth:`Criterion.hessian_factors`),
-    the rows of the candidates entering the working set are computed at the
-    stored iterate and the Hessian extended (the members' rows are kept), so
-    that a round costs the entering candidates' rows only; :meth:`refresh`
-    recomputes every row at a new iterate.  ``rows`` counts the block rows computed.
+    The core is the members whose weight was above ``core_weight`` when the
+    rows were last computed (:meth:`refresh`); a member outside it enters the
+    preconditioner through its diagonal only, estimated by -c g_i^2 (g_i the
+    current gradient; for D exact with c = 1 when the whitened block
+    Q^-1/2 I_i Q^-1/2 has rank one, and the candidates' blocks are dominated
+    by one direction; c is the median ratio H_ii / -g_i^2 over the core).
+    The rows are kept across the rounds of column generation (a candidate
+    that leaves may come back) until :meth:`refresh` recomputes them at a
+    new iterate.  ``rows`` counts the block rows computed, ``refreshes``
+    the recomputations.
     """
 
-    def __init__(self, problem):
+    def __init__(self, problem, *, core_weight=1e-3):
         self.problem = problem
-        self.point = None
+        self.core_weight = core_weight
         self.members = np.zeros(0, dtype=int)
-        self.factors = None
-        self.matrix = None
+        self.matrix = np.zeros((0, 0))
         self.rows = 0
         self.refreshes = 0
+        self.scale = 1.0  # H_ii / -g_i^2 on the core (1 for D; the estimate is scaled for any criterion)
 
-    def _factors(self, index):
-        blocks = self.problem.blocks[index].astype(np.float32)
-        self.rows += index.size
-        return self.problem.criterion.hessian_factors(self.point.q, self.point.chol, blocks), blocks
+    def refresh(self, idx, point, x, grad):
+        """Recompute the rows of the members of ``idx`` whose weight ``x`` is above ``core_weight`` at
+        ``point``; the preconditioner's Hessian on ``idx`` (gradient ``grad``)."""
+        core = idx[x > self.core_weight]
+        h = self.problem.criterion.hessian(point.q, point.chol, self.problem.blocks[core].astype(np.float32))
+        self.members, self.matrix = core, 0.5 * (h + h.T)
+        self.rows, self.refreshes = self.rows + core.size, self.refreshes + 1
+        ratio = np.diag(self.matrix) / -np.maximum(grad[x > self.core_weight] ** 2, 1e-300)
+        self.scale = float(np.median(ratio)) if ratio.size else 1.0
+        return self.on(idx, grad)
 
-    def refresh(self, idx, point):
-        """The exact Hessian on ``idx`` at ``point`` (stored)."""
-        self.point, self.members, self.refreshes = point, np.asarray(idx), self.refreshes + 1
-        self.factors, blocks = self._factors(self.members)
-        if self.factors is None:
-            h = self.problem.criterion.hessian(point.q, point.chol, blocks)
-        else:
-            h = sum(sign * (f @ f.T).astype(float) for sign, f in self.factors)
-        self.matrix = 0.5 * (h + h.T)
-        return self.matrix
-
-    def on(self, idx, point):
-        """The stored Hessian on the sorted working set ``idx``, extended to its new members at the stored
-        iterate (computed at ``point`` when there is none or the criterion has no Gram form)."""
-        if self.factors is None or np.setdiff1d(idx, self.members).size > idx.size // 2:
-            return self.refresh(idx, point)
-        keep = np.flatnonzero(np.isin(self.members, idx))
-        new = np.setdiff1d(idx, self.members)
-        factors = [(sign, f[keep]) for sign, f in self.factors]
-        h = self.matrix[np.ix_(keep, keep)]
-        members = self.members[keep]
-        if new.size:
-            extra, _ = self._factors(new)
-            cross = sum(sign * (f @ g.T).astype(float) for (sign, f), (_, g) in zip(factors, extra))
-            corner = sum(sign * (g @ g.T).astype(float) for sign, g in extra)
-            h = np.block([[h, cross], [cross.T, 0.5 * (corner + corner.T)]])
-            factors = [(sign, np.concatenate([f, g])) for (sign, f), (_, g) in zip(factors, extra)]
-            members = np.concatenate([members, new])
-        order = np.argsort(members, kind="stable")
-        self.members, self.matrix = members[order], h[np.ix_(order, order)]
-        self.factors = [(sign, f[order]) for sign, f in factors]
-        return self.matrix
+    def on(self, idx, grad):
+        """The preconditioner's Hessian on the sorted working set ``idx`` (gradient ``grad``)."""
+        h = np.diag(-self.scale * grad**2)
+        inside = np.isin(idx, self.members)
+        if inside.any():
+            pos = np.searchsorted(self.members, idx[inside])
+            where = np.flatnonzero(inside)
+            h[np.ix_(where, where)] = self.matrix[np.ix_(pos, pos)]
+        return h
 
 
 def projected_pcg(factor, apply_k, rhs, sum_residual, *, rtol, max_iter):
@@ -189,24 +181,24 @@ def restricted_newton_cg(problem, idx, w_prev, *, tol, stale, max_iter=200, opti
     smooth = StructuredRestricted(problem, idx)
     x = poly.interior_start(w_prev, idx)
     slack = poly.slack(x)
-    lam = 1.0 / slack
-    nu = 0.0
+    lam, nu = 1.0 / slack, 0.0
     ones = poly.sum_row
     u, g, point = smooth.derivatives(x)
-    hess, refresh, cg_total = stale.on(idx, point), False, 0
+    hess = stale.on(idx, g) if stale.refreshes else stale.refresh(idx, point, x, g)
+    refresh, cg_total, age = False, 0, 0
     for it in range(1, max_iter + 1):
         eta = float(slack @ lam)  # the surrogate duality gap
-        t = 10.0 * poly.n_ineq / eta  # barrier parameter: aim at a tenth of the gap
+        t = options.centring * poly.n_ineq / eta  # barrier parameter: aim at a fraction of the gap
         r_dual = -g + poly.apply_transpose(lam) + nu * ones
         scale = max(1.0, float(np.max(np.abs(g))))
         if eta <= tol * max(1.0, abs(u)) and np.max(np.abs(r_dual)) <= tol * scale \
                 and abs(x.sum() - poly.count) <= 1e-9 * poly.count:
             break
         if refresh:
-            hess = stale.refresh(idx, point)
+            hess, age = stale.refresh(idx, point, x, g), 0
         d = lam / slack
         hess_v = smooth.hessian_operator(point)
-        factor = scipy.linalg.cho_factor(poly.add_barrier_hessian(-hess, d), check_finite=False)
+        factor = _factor(poly.add_barrier_hessian(-hess, d))
         dx, dnu, n_cg = projected_pcg(factor, lambda v: poly.apply_transpose(d * poly.apply(v)) - hess_v(v),
                                       g - nu * ones - poly.apply_transpose(1.0 / (t * slack)),
                                       poly.count - x.sum(), rtol=options.rtol, max_iter=options.max_iter)
@@ -221,5 +213,16 @@ def restricted_newton_cg(problem, idx, w_prev, *, tol, stale, max_iter=200, opti
         nu = nu + step * dnu
         slack = poly.slack(x)
         u, g, point = smooth.derivatives(x)
-        refresh, cg_total = n_cg > options.refresh_after, cg_total + n_cg
+        age, cg_total = age + 1, cg_total + n_cg
+        refresh = n_cg > options.refresh_after and age >= options.min_age
     return np.clip(x, 0.0, 1.0), float(nu), it, cg_total
+
+
+def _factor(kmat):
+    """Cholesky factor of the preconditioner (a small ridge where single-precision Gram rows leave it
+    numerically indefinite)."""
+    try:
+        return scipy.linalg.cho_factor(kmat, check_finite=False)
+    except np.linalg.LinAlgError:
+        ridge = 1e-6 * float(np.max(np.abs(np.diag(kmat))))
+        return scipy.linalg.cho_factor(kmat + ridge * np.eye(kmat.shape[0]), check_finite=False)

@@ -2,11 +2,12 @@
 
 A problem restricted to a working set of candidates is solved by a
 primal-dual interior-point method with the criterion's exact Hessian
-(:meth:`Criterion.hessian`); the linear oracle over *all* candidates then
-gives the certified bound, and the candidates whose gradient beats the
-multiplier of the count constraint join the working set
-(:mod:`.column_generation`), until the duality gap over all candidates is
-below the tolerance.
+(:meth:`Criterion.hessian`; on structured blocks, whose dense blocks do not
+fit in memory, Newton-CG steps with exact Hessian products instead,
+:mod:`.newton_cg`); the linear oracle over *all* candidates then gives the
+certified bound, and the candidates whose gradient beats the multiplier of
+the count constraint join the working set (:mod:`.column_generation`),
+until the duality gap over all candidates is below the tolerance.
 
 Owns: the fast relaxation of smooth criteria and its restricted interior point.
 May import: errors, design.relaxation.
@@ -32,8 +33,9 @@ __all__ = ["solve_column_generation", "restricted_interior_point"]
 def solve_column_generation(problem, *, tol=1e-7, start_layout=None, max_rounds=50):
     """Relaxation by column generation with a certified duality gap (relative ``tol``).
 
-    D, Ds and A: a primal-dual interior-point method (exact Hessians) solves
-    the problem restricted to a working set of candidates; the linear
+    D, Ds and A: a primal-dual interior-point method (exact Hessians, or
+    exact Hessian products on structured blocks) solves the problem
+    restricted to a working set of candidates; the linear
     oracle over *all* candidates then gives the certified bound, and the
     candidates whose gradient exceeds the multiplier of the count
     constraint join the working set, until the gap is below ``tol``.
@@ -45,7 +47,9 @@ def solve_column_generation(problem, *, tol=1e-7, start_layout=None, max_rounds=
     # the support of the relaxed optimum is a few times R (the rounds add what is missing)
     first = np.argsort(-g, kind="stable")[:initial_size(c, problem.count, 8, cap=8 * problem.count + 40)].tolist()
     working = WorkingSet(c, first, start_layout=start_layout)
-    tally = {"hessians": 0, "cg_iterations": 0, "stale": StaleHessian(problem) if problem.structured else None}
+    tally = {"hessians": 0, "stale": None}
+    if problem.structured:
+        tally.update(cg_iterations=0, stale=StaleHessian(problem))
     last, rounds, newton_iters = column_generation(problem, working, partial(_solve_round, problem, tally), tol=tol,
                                                    max_rounds=max_rounds)
     if problem.structured:
@@ -59,7 +63,8 @@ def solve_column_generation(problem, *, tol=1e-7, start_layout=None, max_rounds=
 
 def _solve_round(problem, tally, working, idx, w_prev, inner):
     """The restricted interior point on ``idx`` (all candidates if the constraints need more) and the
-    Frank-Wolfe certificate over all candidates; ``tally`` counts the exact Hessians."""
+    Frank-Wolfe certificate over all candidates; ``tally`` counts the exact Hessians (the CG iterations on
+    structured blocks, whose preconditioner it holds)."""
     solve = partial(restricted_newton_cg, stale=tally["stale"]) if problem.structured else restricted_interior_point
     try:
         x, nu, it, count = solve(problem, idx, w_prev, tol=inner)

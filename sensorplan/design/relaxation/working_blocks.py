@@ -20,7 +20,7 @@ __all__ = ["WorkingBlocks"]
 
 def _suffix(values):
     """out[s] = sum_{j >= s} values[j], with a trailing zero row (a mask that starts past the last element)."""
-    out = np.zeros((values.shape[0] + 1,) + values.shape[1:])
+    out = np.zeros((values.shape[0] + 1,) + values.shape[1:], dtype=values.dtype)
     out[:-1] = np.cumsum(values[::-1], axis=0)[::-1]
     return out
 
@@ -29,11 +29,12 @@ class _Family:
     """One :class:`~sensorplan.design.blocks.BlockFamily`'s members, with its products laid out for the
     contractions (``index`` the members' positions in the working set)."""
 
-    def __init__(self, fam):
-        x, f, p = fam.products, fam.n_free, fam.n_params
+    def __init__(self, fam, dtype):
+        x, f, p = fam.products.astype(dtype), fam.n_free, fam.n_params
         n_m = x.shape[0] - f
         self.index, self.f, self.p = np.asarray(fam.index), f, p
-        self.coef, self.elem, self.cross, self.own = fam.coef, fam.elem, fam.cross, fam.own
+        self.coef, self.cross, self.own = fam.coef.astype(dtype), fam.cross.astype(dtype), fam.own.astype(dtype)
+        self.elem, self.dtype = fam.elem, dtype
         self.start = fam.elem + 1
         self.uu = np.ascontiguousarray(x[:f, :, :f, :].transpose(0, 2, 1, 3).reshape(f * f, p * p))
         # um[j, i, (a, b)] = X_ab[i, j] (a free, b masked); mm[i, j, (a, b)] = X_ab[i, j] (both masked)
@@ -45,7 +46,7 @@ class _Family:
 
     def _cumulative(self, values):
         """S[j] = sum of ``values`` over the members whose mask starts at or before j, shape (P, ...)."""
-        spread = np.zeros((self.p + 1,) + values.shape[1:])
+        spread = np.zeros((self.p + 1,) + values.shape[1:], dtype=self.dtype)
         np.add.at(spread, self.start, values)
         return np.cumsum(spread, axis=0)[:self.p]
 
@@ -59,7 +60,7 @@ class _Family:
         out += y + y.T
         s2 = self._cumulative((wt[:, f:, None] * t[:, None, f:]).reshape(len(w), -1))  # (P, m * m)
         out += np.einsum("ijk,ijk->ij", self.mm, s2[self.low])
-        part = np.zeros((p, p))
+        part = np.zeros((p, p), dtype=self.dtype)
         np.add.at(part, self.elem, w[:, None] * self.cross)
         out += part + part.T
         np.add.at(out, (self.elem, self.elem), w * self.own)
@@ -83,22 +84,26 @@ class _Family:
 
 class WorkingBlocks:
     """Sums sum_i w_i I_i and inner products <G, I_i> of a working set given as
-    :class:`~sensorplan.design.blocks.StructuredBlocks` (``blocks.subset(idx)``)."""
+    :class:`~sensorplan.design.blocks.StructuredBlocks` (``blocks.subset(idx)``), computed in ``dtype``
+    (single precision where a few digits are enough: the Hessian products of the Newton-CG steps)."""
 
-    def __init__(self, blocks):
+    def __init__(self, blocks, *, dtype=np.float64):
         self.n = blocks.n_candidates
         self.p = blocks.n_params
-        self.families = [_Family(fam) for fam in blocks.families]
+        self.dtype = np.dtype(dtype)
+        self.families = [_Family(fam, self.dtype) for fam in blocks.families]
 
     def weighted(self, w):
         """sum_i w_i I_i (symmetric)."""
+        w = np.asarray(w, dtype=self.dtype)
         out = sum(fam.weighted(w[fam.index]) for fam in self.families)
         return 0.5 * (out + out.T)
 
     def dot(self, g):
         """<G, I_i> for every member."""
+        g = np.asarray(g, dtype=self.dtype)
         g = 0.5 * (g + g.T)
-        out = np.empty(self.n)
+        out = np.empty(self.n, dtype=self.dtype)
         for fam in self.families:
             out[fam.index] = fam.dot(g)
         return out
