@@ -83,7 +83,8 @@ def test_best_candidate_equals_brute_force(seed, name, floor_shift):
         return [EXACT[name](q + problem.blocks[i]) for i in group]
 
     best, value = best_candidate(problem, q, order, bound.copy(), evaluate, floor=floor,
-                                 usable=lambda i: i not in banned, batch=3, refine=((2, 0), (4, 0), (8, 2)))
+                                 usable=lambda i: i not in banned, batch=3,
+                                 refine=((2, 0), (4, 0), (8, 2)))
     above = [i for i in allowed if exact[i] > floor]
     reference = max(above, key=lambda i: exact[i])  # brute force (no ties in random data)
     assert best == reference and value == exact[reference]
@@ -120,7 +121,7 @@ def structured_problem():
 def test_greedy_and_exchange_with_refined_bounds_equal_brute_force(monkeypatch, structured_problem, name):
     from sensorplan.design import selection
 
-    monkeypatch.setattr(selection, "REFINE_K", ((4, 0), (8, 0), (16, 0)))  # refine whenever anything survives
+    monkeypatch.setattr(selection, "REFINE_K", ((4, 0), (8, 0), (16, 0), (32, 0)))  # refine whenever anything survives
     problem = replace(structured_problem, criterion=make_criterion(name, structured_problem.n_params))
     dense = replace(problem, blocks=problem.blocks[np.arange(problem.n_candidates)])
     layout, _ = selection.greedy(problem)

@@ -106,7 +106,8 @@ class DesignProblem:
     def layout_precision(self, index):
         index = list(index)
         if self.structured:
-            if len(index) <= SMALL_LAYOUT:  # a layout's dense blocks (greedy and exchange keep them in the cache)
+            # a few blocks from the cache (greedy and exchange keep a layout's there) cost less than the sum
+            if len(index) <= SMALL_LAYOUT and len(index) - self.blocks.held(index) <= SMALL_LAYOUT // 8:
                 return self.q0 + self.blocks[index].sum(axis=0)
             return self.q0 + self.blocks.weighted(np.bincount(index, minlength=self.n_candidates).astype(float))
         step = self._chunk

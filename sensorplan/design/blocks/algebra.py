@@ -97,6 +97,12 @@ class BlockFamily:
         cross = np.ascontiguousarray(x[:f, :, f:, :].transpose(0, 2, 1, 3).reshape(f * (n_a - f), -1))
         return free, cross, masked
 
+    @cached_property
+    def _free_flat(self):
+        """X_ab of the free matrices as contiguous (f * f, P * P) rows (for inner products with a G)."""
+        f, p = self.n_free, self.n_params
+        return np.ascontiguousarray(self.products[:f, :, :f, :].transpose(0, 2, 1, 3)).reshape(f * f, p * p)
+
     def dense(self, local):
         """The blocks of the members at ``local``, shape (k, P, P)."""
         (iu_f, free), cross, (iu_m, masked) = self._pair_matrices
@@ -105,11 +111,13 @@ class BlockFamily:
         tu, tm = t[:, :f], t[:, f:]
         k = len(t)
         out = (tu[:, iu_f[0]] * tu[:, iu_f[1]] @ free).reshape(k, p, p)
-        cols = np.arange(p)[None, :] >= self.start[local][:, None]  # (k, P) the masked elements
-        y = ((tu[:, :, None] * tm[:, None, :]).reshape(k, -1) @ cross).reshape(k, p, p) * cols[:, None, :]
-        out += y + np.swapaxes(y, 1, 2)
+        y = ((tu[:, :, None] * tm[:, None, :]).reshape(k, -1) @ cross).reshape(k, p, p)
         z = (tm[:, iu_m[0]] * tm[:, iu_m[1]] @ masked).reshape(k, p, p)
-        out += z * (cols[:, :, None] & cols[:, None, :])
+        for n, s in enumerate(self.start[local]):  # the masked parts: rows or columns from the start on
+            out[n, :s, s:] += y[n, :s, s:]
+            out[n, s:, :s] += y[n, :s, s:].T
+            out[n, s:, s:] += y[n, s:, s:] + y[n, s:, s:].T
+            out[n, s:, s:] += z[n, s:, s:]
         rows = np.arange(len(t))
         e = self.elem[local]
         out[rows, e, :] += self.cross[local]
@@ -145,10 +153,10 @@ class BlockFamily:
 
     def dot(self, g):
         """<G, F_c> for every member (``g`` symmetric)."""
-        uu, um, mm = self._split()
+        _, um, mm = self._split()
         f, p = self.n_free, self.n_params
         tu, tm = self.coef[:, :f], self.coef[:, f:]
-        zu = np.tensordot(uu, g, axes=([1, 3], [0, 1]))
+        zu = np.dot(self._free_flat, g.reshape(p * p, 1)).reshape(f, f)  # tensordot(uu, g, ([1, 3], [0, 1]))
         out = np.einsum("ca,ab,cb->c", tu, zu, tu)
         v = _suffix(np.einsum("aibj,ij->jab", um, g), p)  # (P + 1, f, m): sum over j >= s of column sums
         out += 2.0 * np.einsum("ca,cab,cb->c", tu, v[self.start], tm)
@@ -177,8 +185,8 @@ class BlockFamily:
         xv = np.matmul(self.products, v)  # (A, P, A, m): X_ab V
         z = np.tensordot(v, xv[:f, :, :f, :], axes=([0], [1])).transpose(1, 2, 0, 3).reshape(f * f, k * k)
         out = ((tu[:, :, None] * tu[:, None, :]).reshape(n, f * f) @ z).reshape(n, k, k)
-        # rows j of X_ba V (a free, b masked), and of triu(X_ab) V, tril(X_ab, -1)^T V (a, b masked)
-        rows_y = np.ascontiguousarray(xv[f:, :, :f, :].transpose(1, 2, 0, 3)).reshape(p, f * n_m * k)
+        # rows j of triu(X_ab) V (a, b masked), of X_ba V (a free, b masked) and of tril(X_ab, -1)^T V: the
+        # masked parts are V^T(sums from the start on of these rows (x) V[j]), with V^T triu(X) V transposed
         upper = np.empty((p, n_m, n_m, k))
         lower = np.empty((p, n_m, n_m, k))
         for a in range(n_m):
@@ -186,23 +194,26 @@ class BlockFamily:
                 x = self.products[f + a, :, f + b, :]
                 upper[:, a, b] = np.triu(x) @ v
                 lower[:, a, b] = np.tril(x, -1).T @ v
-        upper, lower = upper.reshape(p, -1), lower.reshape(p, -1)
-        s_y, s_1, s_2 = np.zeros((f * n_m * k, k)), np.zeros((k, n_m * n_m * k)), np.zeros((n_m * n_m * k, k))
+        mixed = xv[f:, :, :f, :].transpose(1, 2, 0, 3).reshape(p, f * n_m * k)
+        rows = np.concatenate([upper.reshape(p, -1), mixed, lower.reshape(p, -1)], axis=1)
+        sums = np.zeros((rows.shape[1], k))
+        mm, fm = n_m * n_m, f * n_m
         by_start = np.argsort(-self.start, kind="stable")
-        cuts = np.flatnonzero(np.diff(self.start[by_start])) + 1
-        hi = p
-        for group in np.split(by_start, cuts):
-            lo = int(self.start[group[0]])
+        starts = self.start[by_start]
+        coef = np.concatenate([(tm[by_start, :, None] * tm[by_start, None, :]).reshape(n, mm),
+                               (tu[by_start, :, None] * tm[by_start, None, :]).reshape(n, fm),
+                               (tm[by_start, :, None] * tm[by_start, None, :]).reshape(n, mm)], axis=1)
+        masked = np.zeros((n, k, k))
+        hi, edges = p, np.flatnonzero(np.diff(np.concatenate([[-1], starts, [-1]])))
+        for g0, g1 in zip(edges[:-1], edges[1:]):
+            lo = int(starts[g0])
             if lo < hi:  # add the elements lo .. hi - 1 to the suffix sums
-                s_y += rows_y[lo:hi].T @ v[lo:hi]
-                s_1 += v[lo:hi].T @ upper[lo:hi]
-                s_2 += lower[lo:hi].T @ v[lo:hi]
+                sums += rows[lo:hi].T @ v[lo:hi]
                 hi = lo
-            y = ((tu[group, :, None] * tm[group, None, :]).reshape(-1, f * n_m) @ s_y.reshape(f * n_m, k * k))
-            y = y.reshape(-1, k, k)
-            sq = s_1.reshape(k, n_m, n_m, k).transpose(1, 2, 0, 3) + s_2.reshape(n_m, n_m, k, k)
-            out[group] += y + np.swapaxes(y, 1, 2) + ((tm[group, :, None] * tm[group, None, :]).reshape(-1, n_m * n_m)
-                                                      @ sq.reshape(n_m * n_m, k * k)).reshape(-1, k, k)
+            flat = sums.reshape(-1, k * k)
+            left = (coef[g0:g1, :mm + fm] @ flat[:mm + fm]).reshape(-1, k, k)
+            masked[g0:g1] = np.swapaxes(left, 1, 2) + (coef[g0:g1, mm:] @ flat[mm:]).reshape(-1, k, k)
+        out[by_start] += masked
         rv, vj = self.cross @ v, v[self.elem]
         out += rv[:, :, None] * vj[:, None, :] + vj[:, :, None] * rv[:, None, :]
         out += self.own[:, None, None] * vj[:, :, None] * vj[:, None, :]
@@ -268,6 +279,10 @@ class StructuredBlocks:
                 for n in part:
                     self._cache.put((), out[n].copy(), key=int(self._origin[index[n]]))
         return out[0] if single else out
+
+    def held(self, index):
+        """How many of the candidates at ``index`` have their dense block in the cache."""
+        return sum(self._cache.lookup((), key=int(self._origin[i]))[0] for i in np.atleast_1d(index))
 
     def subset(self, index):
         """The candidates at ``index`` as structured blocks (renumbered 0 .. len(index) - 1)."""
