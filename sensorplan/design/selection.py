@@ -189,7 +189,10 @@ def _best_replacement(problem, rest, q_rest, taken, best, order, ub=None):
 
     def flush():
         nonlocal cand_best, cand_util
-        for j, u in zip(pending, crit.utilities(q_rest, problem.blocks[pending])):
+        above = getattr(crit, "utilities_above", None)  # exact only above a threshold: cheaper for some criteria
+        values = (above(q_rest, problem.blocks[pending], cand_util) if above is not None
+                  else crit.utilities(q_rest, problem.blocks[pending]))
+        for j, u in zip(pending, values):
             if u > cand_util:
                 cand_best, cand_util = j, u
         pending.clear()
