@@ -8,6 +8,7 @@ Owns: ECriterion.  May import: errors, design.criteria.
 """
 
 import numpy as np
+import scipy.linalg
 
 from .base import Criterion
 from .linalg import eigen_split, symmetrise
@@ -26,6 +27,27 @@ class ECriterion(Criterion):
 
     def value(self, q):
         return float(np.linalg.eigvalsh(symmetrise(q))[0])
+
+    def utilities_above(self, q, blocks, threshold):
+        """utility(Q + I_i) for each block, exact (``value``) where it exceeds ``threshold``; elsewhere
+        any number not above ``threshold`` (here ``-inf``).
+
+        lambda_min(Q + I_i) > v exactly when Q + I_i - v I is positive definite, so
+        one Cholesky factorisation (a third of the cost of the eigenvalues)
+        settles most candidates; it is tried at v = threshold - margin
+        (``margin`` above the factorisation's round-off, Demmel's bound
+        P eps ||A||), so that no candidate above ``threshold`` is missed, and
+        those that pass get the exact value.
+        """
+        p = q.shape[0]
+        out = []
+        for block in blocks:
+            a = symmetrise(q + block)
+            margin = 1e-9 * max(1.0, abs(threshold)) + 8.0 * p * np.finfo(float).eps * float(np.abs(a).max())
+            shifted = a - (threshold - margin) * np.eye(p)
+            _, info = scipy.linalg.lapack.dpotrf(shifted, lower=1, clean=0, overwrite_a=1)
+            out.append(self.value(a) if info == 0 else -np.inf)
+        return out
 
     def gradient_matrix(self, q):
         _, vecs = np.linalg.eigh(symmetrise(q))

@@ -1,7 +1,7 @@
 """E relaxation by an eigen-subspace cutting-plane method with small LMI interior points.
 
 Owns: the spectral bundle method, the small k x k SDPs (own interior point,
-:mod:`.lmi`; cvxpy + Clarabel as fallback).
+:mod:`.lmi`; cvxpy + Clarabel as fallback on small SDPs only).
 May import: errors, design.relaxation.
 """
 
@@ -18,118 +18,174 @@ from .registry import register_fast_method
 
 __all__ = ["solve_eigen_subspace"]
 
+K_MAX = 160  # basis size beyond which directions are aggregated
+N_MIN, N_MAX = 4, 12  # eigenvectors of Q(w) (the lowest) that join the basis each round
+CLARABEL_MAX_ENTRIES = 200_000  # m k^2 above which a failed small SDP is not handed to cvxpy + Clarabel
+
 
 @register_fast_method("eigen-subspace")
 def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=10):
     """E relaxation by an eigen-subspace cutting-plane method (a spectral bundle method).
 
-    For an orthonormal basis V (P x k), lambda_min(V^T Q V) >= lambda_min(Q)
-    for every Q, so the small SDP  max_w lambda_min(V^T Q(w) V)  is a relaxation of the
-    E problem (a k x k LMI over a working set of candidates, solved by
-    :func:`_small_e_sdp`).  Its dual matrix Z_k gives Z = V Z_k V^T, trace one and
-    PSD, hence a certified bound over *all* candidates
-    (:meth:`ECriterion.bound_from_dual`); the eigenvectors of Q(w) with eigenvalues
-    below the small SDP's value join V and candidates whose <Z, I_i> exceeds the
-    count multiplier join the working set, until the gap is below ``tol``.
-    Helmberg & Rendl, SIAM J. Optim. 10 (2000) 673-696.
+    For an orthonormal basis V (P x k) and a trace-one PSD aggregate W,
+    lambda_min(Q) <= min(lambda_min(V^T Q V), <W, Q>) for every Q, so the
+    small SDP  max_w min(lambda_min(V^T Q(w) V), <W, Q(w)>)  (a (k + 1) x (k + 1)
+    block-diagonal LMI over a working set of candidates, :func:`_small_e_sdp`)
+    is a relaxation of the E problem.  Its multiplier X gives
+    Z = V X_V V^T + x_W W, trace one and PSD, hence a certified bound over
+    *all* candidates (:meth:`ECriterion.bound_from_dual`) whatever the small
+    SDP's accuracy.  Each round the basis keeps the range of X_V, the rest
+    of X is aggregated into W, and the lowest eigenvectors of Q(w) join, so
+    the basis stays small (Helmberg & Rendl, SIAM J. Optim. 10 (2000)
+    673-696); candidates whose <Z, I_i> exceeds the count multiplier join the
+    working set, until the gap is below ``tol``.
     """
     t0 = time.perf_counter()
     c, p, r = problem.n_candidates, problem.n_params, problem.count
     w = np.full(c, r / c)
     lam, vec = np.linalg.eigh(problem.precision(w))
     basis = vec[:, : min(p, k0)]
+    agg = _Aggregate.start(problem, vec[:, min(p, k0)] if p > k0 else None)
     g = problem.block_dot(basis @ basis.T)
     working = set(np.argsort(-g, kind="stable")[:initial_size(c, r, 4)].tolist())
     if start_layout is not None:
         working |= set(int(i) for i in start_layout)
     best = (-np.inf, None)
-    bound, gap, sdp_time, fallbacks = np.inf, np.inf, 0.0, 0
+    bound, gap, sdp_time, counts = np.inf, np.inf, 0.0, {"clarabel": 0, "inexact": 0}
     for rounds in range(1, max_rounds + 1):
         idx = np.array(sorted(working))
-        small_value, wr, z_small, nu, dt, used = _small_e_sdp(problem, idx, basis, tol=0.01 * tol)
+        small_value, wr, x, nu, dt, used = _small_e_sdp(problem, idx, basis, agg, tol=0.01 * tol)
         sdp_time += dt
-        fallbacks += used == "clarabel"
+        if used != "interior-point":
+            counts[used] += 1
         w = np.zeros(c)
         w[idx] = wr
         w = repair_weights(problem, w)
         lam, vec = np.linalg.eigh(problem.precision(w))
         if lam[0] > best[0]:
             best = (float(lam[0]), w)
-        z = basis @ z_small @ basis.T
+        k = basis.shape[1]
+        z = basis @ x[:k, :k] @ basis.T + agg.matrix(x[k, k])
         bound = min(bound, problem.criterion.bound_from_dual(problem, z))
         gap = (bound - best[0]) / max(1.0, abs(bound))
         if gap <= tol:
             break
-        grown_set = _grow_working_set(problem, working, idx, (wr, z, nu, small_value), bound, tol)
-        basis, grown_basis = _grow_basis(basis, lam, vec, small_value)
-        if not (grown_set or grown_basis):
-            break
+        _grow_working_set(problem, working, idx, (wr, z, nu, small_value), bound, tol)
+        basis, agg = _next_basis(problem, basis, x, agg, vec, lam, small_value)
     stats = {"solver": "eigen-subspace+interior-point", "status": "optimal" if gap <= tol else "gap above tolerance",
              "rounds": rounds, "working_set": len(working), "subspace": basis.shape[1],
-             "sdp_time_s": sdp_time, "clarabel_fallbacks": fallbacks, "time_s": time.perf_counter() - t0}
+             "sdp_time_s": sdp_time, "clarabel_fallbacks": counts["clarabel"], "inexact_sdps": counts["inexact"],
+             "time_s": time.perf_counter() - t0}
     return Relaxation(best[1], best[0], max(bound, best[0]), "fast", stats)
 
 
+class _Aggregate:
+    """The aggregate W (trace one, PSD; None before the first aggregation) with <W, Q_0> and <W, I_i>."""
+
+    def __init__(self, mat, q0_dot, dots):
+        self.mat, self.q0_dot, self.dots = mat, q0_dot, dots
+
+    @classmethod
+    def start(cls, problem, u):
+        if u is None:
+            return cls(None, 0.0, None)
+        return cls.of(problem, np.outer(u, u))
+
+    @classmethod
+    def of(cls, problem, mat):
+        mat = mat / np.trace(mat)
+        return cls(mat, float(np.sum(mat * problem.q0)), problem.block_dot(mat))
+
+    def matrix(self, weight):
+        return 0.0 if self.mat is None else weight * self.mat
+
+
+def _next_basis(problem, basis, x, agg, vec, lam, small_value):
+    """The next basis and aggregate: the basis with the eigenvectors of Q(w) (``lam``, ``vec``) below
+    the small SDP's value added (at least ``N_MIN``, at most ``N_MAX``, orthogonalised); beyond ``K_MAX``
+    columns, the directions of least weight in X_V are aggregated with W (a memory and time guard)."""
+    k = basis.shape[1]
+    kept = basis
+    n_new = int(np.clip(np.sum(lam < small_value), N_MIN, N_MAX))
+    if k + n_new > K_MAX:
+        xv, xu = np.linalg.eigh(0.5 * (x[:k, :k] + x[:k, :k].T))
+        keep = np.arange(k) >= k - max(K_MAX - n_new, int(np.sum(xv > 1e-6 * max(xv[-1], 1e-300))))
+        weights = np.clip(xv[~keep], 0.0, None)
+        agg_weight = max(float(x[k, k]), 0.0) if agg.mat is not None else 0.0
+        if weights.sum() + agg_weight > 0:
+            dropped = basis @ xu[:, ~keep]
+            agg = _Aggregate.of(problem, (dropped * weights) @ dropped.T + agg.matrix(agg_weight))
+        kept = basis @ xu[:, keep]
+    new = vec[:, :n_new]
+    new = new - kept @ (kept.T @ new)
+    new = new - kept @ (kept.T @ new)  # twice: orthogonal to round-off
+    q, rr = np.linalg.qr(new)
+    return np.hstack([kept, q[:, np.abs(np.diag(rr)) > 1e-6]]), agg
+
+
 def _grow_working_set(problem, working, idx, sdp, bound, tol):
-    """Add the candidates that would enter while the working set limits the small SDP; drop those with
-    no weight and a gradient well below the threshold (in place).  Returns whether any entered."""
+    """Add the candidates that would enter while the working set limits the small SDP (at most as many
+    as it holds); drop those with no weight and a gradient well below the threshold (in place)."""
     wr, z, nu, small_value = sdp
     c, r = problem.n_candidates, problem.count
-    grown = False
     trace = max(float(np.trace(z)), 1e-300)
     gz = problem.block_dot(z / trace)
     threshold = nu / trace
     if small_value < bound - 0.1 * tol * max(1.0, abs(bound)) and len(working) < c:
         outside = np.setdiff1d(np.arange(c), idx)
         enter = outside[gz[outside] > threshold]
-        enter = enter[np.argsort(-gz[enter], kind="stable")][: max(2 * r, 20)]
+        enter = enter[np.argsort(-gz[enter], kind="stable")][: max(2 * r, 20, len(working))]
         working |= set(enter.tolist())
-        grown = enter.size > 0
     # (the SDP is solved afresh each round, so a smaller set only saves time)
     working -= set(idx[(wr < 1e-7) & (gz[idx] < threshold - 0.05 * abs(threshold))].tolist())
-    return grown
 
 
-def _grow_basis(basis, lam, vec, small_value):
-    """The basis with (up to 8 of) the eigenvectors of Q(w) below the small SDP's value added, and whether
-    it grew."""
-    sel = np.nonzero(lam < small_value)[0][:8]
-    if sel.size:
-        new = vec[:, sel] - basis @ (basis.T @ vec[:, sel])
-        norms = np.linalg.norm(new, axis=0)
-        if np.any(norms > 1e-8):
-            return np.linalg.qr(np.hstack([basis, new[:, norms > 1e-8] / norms[norms > 1e-8]]))[0], True
-    return basis, False
+def _small_e_sdp(problem, idx, basis, agg, *, tol):
+    """max t s.t. V^T Q(w) V - t I >= 0 and <W, Q(w)> >= t over candidates ``idx``.
 
-
-def _small_e_sdp(problem, idx, basis, *, tol):
-    """max t s.t. V^T Q(w) V - t I >= 0 over candidates ``idx``.
-
-    Solved by :func:`~.lmi.lmi_interior_point`; if that does not converge, by cvxpy + Clarabel.
-    Returns (value, w, Z_k, nu, time, solver).
+    Solved by :func:`~.lmi.lmi_interior_point`; an iterate it could not
+    take to the tolerance is still used (the bound is certified from any
+    multiplier); if it has none, small SDPs go to cvxpy + Clarabel, large
+    ones raise SolverError.  Returns (value, w, X, nu, time, solver).
     """
     start = time.perf_counter()
-    m = idx.size
-    b0 = basis.T @ problem.q0 @ basis
-    bmat = problem.congruence(basis, idx)
+    m, k = idx.size, basis.shape[1]
+    b0 = np.zeros((k + 1, k + 1))
+    b0[:k, :k] = basis.T @ problem.q0 @ basis
+    bmat = np.zeros((m, k + 1, k + 1))
+    bmat[:, :k, :k] = problem.congruence(basis, idx)
+    if agg.mat is None:  # no aggregate yet: its diagonal entry is a copy of the first one
+        b0[k, k], bmat[:, k, k] = b0[0, 0], bmat[:, 0, 0]
+    else:
+        b0[k, k], bmat[:, k, k] = agg.q0_dot, agg.dots[idx]
     bmat = 0.5 * (bmat + bmat.transpose(0, 2, 1))
-    a_ub, b_ub = problem.inequalities
-    rows, rhs = np.zeros((0, m)), np.zeros(0)
-    if a_ub.shape[0]:
-        rows = a_ub[:, idx]
-        keep = np.any(rows != 0, axis=1)
-        if np.any(~keep & (b_ub < 0)):
-            raise SolverError("The working set cannot satisfy the span minimum counts.")
-        rows, rhs = rows[keep], b_ub[keep]
-    value, w, z, nu, status, _ = lmi.lmi_interior_point(0.5 * (b0 + b0.T), bmat, rows, rhs, problem.count, tol=tol)
+    rows, rhs = _side_rows(problem, idx)
+    value, w, x, nu, status, _ = lmi.lmi_interior_point(0.5 * (b0 + b0.T), bmat, rows, rhs, problem.count, tol=tol)
     if status == "optimal":
-        return value, np.clip(w, 0.0, 1.0), z, abs(nu), time.perf_counter() - start, "interior-point"
-    value, w, z, nu = _small_e_sdp_clarabel(b0, bmat, rows, rhs, problem.count, tol=tol)
-    return value, w, z, nu, time.perf_counter() - start, "clarabel"
+        return value, np.clip(w, 0.0, 1.0), x, abs(nu), time.perf_counter() - start, "interior-point"
+    if w is not None and np.all(np.isfinite(w)) and np.all(np.isfinite(x)):
+        return value, np.clip(w, 0.0, 1.0), x, abs(nu), time.perf_counter() - start, "inexact"
+    if m * (k + 1) ** 2 > CLARABEL_MAX_ENTRIES:
+        raise SolverError(f"The E relaxation's small SDP ({m} candidates, basis {k}) failed; try --solver cvxpy "
+                          f"on a coarser candidate grid.")
+    value, w, x, nu = _small_e_sdp_clarabel(b0, bmat, rows, rhs, problem.count, tol=tol)
+    return value, w, x, nu, time.perf_counter() - start, "clarabel"
+
+
+def _side_rows(problem, idx):
+    """The side constraints restricted to the candidates ``idx`` (rows that do not involve them dropped)."""
+    a_ub, b_ub = problem.inequalities
+    if not a_ub.shape[0]:
+        return np.zeros((0, idx.size)), np.zeros(0)
+    rows = a_ub[:, idx]
+    keep = np.any(rows != 0, axis=1)
+    if np.any(~keep & (b_ub < 0)):
+        raise SolverError("The working set cannot satisfy the span minimum counts.")
+    return rows[keep], b_ub[keep]
 
 
 def _small_e_sdp_clarabel(b0, bmat, rows, rhs, count, *, tol):
-    """The small SDP by cvxpy + Clarabel: (value, w, Z_k, nu)."""
+    """The small SDP by cvxpy + Clarabel: (value, w, X, nu)."""
     import cvxpy as cp
 
     m, k, _ = bmat.shape
@@ -143,6 +199,6 @@ def _small_e_sdp_clarabel(b0, bmat, rows, rhs, count, *, tol):
         constraints.append(rows @ w <= rhs)
     prob = cp.Problem(cp.Maximize(t), constraints)
     solve_clarabel(cp, prob, w, tol=tol, what="E relaxation")
-    z = lmi_constraint.dual_value
+    x = lmi_constraint.dual_value
     nu = abs(float(count_eq.dual_value)) if count_eq.dual_value is not None else 0.0
-    return float(prob.value), np.clip(w.value, 0.0, 1.0), 0.5 * (z + z.T), nu
+    return float(prob.value), np.clip(w.value, 0.0, 1.0), 0.5 * (x + x.T), nu

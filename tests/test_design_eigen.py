@@ -1,0 +1,96 @@
+"""The E criterion at scale: threshold evaluations by Cholesky, and the eigen-subspace relaxation's
+certificate with an inexact or failing small SDP and with a capped (aggregated) basis."""
+
+import itertools
+
+import numpy as np
+import pytest
+
+import sensorplan as sp
+from sensorplan import CandidateGrid, Case, SolverError
+from sensorplan.design.criteria.eigenvalue import ECriterion
+from sensorplan.design.recommend import build_problem
+from sensorplan.design.relaxation import eigen_subspace, lmi, solve_relaxation
+
+
+def small_case(n_elements):
+    bridge = sp.Bridge((12.0, 12.0), rotational_springs=(2e9, 0.0, 2e9))
+    return Case(bridge, sp.Mesh.uniform(bridge, n_elements), 1e10, sp.Vehicle((0.0, 2.0), (5e4, 5e4)),
+                sp.SensorLayout([12.0], noise_std=2e-6), sweep=sp.LoadSweep.from_range(0.0, 26.0, 0.5))
+
+
+def brute_force_e(problem):
+    """max over feasible layouts of lambda_min(Q) by enumeration, numpy's eigvalsh on each Q (the reference)."""
+    return max(np.linalg.eigvalsh(problem.q0 + sum(problem.blocks[i] for i in subset))[0]
+               for subset in itertools.combinations(range(problem.n_candidates), problem.count)
+               if problem.feasible(subset))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_utilities_above_equals_eigvalsh_above_the_threshold(seed):
+    # Reference: numpy's eigvalsh of Q + B (full spectrum).  Thresholds at, just below and just above the
+    # exact values (1e-12 relative: the round-off allowance of exchange), and far from them.
+    rng = np.random.default_rng(seed)
+    p = 40
+    a = rng.normal(size=(p, p))
+    q = a @ a.T / p + 0.5 * np.eye(p)
+    blocks = []
+    for _ in range(6):
+        g = rng.normal(size=(p, int(rng.integers(1, 4)))) * rng.uniform(0.1, 3.0)
+        blocks.append(g @ g.T)
+    blocks = np.array(blocks)
+    exact = np.array([np.linalg.eigvalsh(q + b)[0] for b in blocks])
+    crit = ECriterion(p)
+    for v in exact:
+        for thr in (v, v * (1 - 1e-12), v * (1 + 1e-12), v - 0.3, v + 0.3, -1e3):
+            got = crit.utilities_above(q, blocks, thr)
+            for g_i, e_i in zip(got, exact):
+                if e_i > thr:
+                    assert g_i == e_i
+                else:
+                    assert g_i <= thr
+
+
+def test_relaxation_certificate_with_a_capped_basis(monkeypatch):
+    # Basis capped at 6 columns (the rest aggregated): the bound stays at or above the brute-force optimum
+    # and the relaxed utility is lambda_min of Q(w) (numpy's eigvalsh), whatever the convergence.
+    problem = build_problem(small_case(16), 2, "E", grid=CandidateGrid(spacing=2.0))
+    assert problem.n_params > 10  # the aggregate is in use from the start
+    monkeypatch.setattr(eigen_subspace, "K_MAX", 6)
+    monkeypatch.setattr(eigen_subspace, "N_MIN", 2)
+    monkeypatch.setattr(eigen_subspace, "N_MAX", 3)
+    rel = solve_relaxation(problem, "fast")
+    best = brute_force_e(problem)
+    assert rel.bound >= best - 1e-9 * max(1.0, abs(best))
+    assert abs(rel.utility - np.linalg.eigvalsh(problem.precision(rel.weights))[0]) <= 1e-9 * max(1.0, abs(best))
+    assert rel.utility <= rel.bound
+
+
+def test_inexact_small_sdps_still_certify(monkeypatch):
+    # Every small SDP reported as not converged (its iterate after a few steps): the iterates are used, the
+    # bound stays valid (>= the brute-force optimum), and the method reaches the cvxpy + Clarabel optimum.
+    problem = build_problem(small_case(16), 2, "E", grid=CandidateGrid(spacing=2.0))
+    reference = solve_relaxation(problem, "cvxpy")
+    original = lmi.lmi_interior_point
+
+    def inexact(*args, **kwargs):
+        value, w, x, nu, _, it = original(*args, **kwargs)
+        return value, w, x, nu, "numerical problems", it
+
+    monkeypatch.setattr(lmi, "lmi_interior_point", inexact)
+    rel = solve_relaxation(problem, "fast")
+    assert rel.stats["inexact_sdps"] == rel.stats["rounds"] and rel.stats["clarabel_fallbacks"] == 0
+    best = brute_force_e(problem)
+    assert rel.bound >= best - 1e-9 * max(1.0, abs(best))
+    scale = max(1.0, abs(reference.bound))
+    assert abs(rel.utility - reference.utility) <= 1e-5 * scale and rel.relative_gap <= 1e-6
+
+
+def test_a_large_failed_small_sdp_raises_one_line_error(monkeypatch):
+    # No usable iterate and an SDP too large for the generic fallback: a one-line SolverError, no Clarabel.
+    problem = build_problem(small_case(16), 2, "E", grid=CandidateGrid(spacing=2.0))
+    monkeypatch.setattr(lmi, "lmi_interior_point", lambda *a, **k: (0.0, None, None, 0.0, "numerical problems", 1))
+    monkeypatch.setattr(eigen_subspace, "CLARABEL_MAX_ENTRIES", 10)
+    with pytest.raises(SolverError) as err:
+        solve_relaxation(problem, "fast")
+    assert "\n" not in str(err.value) and "small SDP" in str(err.value)
