@@ -34,7 +34,8 @@ __all__ = ["StructuredRestricted", "StaleHessian", "projected_pcg", "restricted_
 class NewtonCG:
     """Tolerances of the inexact Newton steps."""
 
-    rtol: float = 1e-2  # relative residual of the projected CG (in the preconditioner's norm)
+    rtol: float = 1e-2  # relative residual of the projected CG (in the preconditioner's norm) ...
+    rtol_final: float = 1e-8  # ... once an inexact direction failed to reduce the residuals
     max_iter: int = 60  # CG iterations per Newton step at most
     refresh_after: int = 6  # more CG iterations than this: the next step gets a new exact Hessian ...
     min_age: int = 3  # ... if the current one has served this many steps
@@ -185,7 +186,7 @@ def restricted_newton_cg(problem, idx, w_prev, *, tol, stale, max_iter=200, opti
     ones = poly.sum_row
     u, g, point = smooth.derivatives(x)
     hess = stale.on(idx, g) if stale.refreshes else stale.refresh(idx, point, x, g)
-    refresh, cg_total, age = False, 0, 0
+    refresh, cg_total, age, rtol = False, 0, 0, options.rtol
     for it in range(1, max_iter + 1):
         eta = float(slack @ lam)  # the surrogate duality gap
         t = options.centring * poly.n_ineq / eta  # barrier parameter: aim at a fraction of the gap
@@ -201,11 +202,14 @@ def restricted_newton_cg(problem, idx, w_prev, *, tol, stale, max_iter=200, opti
         factor = _factor(poly.add_barrier_hessian(-hess, d))
         dx, dnu, n_cg = projected_pcg(factor, lambda v: poly.apply_transpose(d * poly.apply(v)) - hess_v(v),
                                       g - nu * ones - poly.apply_transpose(1.0 / (t * slack)),
-                                      poly.count - x.sum(), rtol=options.rtol, max_iter=options.max_iter)
+                                      poly.count - x.sum(), rtol=rtol, max_iter=options.max_iter)
         gdx = poly.apply(dx)
         dlam = (lam * gdx - (lam * slack - 1.0 / t)) / slack
         r0 = np.sqrt(r_dual @ r_dual + np.sum((lam * slack - 1.0 / t) ** 2) + (x.sum() - poly.count) ** 2)
         step = step_length(smooth, poly, (x, lam, nu), (dx, dlam, dnu), gdx, slack, t, r0)
+        if step <= 1e-12 and rtol > options.rtol_final:  # an inexact direction that does not descend: solve
+            rtol, refresh = options.rtol_final, True  # the Newton systems accurately from now on
+            continue
         if step <= 1e-12:
             break
         x = x + step * dx
