@@ -22,6 +22,7 @@ __all__ = ["best_candidate", "slack", "REFINE_K"]
 # (k, n): in turn, when more than n candidates survive, the eigen-split bounds for them with k eigenvectors (each
 # costs about as much as n exact evaluations: a fixed part growing with k, then k^2 a candidate)
 REFINE_K = ((16, 16), (32, 16), (64, 32), (128, 96))
+BOUND_BYTES = 2**28  # size of one (n, k, k) array of eigen-split blocks computed at a time
 
 
 def slack(u):
@@ -99,8 +100,10 @@ def _tighter(problem, q, index, k, eig):
         return None
     if eig is None:
         eig = np.linalg.eigh(0.5 * (q + q.T))
-    tight = method(problem, q, np.asarray(index, dtype=int), k=k, eig=eig)
-    if tight is None:
+    index = np.asarray(index, dtype=int)
+    step = max(1, BOUND_BYTES // (8 * k * k))  # candidates a call: bounds the (n, k, k) temporaries
+    parts = [method(problem, q, index[s:s + step], k=k, eig=eig) for s in range(0, index.size, step)]
+    if any(part is None for part in parts):
         return None
-    tight = np.asarray(tight, dtype=float)
+    tight = np.concatenate([np.asarray(part, dtype=float) for part in parts])
     return tight + 1e-9 * np.maximum(1.0, np.abs(tight)), eig
