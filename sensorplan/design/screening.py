@@ -21,7 +21,7 @@ __all__ = ["best_candidate", "slack", "REFINE_K"]
 
 # (k, n): in turn, when more than n candidates survive, the eigen-split bounds for them with k eigenvectors (each
 # costs about as much as n exact evaluations: a fixed part growing with k, then k^2 a candidate)
-REFINE_K = ((16, 16), (32, 16), (64, 32), (128, 96))
+REFINE_K = ((16, 16), (32, 40), (64, 64), (128, 96))
 BOUND_BYTES = 2**28  # size of one (n, k, k) array of eigen-split blocks computed at a time
 
 
