@@ -6,13 +6,14 @@ eigenvectors) leave hundreds of candidates whose bound beats the best
 value found, and each exact evaluation forms a dense block and factorises
 it.  The criterion's ``subset_bounds`` with more eigenvectors (tighter for
 a larger k) computed for those survivors only leave fewer, which are
-evaluated exactly.  (The concavity bound at the best candidate evaluated,
-utility(Q + I_b) + <G_b, I_i - I_b>, was tried: on the five-span bridge it
-is looser than the eigen-split even for the neighbours of b.)  The answer is the one of evaluating every candidate
+evaluated exactly.  The answer is the one of evaluating every candidate
 whose first bound beats the best value: the largest exact value, ties
-going to the candidate first in the order of the first bounds.
+going to the candidate first in the order of the first bounds.  (The
+concavity bound at the best candidate evaluated, utility(Q + I_b) +
+<G_b, I_i - I_b>, is not used: on a multi-span bridge it is looser than
+the eigen-split even for the neighbours of b.)
 
-Owns: best_candidate, slack, REFINE_K.  May import: nothing of the package.
+Owns: best_candidate, slack, REFINE_K, BOUND_BYTES.  May import: nothing of the package.
 """
 
 import numpy as np

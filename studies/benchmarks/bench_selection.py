@@ -24,27 +24,28 @@ From the repository root::
 
 Last run
 --------
-2026-11-28, 01:10-02:00 UTC, branch s15-select against main d95c1d0 (same
-weights, same period), a 2-core machine shared with two other helpers'
-jobs (load average 4-5 throughout: the CPU seconds are inflated by about
-1.5-2x against a quiet machine; compare the columns, not the absolute
-values).  CPU seconds per stage and exact evaluations::
+2026-11-28, 01:10-02:20 UTC, branch s15-select (0653bec) against main
+d95c1d0 (same relaxed weights, same period), a 2-core machine shared with
+two other helpers' jobs (load average 4-6 throughout: the CPU seconds are
+inflated by about 1.5-2x against a quiet machine; compare the rows, not
+the absolute values).  CPU seconds per stage and exact evaluations::
 
-    criterion  tree        baselines  greedy    best  curve   evals greedy / best
-    D          main            7.8     57.4   147.3   10.5    14,395 / 42,036
-    D          s15-select      9.1     21.8    46.6    3.0     2,120 /  8,335
-    A          main            8.2    224.8   215.9   11.3    34,903 / 37,375
-    A          s15-select      8.8     27.3    78.7    3.8     1,637 / 12,369
+    criterion  tree        baselines  greedy    best  curve   total   evals greedy / best
+    D          main            7.8     57.4   147.3   10.5   223.0    14,395 / 42,036
+    D          s15-select      9.2     20.3    45.1    2.9    77.5     2,120 / 10,462
+    A          main            8.2    224.8   215.9   11.3   460.2    34,903 / 37,375
+    A          s15-select      8.0     25.5    76.2    3.5   113.2     1,679 / 13,564
 
-Same layouts as main for D and A (greedy layout, recommended layout and
-method, every baseline, the curve's counts); utilities equal to 3e-12 (D,
-1.5e-15 relative) and 2e-14 (A): small layouts of structured blocks are now
-summed from their cached dense blocks instead of the structured weighted
-sum (round-off only).
-
-A run of this script (D, weights from the run above, load average 5-6):
-baselines 7.8, greedy 21.5, best 48.0, curve 2.9 s; 2,120 / 8,335 exact
-evaluations (the same counts).
+(quiet machine, main d95c1d0 under cProfile, for scale: D baselines 7.7,
+greedy 53.0, best 132.6, curve 10.2 s.)  Same layouts as main for D and A
+(greedy layout, recommended layout and method, every baseline, the
+curve's counts); utilities equal to 3e-12 (D, 1.5e-15 relative) and
+2e-14 (A): small layouts of structured blocks are summed from their
+cached dense blocks instead of the structured weighted sum (round-off).
+Peak RSS of these stages (no relaxation): 1.96 GiB (D), 1.72 GiB (A).
+A run of this script (D, load average 5-6): baselines 7.8, greedy 21.5,
+best 48.0, curve 2.9 s, 2,120 / 8,335 exact evaluations (thresholds of
+c41c7d2: more evaluations, fewer bounds since).
 
 Where the time goes now (D, a profile of greedy alone): the eigen-split
 bounds on the survivors (k = 16 .. 128: 13.7 s of 20.2 s, the k = 128
@@ -56,12 +57,14 @@ of the final exchange) and the local moves of the polish (41 neighbours
 per sensor, evaluated exactly: bounds do not separate them either).  The
 concavity bound at the best candidate evaluated (utility(Q + I_b) +
 <G_b, I_i - I_b>) was tried and is looser than the eigen-split even for
-b's neighbours (median slack 0.49 within 6 m).
+b's neighbours (median slack 0.49 within 6 m); skipping, in the first
+round of the full exchange, the neighbours the polish's local moves have
+just checked saved 129 of 10,462 evaluations (neither is kept).
 
 Acceptance (issue 38: the whole ``recommend`` < 60 s at N = 400, C = 3,000,
-R = 20; these stages' share about 25 s): not met on this machine as
-measured (D 80.5 s, A 118.6 s of stages under load 4-5, against 223.0 s and
-460.2 s for main in the same period).
+R = 20; these stages' share about 25 s): not met as measured (D 77.5 s,
+A 113.2 s of stages under load 4-6, against 223.0 s and 460.2 s for main
+in the same period: 2.9x and 4.1x less CPU).
 """
 
 import os
