@@ -119,21 +119,26 @@ def structured_problem():
 
 @pytest.mark.parametrize("name", ["D", "A", "E"])
 def test_greedy_and_exchange_with_refined_bounds_equal_brute_force(monkeypatch, structured_problem, name):
-    from sensorplan.design import selection
+    from sensorplan.design import screening, selection
 
     monkeypatch.setattr(selection, "REFINE_K", ((4, 0), (8, 0), (16, 0), (32, 0)))  # refine whenever anything survives
+    monkeypatch.setattr(screening, "BOUND_BYTES", 8 * 32 * 32 * 5)  # the tighter bounds 5 candidates a call at k = 32
     problem = replace(structured_problem, criterion=make_criterion(name, structured_problem.n_params))
     dense = replace(problem, blocks=problem.blocks[np.arange(problem.n_candidates)])
     layout, _ = selection.greedy(problem)
     assert layout == _brute_greedy(dense)
-    start = list(range(0, problem.n_candidates, problem.n_candidates // 5))[:5]
-    swapped, value = selection.exchange(problem, start)
-    assert value == pytest.approx(problem.utility_of(swapped), rel=1e-12)
-    for pos in range(len(swapped)):  # a local optimum: no swap with any candidate improves (brute force)
-        rest = swapped[:pos] + swapped[pos + 1:]
-        q = dense.q0 + dense.blocks[rest].sum(axis=0)
-        best_swap = max(EXACT[name](q + dense.blocks[i]) for i in range(problem.n_candidates) if i not in swapped)
-        assert best_swap <= value + 1e-9 * max(1.0, abs(value))
+    rng = np.random.default_rng(7)
+    starts = [list(range(0, problem.n_candidates, problem.n_candidates // 5))[:5]]
+    starts += [rng.choice(problem.n_candidates, 5, replace=False).tolist() for _ in range(3)]
+    # plain, and coarse grid first + local moves + the full search
+    for start, coarse_above in [(starts[0], None)] + [(s, c) for s in starts for c in (40, 20)]:
+        swapped, value = selection.exchange(problem, start, coarse_above=coarse_above)
+        assert value == pytest.approx(problem.utility_of(swapped), rel=1e-12)
+        for pos in range(len(swapped)):  # a local optimum: no swap with any candidate improves (brute force)
+            rest = swapped[:pos] + swapped[pos + 1:]
+            q = dense.q0 + dense.blocks[rest].sum(axis=0)
+            best_swap = max(EXACT[name](q + dense.blocks[i]) for i in range(problem.n_candidates) if i not in swapped)
+            assert best_swap <= value + 1e-9 * max(1.0, abs(value))
 
 
 def test_layout_precision_of_a_small_structured_layout_equals_the_weighted_sum(structured_problem):

@@ -6,13 +6,14 @@ eigenvectors) leave hundreds of candidates whose bound beats the best
 value found, and each exact evaluation forms a dense block and factorises
 it.  The criterion's ``subset_bounds`` with more eigenvectors (tighter for
 a larger k) computed for those survivors only leave fewer, which are
-evaluated exactly.  (The concavity bound at the best candidate evaluated,
-utility(Q + I_b) + <G_b, I_i - I_b>, was tried: on the five-span bridge it
-is looser than the eigen-split even for the neighbours of b.)  The answer is the one of evaluating every candidate
+evaluated exactly.  The answer is the one of evaluating every candidate
 whose first bound beats the best value: the largest exact value, ties
-going to the candidate first in the order of the first bounds.
+going to the candidate first in the order of the first bounds.  (The
+concavity bound at the best candidate evaluated, utility(Q + I_b) +
+<G_b, I_i - I_b>, is not used: on a multi-span bridge it is looser than
+the eigen-split even for the neighbours of b.)
 
-Owns: best_candidate, slack, REFINE_K.  May import: nothing of the package.
+Owns: best_candidate, slack, REFINE_K, BOUND_BYTES.  May import: nothing of the package.
 """
 
 import numpy as np
@@ -21,7 +22,8 @@ __all__ = ["best_candidate", "slack", "REFINE_K"]
 
 # (k, n): in turn, when more than n candidates survive, the eigen-split bounds for them with k eigenvectors (each
 # costs about as much as n exact evaluations: a fixed part growing with k, then k^2 a candidate)
-REFINE_K = ((16, 16), (32, 16), (64, 32), (128, 96))
+REFINE_K = ((16, 16), (32, 40), (64, 64), (128, 96))
+BOUND_BYTES = 2**28  # size of one (n, k, k) array of eigen-split blocks computed at a time
 
 
 def slack(u):
@@ -99,8 +101,10 @@ def _tighter(problem, q, index, k, eig):
         return None
     if eig is None:
         eig = np.linalg.eigh(0.5 * (q + q.T))
-    tight = method(problem, q, np.asarray(index, dtype=int), k=k, eig=eig)
-    if tight is None:
+    index = np.asarray(index, dtype=int)
+    step = max(1, BOUND_BYTES // (8 * k * k))  # candidates a call: bounds the (n, k, k) temporaries
+    parts = [method(problem, q, index[s:s + step], k=k, eig=eig) for s in range(0, index.size, step)]
+    if any(part is None for part in parts):
         return None
-    tight = np.asarray(tight, dtype=float)
+    tight = np.concatenate([np.asarray(part, dtype=float) for part in parts])
     return tight + 1e-9 * np.maximum(1.0, np.abs(tight)), eig
