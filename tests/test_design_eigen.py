@@ -94,3 +94,17 @@ def test_a_large_failed_small_sdp_raises_one_line_error(monkeypatch):
     with pytest.raises(SolverError) as err:
         solve_relaxation(problem, "fast")
     assert "\n" not in str(err.value) and "small SDP" in str(err.value)
+
+
+def test_upper_bounds_are_valid_and_exact_within_the_split():
+    # Reference: numpy's eigvalsh of Q + I_i for every candidate.  The bounds (interlacing on the span of the
+    # 16 smallest eigenvectors) are never below it; with the whole space (P <= 16) they equal it.
+    for n_elements, exact_split in ((24, False), (12, True)):
+        problem = build_problem(small_case(n_elements), 2, "E", grid=CandidateGrid(spacing=1.5))
+        q = problem.layout_precision([1, 5])
+        u, ub = problem.criterion.upper_bounds(problem, q)
+        exact = np.array([np.linalg.eigvalsh(q + problem.blocks[i])[0] for i in range(problem.n_candidates)])
+        assert abs(u - np.linalg.eigvalsh(q)[0]) <= 1e-10 * max(1.0, abs(u))
+        assert np.all(ub >= exact - 1e-9 * np.maximum(1.0, np.abs(exact)))
+        if exact_split:
+            assert problem.n_params <= 16 and np.allclose(ub, exact, rtol=1e-9, atol=0.0)

@@ -78,9 +78,10 @@ def test_best_candidate_equals_brute_force(seed, name, floor_shift):
     order = np.argsort(-ub, kind="stable")
     evaluated = []
 
-    def evaluate(group):
+    def evaluate(group, above):  # like ECriterion.utilities_above: values that cannot win come back as -inf
         evaluated.extend(group)
-        return [EXACT[name](q + problem.blocks[i]) for i in group]
+        values = [EXACT[name](q + problem.blocks[i]) for i in group]
+        return [v if v > above else -np.inf for v in values]
 
     best, value = best_candidate(problem, q, order, bound.copy(), evaluate, floor=floor,
                                  usable=lambda i: i not in banned, batch=3,

@@ -37,8 +37,9 @@ def best_candidate(problem, q, order, bound, evaluate, *, floor=-np.inf, usable=
 
     ``order`` lists candidates by decreasing ``bound`` (an array over all
     candidates, bound[i] >= value of i, round-off allowance included);
-    ``evaluate(list)`` gives the exact values (utility(Q + I_i) - ``shift``)
-    of a list, ``batch`` at a time; ``usable(i)`` whether a candidate may be
+    ``evaluate(list, v)`` gives the exact values (utility(Q + I_i) - ``shift``)
+    of a list, ``batch`` at a time (those not above the utility ``v`` to beat may be any
+    number not above it); ``usable(i)`` whether a candidate may be
     taken (checked only for those a bound cannot exclude).  With ``refine``
     ((k, n) pairs, see ``REFINE_K``), in turn while more than n candidates
     survive, their bounds are lowered to the criterion's tighter
@@ -52,7 +53,7 @@ def best_candidate(problem, q, order, bound, evaluate, *, floor=-np.inf, usable=
 
     def take(group):
         seen.update(group)
-        for i, u in zip(group, evaluate(group) if group else ()):
+        for i, u in zip(group, evaluate(group, best[1] + shift) if group else ()):
             if u > best[1] or (u == best[1] and best[0] is not None and rank[i] < rank[best[0]]):
                 best[:] = [i, u]
 

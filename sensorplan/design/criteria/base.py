@@ -100,6 +100,12 @@ class Criterion(ABC):
         """utility(Q + I_i) for each block of ``blocks`` (overridden where a batch is cheaper)."""
         return [self.utility(q + b) for b in blocks]
 
+    def utilities_above(self, q, blocks, threshold):
+        """utility(Q + I_i) for each block where it exceeds ``threshold``; elsewhere any number not above it
+        (a search for the best candidate needs only the values that can win; overridden where a test is
+        cheaper than the value)."""
+        return self.utilities(q, blocks)
+
     @abstractmethod
     def gradient_matrix(self, q):
         """Symmetric G with d utility / d w_i = <G, I_i> (a supergradient if not smooth)."""

@@ -39,6 +39,8 @@ class ECriterion(Criterion):
         P eps ||A||), so that no candidate above ``threshold`` is missed, and
         those that pass get the exact value.
         """
+        if not np.isfinite(threshold):
+            return self.utilities(q, blocks)
         p = q.shape[0]
         out = []
         for block in blocks:

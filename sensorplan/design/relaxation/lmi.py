@@ -54,7 +54,7 @@ class _SmallLmi:
         self.m, self.k, _ = bmat.shape
         m, k = self.m, self.k
         self.b0, self.bmat, self.count = b0, bmat, count
-        self.g_w = np.vstack([rows, np.eye(m), -np.eye(m)])  # G y <= h acts on w only
+        self.rows = rows  # G w <= h with G = [rows; I; -I] (the box kept implicit: its part of G^T D G is diagonal)
         self.h = np.concatenate([rhs, np.ones(m), np.zeros(m)])
         self.bflat = bmat.reshape(m, k * k)
         self.eye = np.eye(k)
@@ -69,7 +69,23 @@ class _SmallLmi:
         return np.concatenate([-(self.bflat @ x.ravel()), [np.trace(x)]])
 
     def gt(self, v):
-        return np.concatenate([self.g_w.T @ v, [0.0]])
+        return np.concatenate([self.g_t(v), [0.0]])
+
+    def g_mul(self, w):
+        """G w."""
+        return np.concatenate([self.rows @ w, w, -w])
+
+    def g_t(self, v):
+        """G^T v."""
+        r, m = self.rows.shape[0], self.m
+        return self.rows.T @ v[:r] + v[r:r + m] - v[r + m:]
+
+    def g_gram(self, d):
+        """G^T diag(d) G."""
+        r, m = self.rows.shape[0], self.m
+        out = (self.rows.T * d[:r]) @ self.rows
+        out[np.diag_indices(m)] += d[r:r + m] + d[r + m:]
+        return out
 
     def start(self):
         """Uniform weights, t one below the smallest eigenvalue, X = I / k, Z a multiple of I."""
@@ -78,7 +94,7 @@ class _SmallLmi:
         s0 = self.b0 + (w0 @ self.bflat).reshape(k, k)
         y = np.concatenate([w0, [np.linalg.eigvalsh(0.5 * (s0 + s0.T))[0] - 1.0]])
         z = self.eye * max(1.0, float(np.max(np.abs(s0))))
-        s = np.maximum(self.h - self.g_w @ y[:m], 1.0)
+        s = np.maximum(self.h - self.g_mul(y[:m]), 1.0)
         return _Point(self.eye / k, z, y, s, np.ones(self.h.size), 0.0)
 
     def residuals(self, p):
@@ -86,7 +102,7 @@ class _SmallLmi:
         r_p = self.b - self.a_op(p.x) - self.gt(p.lam) - p.nu * self.ones
         r_d = self.b0 - self.astar(p.y) - p.z
         r_d = 0.5 * (r_d + r_d.T)
-        r_s = self.h - self.g_w @ p.y[:m] - p.s
+        r_s = self.h - self.g_mul(p.y[:m]) - p.s
         r_e = self.count - p.y[:m].sum()
         gap = float(np.sum(p.x * p.z) + p.s @ p.lam)
         scale = max(1.0, abs(float(p.y[m])))
@@ -125,7 +141,7 @@ class _Newton:
         mmat[:m, m] = mmat[m, :m] = col
         mmat[m, m] = np.trace(xz)
         mmat = 0.5 * (mmat + mmat.T)
-        mmat[:m, :m] += (lmi.g_w.T * (p.lam / p.s)) @ lmi.g_w
+        mmat[:m, :m] += lmi.g_gram(p.lam / p.s)
         self.factor = scipy.linalg.cho_factor(mmat, check_finite=False)
         self.u1 = scipy.linalg.cho_solve(self.factor, lmi.ones, check_finite=False)
 
@@ -138,7 +154,7 @@ class _Newton:
         dy = u0 - dnu * self.u1
         dz = res.r_d - lmi.astar(dy)
         dx = rc_x - p.x @ dz @ zi
-        ds = res.r_s - lmi.g_w @ dy[:lmi.m]
+        ds = res.r_s - lmi.g_mul(dy[:lmi.m])
         return 0.5 * (dx + dx.T), dy, dz, ds, (rc_lin - p.lam * ds) / p.s, dnu
 
     def max_steps(self, dx, dz, ds, dlam):
