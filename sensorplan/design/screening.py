@@ -37,9 +37,8 @@ def best_candidate(problem, q, order, bound, evaluate, *, floor=-np.inf, usable=
 
     ``order`` lists candidates by decreasing ``bound`` (an array over all
     candidates, bound[i] >= value of i, round-off allowance included);
-    ``evaluate(list, v)`` gives the exact values (utility(Q + I_i) - ``shift``)
-    of a list, ``batch`` at a time (those not above the utility ``v`` to beat may be any
-    number not above it); ``usable(i)`` whether a candidate may be
+    ``evaluate(list, v)`` gives the exact values (utility(Q + I_i) - ``shift``; any number not above the utility
+    ``v`` to beat where it is not above) of a list, ``batch`` at a time; ``usable(i)`` whether a candidate may be
     taken (checked only for those a bound cannot exclude).  With ``refine``
     ((k, n) pairs, see ``REFINE_K``), in turn while more than n candidates
     survive, their bounds are lowered to the criterion's tighter
