@@ -49,85 +49,73 @@ timeout of ``TIMEOUT_S``; a child that times out or fails is reported as such.
 
 Last run
 --------
-2026-11-27, commits 81005e0..98f4b74 of branch s14-dae (structured Fisher
-blocks, sensorplan.design.blocks), a 2-core machine shared with five other
-helpers (load average 9-12 throughout: each child got 10-25 % of a core;
-CPU seconds, not wall time, are the measure).  Children run one at a time
-except where said; one BLAS thread.
+2026-11-28 02:30-02:50 UTC, branch s15-int2 (commits e20b965..fb2a57d:
+the Newton-CG interior point on structured blocks, the screened greedy and
+exchange of sensorplan.design.screening, E's Cholesky test, structured
+blocks from 160 parameters on), one BLAS thread, children one at a time
+with the clean-clone CI suite on the other core (load average about 2).
 
 CPU seconds per stage; gap: certified relative gap of the relaxation; eff:
 certified efficiency of the recommended layout; peak: measured peak RSS
 [GiB]::
 
     configuration                      build  base greedy  relax   best  curve  total     gap   eff  peak
-    D N=400 C=800  R=20 (98f4b74)        0.5   6.7    9.6   62.5   40.5   10.0  129.8  2.9e-11 0.990 2.37
-    D N=400 C=3000 R=20 (f66e326, *)     1.4   8.5   71.5  119.0  192.3   12.3  404.9  1.1e-8 0.989  2.18
-    D N=400 C=3000 R=20 (98f4b74)        1.2   8.1   63.4  108.6  130.6    9.7  321.5  1.1e-8 0.989  2.19
-    A N=400 C=800  R=20 (98f4b74)        0.7   6.4   42.9   89.5  107.9    9.4  256.7  7.1e-8 0.928  2.78
-    mixed D N=400 C=800 R=20 (98f4b74)   1.0  11.6    9.8   55.3   63.9   17.1  158.8  7.1e-9 0.990  2.44
-    previous (dense blocks, 79499f2):
-    D N=400 C=800  R=20                  9.5   7.8    6.7   50.4   47.2   11.8  133.4  8.5e-10 0.990 2.20
-    D N=400 C=3000 R=20                 28.4  16.7   24.9  138.4   96.9   41.7  346.9  3.1e-8 0.989  4.67
+    D N=400 C=3000 R=20                  1.2   7.1   19.2   36.4   40.7    2.7  107.3  4.1e-11 0.989  2.06
+    A N=400 C=3000 R=20                  0.7   7.1   23.7   68.8   74.5    3.9  178.7  3.1e-9  0.928  2.84
+    mixed D N=400 C=3000 R=20            0.9  11.1   14.4   29.5   37.7    5.3   98.8  2.6e-10 0.989  2.12
+    E N=400 C=800 R=20 (s15-e 7fa60c9)   7.9   3.9    7.0  263.8   54.6    5.7  343    3.5e-8    -    1.93
+    growth, D:
+    D N=400 C=200  R=20                  0.3   4.4    3.2    5.8   21.8    2.3   37.7  2.5e-10 0.990  0.95
+    D N=400 C=400  R=20                  0.3   4.3    4.8   19.3   27.0    2.6   58.4  2.8e-8  0.990  1.51
+    D N=400 C=800  R=20                  0.4   4.9    8.9   18.1   22.7    2.2   57.2  4.6e-9  0.990  1.96
+    D N=400 C=1600 R=20                  0.5   5.8   12.4   36.3   32.1    2.9   90.1  7.4e-8  0.989  2.18
+    D N=60  C=800  R=20 (dense)          0.4   0.1    0.2    0.1    0.6    0.1    1.4  1.9e-10 0.972  0.22
+    D N=120 C=800  R=20 (dense)          0.9   0.2    0.4    0.7    5.4    0.3    8.0  7.9e-10 0.980  0.35
+    D N=240 C=800  R=20                  0.2   1.8    3.5    5.1   10.9    0.9   22.5  2.8e-11 0.985  0.67
+    main d95c1d0, quiet machine, under cProfile:
+    D N=400 C=3000 R=20                  1.3   7.7   53.0   99.8  132.6   10.2  304.6  1.1e-8  0.989  2.19
 
-(*) under cProfile, and before greedy and exchange formed the evaluated
-candidates' dense blocks in batches: each exact evaluation then formed one
-block from the shared products (about 4-8 ms, memory-bound, against 1 ms
-for the Cholesky factorisation it feeds), which made greedy (39,000 block
-formations, 58,700 factorisations over greedy and exchange) and exchange
-slower than with stored dense blocks.  The C = 800 row (98f4b74) has the
-batches: greedy 9.6 s, exchange 40.5 s; its relaxation (62.5 s against
-50.4 s) now also forms the working set's dense blocks each round (382
-blocks, partly from the cache).
+The relaxations (D: 14 rounds, working set 287, 175 Newton steps, 16
+exact Hessians instead of 116, 327 conjugate-gradient iterations; A: 16
+rounds, working set 613, 192 Newton steps; mixed: 10 rounds, 249, 129)
+reach the same optimum as main's (each utility below the other's bound).
+At the target the layouts are those of main (greedy, recommended layout
+and method, baselines, the curve's counts; studies/benchmarks/bench_selection.py).  E at C = 3,000 does not finish: its
+relaxation was stopped after 261 s CPU in round 11 at gap 1.1e-3 (working
+set 1,897 of 3,000 candidates, basis 62 columns, 30-55 s per small SDP:
+the relaxed E optimum spreads weight over about two thirds of the
+candidates and lambda_min has multiplicity 3 at the optimum); at C = 800
+it reaches the gap in 35 rounds without the cvxpy fallback that made it
+abort before.
 
-Since the merge (s14-int), ``recommend`` holds dense blocks while
-8 C P^2 bytes fit ``DENSE_CACHE_BYTES`` (1 GiB) and structured blocks
-beyond: the C <= 800 rows at N = 400 (1.02 GB of dense blocks) run the
-dense path again (the previous rows), typical designs keep their speed and
-bit-identical results (openlab-like / three-span, D, A, E: same CPU as
-before), and the target size (3.84 GB of dense blocks) takes the
-structured path measured above.
-
-What the structured blocks changed: building the problem no longer forms
-C dense P x P blocks (N = 400: 28.4 -> 1.4 s at C = 3,000, 9.5 -> 0.5 s at
-C = 800), the memory no longer grows as 8 C P^2 (peak 4.67 -> 2.18 GiB at
-C = 3,000, of which 1 GiB is the cache of dense blocks that greedy and
-exchange evaluate, and about 0.5 GiB the relaxation's working set), sums,
-gradients <G, I_c> over all candidates and the eigen-split congruences
-cost O(A^2 P^2 + C P) (A = 8 fixed matrices here) instead of C P^2.
-
-Where the time still goes (profile of the C = 3,000 run): the
-relaxation's Newton Hessians (116 of them, each whitening every working-set
-block: m P^3 with m = 256-388; 80 s CPU) and the exact evaluations of
-greedy and exchange (58,700 Cholesky factorisations of 400 x 400, about
-65 s CPU).  The relaxed D optimum is not sparse: at C = 800 it puts weight
-above 1e-6 on 374 of the 800 candidates (neighbouring candidates carry
-nearly the same information), so a smaller working set does not help: a
-first working set of 4 R + 20 and at most 2 R entering per round took
-79.2 s CPU (17 rounds, 179 Newton iterations) against 58.7 s (10 rounds,
-110 Newton iterations) with the default rules.
-
-E at N = 400, C = 800 ran more than 11 min of CPU (peak above 3 GiB) and
-was stopped: its small eigen-subspace SDPs fell back to cvxpy + Clarabel.
-A and the mixed design (rotation + deflection at 400 positions, costs 1
-and 3, budget 40) ran at C = 800 only (the last three rows of the table ran
-concurrently, after the load had dropped to about 6); at C = 3,000 they were
-not run in the session (one target-size run at a time, each about 30 min
-wall on the shared machine).
+Where the time goes now (D at the target): the relaxation's
+preconditioner rows (exact Hessian rows of the working set's weighted
+core, ~40 % of the stage) and Hessian products (~30 %), ~12 Newton steps
+a round because each round restarts from a centred point; in greedy the
+eigen-split bounds of the survivors (k = 16 .. 128); in best the exact
+evaluations of the candidates near the sensor being exchanged (their
+values are within 0.1-0.2 of the best, closer than an eigen-split bound
+with k <= 128 separates) and the polish's local moves.  Below 160
+parameters the dense blocks are used where they fit 1 GiB (N <= 40: 2x
+faster than structured ones; N = 120 even).
 
 Acceptance (issue 38) at N = 400, C = 3,000, R = 20:
 
-* D: 321.5 s CPU (not met: < 60 s; 346.9 s with dense blocks), gap 1.1e-8
-  (met: <= 1e-6), peak 2.19 GiB (met: <= 4 GiB; 4.67 GiB with dense
-  blocks); the curve reaches R = 20.
-* A, E (< 60 s each) and mixed kinds (< 120 s): not measured at the
-  target in this session; at C = 800 A takes 256.7 s and the mixed design
-  158.8 s, so neither is met.
+* D: 107.3 s CPU (not met: < 60 s; 304.6 s at main), gap 4.1e-11 (met:
+  <= 1e-6), peak 2.06 GiB (met: <= 4 GiB); the curve reaches R = 20.
+* A: 178.7 s (not met), gap 3.1e-9 (met), peak 2.84 GiB (met).
+* E: not met (does not finish at C = 3,000; 343 s at C = 800).
+* Mixed kinds (rotation + deflection, costs 1 and 3, budget 40): 98.8 s
+  (met: < 120 s), gap 2.6e-10, peak 2.12 GiB.
 
-Cost growth (D, previous commit 79499f2, least squares on the logs): time
-~ C^0.61 at N = 400, C = 200 -> 3,000; time ~ N^2.2 at C = 800, N = 60 ->
-400.  Not re-measured with the structured blocks: the build stage now
-grows as C^0.9 from 0.5 s (C = 800) to 1.4 s (C = 3,000); the relaxation
-and the exact evaluations dominate and grow with the working set and R.
+Cost growth (D, least squares on the logs, the rows above): time ~ C^0.37
+at N = 400, C = 200 -> 3,000 (37.7 -> 107.3 s); time ~ N^1.9 at C = 800,
+N = 60 -> 400 (1.4 -> 57.2 s; N <= 120 on dense blocks).  Before this
+work (79499f2): C^0.61 and N^2.2.
+
+Earlier (2026-11-27, s14-dae 98f4b74, load 9-12): D at the target 321.5 s
+(relaxation 108.6, best 130.6, greedy 63.4), A at C = 800 256.7 s, mixed
+at C = 800 158.8 s; E at C = 800 aborted in the cvxpy fallback.
 """
 
 import os
