@@ -13,8 +13,25 @@ import itertools
 import numpy as np
 import pytest
 
+from sensorplan.design.criteria import Criterion
 from sensorplan.design.relaxation import solve_relaxation
 from sensorplan.design.selection import exchange, greedy
+
+
+class LogDiagonal(Criterion):
+    """A toy criterion: sum of log of the precision's diagonal (concave in the weights)."""
+
+    name = "logdiag"
+    description = "sum of log diagonal of the posterior precision"
+
+    def value(self, q):
+        return float(np.sum(np.log(np.diag(q))))
+
+    def gradient_matrix(self, q):
+        return np.diag(1.0 / np.diag(q))
+
+    def cvxpy_objective(self, cp, q, constraints):
+        return cp.Maximize(cp.sum(cp.log(cp.diag(q)))), None
 
 
 def brute_force(problem):

@@ -22,6 +22,7 @@ from sensorplan.design.relaxation import RELAXATION_SOLVERS
 
 sys.path.insert(0, str(pathlib.Path(__file__).parent))
 from criterion_checks import (  # noqa: E402
+    LogDiagonal,
     brute_force,
     check_gradient,
     check_greedy_exchange,
@@ -30,22 +31,6 @@ from criterion_checks import (  # noqa: E402
     check_relaxation_certificate,
     check_upper_bounds,
 )
-
-
-class LogDiagonal(sp.Criterion):
-    """A toy criterion: sum of log of the precision's diagonal (concave in the weights)."""
-
-    name = "logdiag"
-    description = "sum of log diagonal of the posterior precision"
-
-    def value(self, q):
-        return float(np.sum(np.log(np.diag(q))))
-
-    def gradient_matrix(self, q):
-        return np.diag(1.0 / np.diag(q))
-
-    def cvxpy_objective(self, cp, q, constraints):
-        return cp.Maximize(cp.sum(cp.log(cp.diag(q)))), None
 
 
 @pytest.fixture(scope="module", autouse=True)

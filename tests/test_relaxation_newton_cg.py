@@ -19,6 +19,7 @@ import sensorplan as sp
 from sensorplan.design.recommend import build_problem
 
 sys.path.insert(0, str(pathlib.Path(__file__).parent))
+from criterion_checks import LogDiagonal  # noqa: E402  (the shared toy criterion)
 
 
 def small_case():
@@ -75,21 +76,6 @@ def test_hessian_product_equals_finite_differences_of_the_gradient(criterion):
     step = 1e-6
     fd = (problem.gradient(w + step * v) - problem.gradient(w - step * v)) / (2 * step)
     np.testing.assert_allclose(hv, fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
-
-
-class LogDiagonal(sp.Criterion):
-    """A toy criterion (not registered): sum of log of the precision's diagonal, concave in the weights."""
-
-    name = "logdiag-test"
-
-    def value(self, q):
-        return float(np.sum(np.log(np.diag(q))))
-
-    def gradient_matrix(self, q):
-        return np.diag(1.0 / np.diag(q))
-
-    def cvxpy_objective(self, cp, q, constraints):
-        return cp.Maximize(cp.sum(cp.log(cp.diag(q)))), None
 
 
 def structured_problem(monkeypatch, criterion, example="three-span", **options):

@@ -19,7 +19,7 @@ import scipy.optimize
 
 from ..._errors import SolverError
 
-__all__ = ["working_rows", "RestrictedPolytope", "boundary_step", "solve_kkt", "solve_with_sum", "step_length",
+__all__ = ["working_rows", "RestrictedPolytope", "boundary_step", "solve_kkt", "solve_with_sum", "newton_step", "step_length",
            "residual_norm"]
 
 
@@ -152,6 +152,17 @@ def solve_with_sum(kmat, rhs_x, sum_residual):
         kkt[:m, m] = kkt[m, :m] = 1.0
         sol = np.linalg.lstsq(kkt, np.concatenate([rhs_x, [sum_residual]]), rcond=None)[0]
         return sol[:m], sol[m]
+
+
+def newton_step(smooth, poly, point, dx, dnu, slack, t, r_dual):
+    """(step length, next point) along the primal direction (``dx``, ``dnu``) from ``point`` = (x, lam, nu)
+    and the dual direction it implies, the step being what :func:`step_length` allows."""
+    x, lam, nu = point
+    gdx = poly.apply(dx)
+    dlam = (lam * gdx - (lam * slack - 1.0 / t)) / slack
+    r0 = np.sqrt(r_dual @ r_dual + np.sum((lam * slack - 1.0 / t) ** 2) + (x.sum() - poly.count) ** 2)
+    step = step_length(smooth, poly, point, (dx, dlam, dnu), gdx, slack, t, r0)
+    return step, (x + step * dx, lam + step * dlam, nu + step * dnu)
 
 
 def step_length(smooth, poly, point, direction, gdx, slack, t, r0, *, alpha=0.01, beta=0.5):

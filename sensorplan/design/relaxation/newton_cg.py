@@ -24,7 +24,7 @@ import numpy as np
 import scipy.linalg
 
 from ..._cache import Cache
-from .interior_point import RestrictedPolytope, step_length
+from .interior_point import RestrictedPolytope, newton_step
 from .working_blocks import WorkingBlocks
 
 __all__ = ["StructuredRestricted", "StaleHessian", "projected_pcg", "restricted_newton_cg", "NewtonCG", "NEWTON_CG"]
@@ -203,18 +203,13 @@ def restricted_newton_cg(problem, idx, w_prev, *, tol, stale, max_iter=200, opti
         dx, dnu, n_cg = projected_pcg(factor, lambda v: poly.apply_transpose(d * poly.apply(v)) - hess_v(v),
                                       g - nu * ones - poly.apply_transpose(1.0 / (t * slack)),
                                       poly.count - x.sum(), rtol=rtol, max_iter=options.max_iter)
-        gdx = poly.apply(dx)
-        dlam = (lam * gdx - (lam * slack - 1.0 / t)) / slack
-        r0 = np.sqrt(r_dual @ r_dual + np.sum((lam * slack - 1.0 / t) ** 2) + (x.sum() - poly.count) ** 2)
-        step = step_length(smooth, poly, (x, lam, nu), (dx, dlam, dnu), gdx, slack, t, r0)
+        step, after = newton_step(smooth, poly, (x, lam, nu), dx, dnu, slack, t, r_dual)
         if step <= 1e-12 and rtol > options.rtol_final:  # an inexact direction that does not descend: solve
             rtol, refresh = options.rtol_final, True  # the Newton systems accurately from now on
             continue
         if step <= 1e-12:
             break
-        x = x + step * dx
-        lam = lam + step * dlam
-        nu = nu + step * dnu
+        x, lam, nu = after
         slack = poly.slack(x)
         u, g, point = smooth.derivatives(x)
         age, cg_total = age + 1, cg_total + n_cg

@@ -22,7 +22,7 @@ import numpy as np
 from ..._errors import SolverError
 from .base import Relaxation, repair_weights
 from .column_generation import Round, WorkingSet, column_generation, initial_size
-from .interior_point import RestrictedPolytope, solve_with_sum, step_length
+from .interior_point import RestrictedPolytope, newton_step, solve_with_sum
 from .newton_cg import StaleHessian, restricted_newton_cg
 from .registry import register_fast_method
 
@@ -160,18 +160,13 @@ def restricted_interior_point(problem, idx, w_prev, *, tol, max_iter=200):
         kmat = poly.add_barrier_hessian(-hess, lam / slack)
         dx, dnu = solve_with_sum(kmat, g - nu * ones - poly.apply_transpose(1.0 / (t * slack)),
                                  poly.count - x.sum())
-        gdx = poly.apply(dx)
-        dlam = (lam * gdx - (lam * slack - 1.0 / t)) / slack
-        r0 = np.sqrt(r_dual @ r_dual + np.sum((lam * slack - 1.0 / t) ** 2) + (x.sum() - poly.count) ** 2)
-        step = step_length(smooth, poly, (x, lam, nu), (dx, dlam, dnu), gdx, slack, t, r0)
+        step, after = newton_step(smooth, poly, (x, lam, nu), dx, dnu, slack, t, r_dual)
         if stale and step < LAZY_HESSIAN.min_step:  # a reused Hessian gave a short step: refresh it, retry
             hess, stale, n_exact = smooth.derivatives(x)[2], 0, n_exact + 1
             continue
         if step <= 1e-12:
             break
-        x = x + step * dx
-        lam = lam + step * dlam
-        nu = nu + step * dnu
+        x, lam, nu = after
         slack = poly.slack(x)
         refresh = step < LAZY_HESSIAN.min_step or stale + 1 >= LAZY_HESSIAN.max_reuse
         u, g, new_hess = smooth.derivatives(x, hessian=refresh)
