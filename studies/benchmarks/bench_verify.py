@@ -55,8 +55,14 @@ cores shared with other jobs, and a load above 2 means the workers competed
 with other processes (the Dask speed-up then understates what 2 free cores
 give).
 
-Measured on a quiet machine (2026-11-28 00:57-00:59 UTC, commit d95c1d0, load average 0.4-1.2)
----------------------------------------------------------------------------------------------
+Measured on a quiet machine (2026-11-28, commits d95c1d0 and c8451ac, load average 0.4-1.2)
+-----------------------------------------------------------------------------------------
+* Part 1 (03:07, commit c8451ac, load 0.7-0.9, best of 3, interleaved):
+  reference 0e3817a 8.64 s CPU (worst 9.10), base 1ce98a5 7.10 s (7.15),
+  this tree 5.43 s (5.88): 17.0 scenarios per CPU second, ratio 1.59
+  against the reference (TARGET OF 3x NOT MET), 1.31 against the base;
+  identical to the base (verdicts, detections, false alarms; numbers to
+  2.85e-10).
 * Part 2 (``--no-reference``, best of 3, warm clusters): 1 worker 5.56 s
   wall (worst 6.31), 2 workers 3.07 s (worst 4.40): speed-up 1.81 (per
   repeat 1.43, 1.81, 1.73; the first repeat holds the workers' imports).
