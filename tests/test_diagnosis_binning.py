@@ -24,6 +24,9 @@ from sensorplan.model.forward import influence_lines
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies" / "diagnosis"))
 from effects_data import generate  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from joint_checks import check_binned_diagnosis_equals_rows, check_factored_normal_equations  # noqa: E402
+
 
 def dense_case(step=0.1, correlation=0.0, n_elements=8):
     case = example_case("openlab-like")
@@ -126,18 +129,7 @@ def test_factored_normal_equations_equal_the_formed_jacobian(names, odd_noise):
     if odd_noise:
         odd = replace(b_data[1], noise=sp.NoiseModel(b_data[1].noise.std * np.array([1.0, 3.0]), 0.6))
         b_data = sp.Crossings(b_data.sensor_names, (b_data[0], odd) + tuple(b_data.crossings[2:]))
-    rng = np.random.default_rng(9)
-    masks = [rng.random(c.n_loads) < 0.7 for c in b_data]
-    masks[2][:] = False
-    problem = JointProblem(b_case, b_data, [make_effect(n) for n in names], GMRFPrior(), masks=masks)
-    theta = problem.theta0 + 0.1 * rng.standard_normal(problem.n_params) * np.sqrt(1.0 / np.diag(problem.fixed))
-    lin = problem.evaluate(theta)
-    r, jac, cross, load, _ = problem.rows(theta)
-    keep = np.array([masks[c][k] for c, k in zip(cross, load)])
-    r, jac = r[keep], jac[keep]
-    assert lin.rr == pytest.approx(r @ r, rel=1e-12)
-    np.testing.assert_allclose(lin.jtj, jac.T @ jac, rtol=1e-9, atol=1e-12 * np.abs(jac.T @ jac).max())
-    np.testing.assert_allclose(lin.jtr, jac.T @ r, rtol=1e-9, atol=1e-12 * np.abs(jac.T @ r).max())
+    check_factored_normal_equations(b_case, b_data, names, rr_rtol=1e-12, rtol=1e-9, atol=1e-12)
 
 
 def _information(case, data, size, prior):
@@ -213,16 +205,7 @@ def test_binned_diagnosis_agrees_with_the_row_by_row_one(monkeypatch):
     # held-out rms per reading (converted from the bins) is tested where it differs from the bins' own
     case = dense_case(0.1, correlation=0.5, n_elements=16)
     data = generate(case, "thermal_drift", np.random.SeedSequence(12), 8)
-    binned = sp.diagnose(case, data)
-    monkeypatch.setattr("sensorplan.diagnosis.diagnose.choose_size", lambda *args: 1)
-    rows = sp.diagnose(case, data)
-    assert binned.binning.size > 1 and not rows.binning
-    assert binned.causes == rows.causes == ("thermal_drift",)
-    assert binned.heldout_ratio_after == pytest.approx(rows.heldout_ratio_after, rel=0.05)
-    assert binned.heldout_ratio_before == pytest.approx(rows.heldout_ratio_before, rel=0.1)
-    for name in case.sensors.names:
-        assert binned.shrinkage[name].rms_after == pytest.approx(rows.shrinkage[name].rms_after, rel=0.02)
-    np.testing.assert_allclose(binned.ei_final, rows.ei_final, rtol=0.05)
+    check_binned_diagnosis_equals_rows(monkeypatch, case, data, "thermal_drift")
 
 
 def test_a_fit_crawling_in_a_flat_direction_counts_as_converged():

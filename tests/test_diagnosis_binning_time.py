@@ -29,6 +29,9 @@ from sensorplan.model.forward import influence_lines
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies" / "diagnosis"))
 from effects_data import generate  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from joint_checks import check_binned_diagnosis_equals_rows, check_factored_normal_equations  # noqa: E402
+
 
 def timed_noise(std, *, speed=1.0, tau=3.0):
     """The Munich inclinometer's proportions (issue 36) scaled to ``std``, as bench_noise_time.py uses them."""
@@ -181,18 +184,7 @@ def test_factored_normal_equations_in_time_equal_the_formed_jacobian(names, nois
     case = dense_case(0.25, noise=noise)
     data = simulate_crossings(case, 3, noise=True, rng=8)
     b_case, b_data = bin_crossings(case, data, 3)
-    rng = np.random.default_rng(9)
-    masks = [rng.random(c.n_loads) < 0.7 for c in b_data]
-    masks[2][:] = False
-    problem = JointProblem(b_case, b_data, [make_effect(n) for n in names], GMRFPrior(), masks=masks)
-    theta = problem.theta0 + 0.1 * rng.standard_normal(problem.n_params) * np.sqrt(1.0 / np.diag(problem.fixed))
-    lin = problem.evaluate(theta)
-    r, jac, cross, load, _ = problem.rows(theta)
-    keep = np.array([masks[c][k] for c, k in zip(cross, load)])
-    r, jac = r[keep], jac[keep]
-    assert lin.rr == pytest.approx(r @ r, rel=1e-10)
-    np.testing.assert_allclose(lin.jtj, jac.T @ jac, rtol=1e-8, atol=1e-11 * np.abs(jac.T @ jac).max())
-    np.testing.assert_allclose(lin.jtr, jac.T @ r, rtol=1e-8, atol=1e-11 * np.abs(jac.T @ r).max())
+    problem, theta, lin = check_factored_normal_equations(b_case, b_data, names, rr_rtol=1e-10, rtol=1e-8, atol=1e-11)
     there = pickle.loads(pickle.dumps(problem)).evaluate(theta)  # worker processes receive binned problems
     assert there.rr == pytest.approx(lin.rr, rel=1e-12)
 
@@ -252,16 +244,7 @@ def test_binned_diagnosis_in_time_agrees_with_the_row_by_row_one(monkeypatch, no
     # Tolerances as for AR(1) noise (test_diagnosis_binning.py): the bins lose <= 5 % of the information on EI
     case = dense_case(0.1, n_elements=16, noise=noise)
     data = generate(case, "vertical_support_spring", np.random.SeedSequence(12), 8)
-    binned = sp.diagnose(case, data)
-    monkeypatch.setattr("sensorplan.diagnosis.diagnose.choose_size", lambda *args: 1)
-    rows = sp.diagnose(case, data)
-    assert binned.binning.size > 1 and not rows.binning
-    assert binned.causes == rows.causes == ("vertical_support_spring",)
-    assert binned.heldout_ratio_after == pytest.approx(rows.heldout_ratio_after, rel=0.05)
-    assert binned.heldout_ratio_before == pytest.approx(rows.heldout_ratio_before, rel=0.1)
-    for name in case.sensors.names:
-        assert binned.shrinkage[name].rms_after == pytest.approx(rows.shrinkage[name].rms_after, rel=0.02)
-    np.testing.assert_allclose(binned.ei_final, rows.ei_final, rtol=0.05)
+    check_binned_diagnosis_equals_rows(monkeypatch, case, data, "vertical_support_spring")
 
 
 @pytest.mark.parametrize("names, noise", [(("thermal_drift", "sensor_gain"), "like"),
