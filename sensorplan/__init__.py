@@ -47,7 +47,7 @@ _EXPORTS = {
     "GapDiagnosis": "diagnosis.results", "EffectFit": "diagnosis.results", "Gap": "diagnosis.results",
     "Confounding": "diagnosis.results", "diagnose": "diagnosis.diagnose",
     "design_study": "verification.study", "DesignStudy": "verification.study", "StudyRow": "verification.study",
-    "ExecutorError": "_errors",
+    "ExecutorError": "_errors", "keep_freed_memory": "_allocator",
 }
 
 __all__ = sorted(_EXPORTS)

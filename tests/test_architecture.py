@@ -19,7 +19,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "sensorplan"
 
 LAYERS = {
     "_errors": 0, "examples": 0,
-    "_validation": 0.5, "_threads": 0.5, "_executors": 0.5, "_cache": 0.5, "verdict": 0.5,
+    "_validation": 0.5, "_threads": 0.5, "_allocator": 0.5, "_executors": 0.5, "_cache": 0.5, "verdict": 0.5,
     "model": 1,
     "detection": 1.5,
     "inference": 2, "design": 2, "io": 2, "acquisition": 2,

@@ -20,6 +20,7 @@ import os
 import sys
 import warnings
 
+from .._allocator import keep_freed_memory
 from .._errors import SensorplanError
 from . import (
     crossings,
@@ -156,6 +157,7 @@ def main(argv=None):
     from ..io.output import OutputFiles
 
     _limit_blas_threads()
+    keep_freed_memory()  # the command line owns its process: reuse freed pages (sensorplan._allocator)
     parser = build_parser()
     argv = sys.argv[1:] if argv is None else list(argv)
     if not argv:  # a bare `sensorplan`: what it can do

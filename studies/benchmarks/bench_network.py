@@ -181,13 +181,16 @@ def five_span(n_elements):
 # ----------------------------------------------------------------------- the child --
 
 def run_child(spec):
-    """One recommendation, stage by stage (what ``recommend`` does), in CPU seconds."""
+    """One recommendation, stage by stage (what ``recommend`` does), in CPU seconds, in a process tuned as the
+    command line tunes its own (``keep_freed_memory``)."""
+    from sensorplan import keep_freed_memory
     from sensorplan.design.baselines import baselines as make_baselines
     from sensorplan.design.recommend import CandidateGrid, Constraints, build_problem, criterion_curve
     from sensorplan.design.relaxation import solve_relaxation
     from sensorplan.design.resources import estimate_resources
     from sensorplan.design.selection import best_layout, greedy
 
+    keep_freed_memory()
     case = five_span(spec["n"])
     mixed = spec.get("mixed", False)
     n_positions = spec["c"] // 2 if mixed else spec["c"]
