@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+import scipy.sparse
 
 from ..._cache import Cache
 
@@ -103,6 +104,15 @@ class BlockFamily:
         f, p = self.n_free, self.n_params
         return np.ascontiguousarray(self.products[:f, :, :f, :].transpose(0, 2, 1, 3)).reshape(f * f, p * p)
 
+    @cached_property
+    def _weighted_layout(self):
+        """X_ab of free a and masked b, and of masked a and b, as contiguous (P, P, pairs) arrays (i, j first:
+        the weighted sums reduce over the pairs element by element)."""
+        _, um, mm = self._split()
+        p = self.n_params
+        return (np.ascontiguousarray(um.transpose(1, 3, 0, 2)).reshape(p, p, -1),
+                np.ascontiguousarray(mm.transpose(1, 3, 0, 2)).reshape(p, p, -1))
+
     def dense(self, local):
         """The blocks of the members at ``local``, shape (k, P, P)."""
         (iu_f, free), cross, (iu_m, masked) = self._pair_matrices
@@ -125,30 +135,33 @@ class BlockFamily:
         out[rows, e, e] += self.own[local]
         return _symmetrise(out)
 
-    def _cumulative(self, values):
-        """S[j] = sum of ``values`` over the members whose mask starts at or before j, shape (P, ...)."""
+    def _cumulative(self, values, start=None):
+        """S[j] = sum of ``values`` over the members (starting at ``start``, default the members' own) whose
+        mask starts at or before j, shape (P, ...)."""
         p = self.n_params
         spread = np.zeros((p + 1,) + values.shape[1:])
-        np.add.at(spread, self.start, values)
+        np.add.at(spread, self.start if start is None else start, values)
         return np.cumsum(spread, axis=0)[:p]
 
     def weighted(self, w):
-        """sum_c w_c F_c over the members (``w`` in member order)."""
-        uu, um, mm = self._split()
+        """sum_c w_c F_c over the members (``w`` in member order; members without weight are skipped)."""
         f, p = self.n_free, self.n_params
-        wt = self.coef * w[:, None]
-        pair = wt.T @ self.coef
-        out = np.tensordot(pair[:f, :f], uu, axes=([0, 1], [0, 2]))
-        s = self._cumulative(wt[:, :f, None] * self.coef[:, None, f:])  # (P, f, m)
-        y = np.einsum("aibj,jab->ij", um, s)
+        nz = np.flatnonzero(w)
+        w, coef, elem = w[nz], self.coef[nz], self.elem[nz]
+        wt = coef * w[:, None]
+        pair = wt.T @ coef
+        out = (pair[:f, :f].reshape(1, f * f) @ self._free_flat).reshape(p, p)  # sum_ab pair_ab X_ab
+        mixed, masked = self._weighted_layout
+        s = self._cumulative(wt[:, :f, None] * coef[:, None, f:], elem + 1).reshape(p, -1)  # (P, f m)
+        y = np.einsum("ijk,jk->ij", mixed, s)  # sum_ab X_ab[i, j] s[j, a, b] (a free, b masked)
         out += y + y.T
-        s2 = self._cumulative(wt[:, f:, None] * self.coef[:, None, f:])  # (P, m, m)
+        s2 = self._cumulative(wt[:, f:, None] * coef[:, None, f:], elem + 1).reshape(p, -1)  # (P, m m)
         low = np.minimum.outer(np.arange(p), np.arange(p))
-        out += np.einsum("aibj,ijab->ij", mm, s2[low])
-        part = np.zeros((p, p))
-        np.add.at(part, self.elem, w[:, None] * self.cross)
+        out += np.einsum("ijk,ijk->ij", masked, s2[low])
+        # sum_c w_c (e_j r_c^T + r_c e_j^T): the rows r_c summed by element (a sparse (P, members) product)
+        part = scipy.sparse.csr_matrix((w, (elem, np.arange(nz.size))), shape=(p, nz.size)) @ self.cross[nz]
         out += part + part.T
-        np.add.at(out, (self.elem, self.elem), w * self.own)
+        np.add.at(out, (elem, elem), w * self.own[nz])
         return _symmetrise(out)
 
     def dot(self, g):
