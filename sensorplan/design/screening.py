@@ -13,16 +13,23 @@ concavity bound at the best candidate evaluated, utility(Q + I_b) +
 <G_b, I_i - I_b>, is not used: on a multi-span bridge it is looser than
 the eigen-split even for the neighbours of b.)
 
-Owns: best_candidate, slack, REFINE_K, BOUND_BYTES.  May import: nothing of the package.
+Owns: best_candidate, slack, REFINE_K, LOCAL_K, BOUND_BYTES.  May import: nothing of the package.
 """
 
 import numpy as np
+import scipy.linalg
 
-__all__ = ["best_candidate", "slack", "REFINE_K"]
+__all__ = ["best_candidate", "slack", "REFINE_K", "LOCAL_K"]
 
 # (k, n): in turn, when more than n candidates survive, the eigen-split bounds for them with k eigenvectors (each
 # costs about as much as n exact evaluations: a fixed part growing with k, then k^2 a candidate)
 REFINE_K = ((16, 16), (32, 40), (64, 64), (128, 96))
+# k: in turn, while evaluating the survivors would cost more than one such level, the criterion's split bounds
+# along the k leading eigenvectors of the whitened sum of the survivors' blocks (close candidates' blocks share
+# a few directions); costs in factorisations of Q + I_i
+LOCAL_K = (32, 64, 128)
+LOCAL_COST = 60  # one level: the survivors' sum, its whitening and eigenvectors, congruences, inner products
+FORM_COST = 2  # forming a candidate's dense block (when not held) on top of its factorisation
 BOUND_BYTES = 2**28  # size of one (n, k, k) array of eigen-split blocks computed at a time
 
 
@@ -32,7 +39,7 @@ def slack(u):
 
 
 def best_candidate(problem, q, order, bound, evaluate, *, floor=-np.inf, usable=None, batch=8, refine=(),
-                   shift=0.0, eig=None):
+                   local=(), shift=0.0, eig=None):
     """(index, value) of the candidate of ``order`` with the largest exact value above ``floor``, or (None, floor).
 
     ``order`` lists candidates by decreasing ``bound`` (an array over all
@@ -41,24 +48,14 @@ def best_candidate(problem, q, order, bound, evaluate, *, floor=-np.inf, usable=
     ``v`` to beat where it is not above) of a list, ``batch`` at a time; ``usable(i)`` whether a candidate may be
     taken (checked only for those a bound cannot exclude).  With ``refine``
     ((k, n) pairs, see ``REFINE_K``), in turn while more than n candidates
-    survive, their bounds are lowered to the criterion's tighter
-    ``subset_bounds`` with k eigenvectors (``eig``: Q's eigendecomposition,
-    computed if needed), and the best few survivors are evaluated;
-    ``bound`` is updated in place (still a valid bound).
+    survive, their bounds are lowered to the criterion's ``subset_bounds``
+    with k eigenvectors (``eig``: Q's eigendecomposition, computed if needed)
+    and the best few survivors are evaluated; then likewise with ``local`` (k
+    in turn, see ``LOCAL_K``) to the criterion's ``split_bounds`` along the k
+    leading eigenvectors of the survivors' whitened summed blocks, while
+    evaluating them would cost more.  ``bound`` is updated in place.
     """
-    rank = {int(i): n for n, i in enumerate(order)}
-    best = [None, floor]
-    seen = set()
-
-    def take(group):
-        seen.update(group)
-        for i, u in zip(group, evaluate(group, best[1] + shift) if group else ()):
-            if u > best[1] or (u == best[1] and best[0] is not None and rank[i] < rank[best[0]]):
-                best[:] = [i, u]
-
-    def survivors(candidates):
-        return [i for i in candidates if i not in seen and bound[i] > best[1]]
-
+    search = _Search(order, bound, evaluate, floor, batch, shift)
     alive = [int(i) for i in order if bound[i] > floor]
     first = []
     for i in alive:  # the best few by the first bounds set the value to beat
@@ -67,30 +64,62 @@ def best_candidate(problem, q, order, bound, evaluate, *, floor=-np.inf, usable=
         if usable is None or usable(i):
             first.append(i)
         else:
-            seen.add(i)
-    take(first)
-    alive = [i for i in survivors(alive) if usable is None or usable(i)]
+            search.seen.add(i)
+    search.take(first)
+    alive = [i for i in search.survivors(alive) if usable is None or usable(i)]
     for k, above in refine:
-        if len(alive) <= above:
-            continue
-        tight = _tighter(problem, q, alive, k, eig)
+        if len(alive) > above:
+            tight = _tighter(problem, q, alive, k, eig)
+            if tight is None:
+                break
+            eig = tight[1]
+            alive = search.tighten(alive, tight[0])
+    for k in local:
+        tight = _split(problem, q, alive, k) if _worth_splitting(problem, alive) else None
         if tight is None:
             break
-        eig = tight[1]
-        bound[alive] = np.minimum(bound[alive], tight[0] - shift)
-        alive = sorted(survivors(alive), key=lambda i: -bound[i])
-        take(alive[:batch])
-        alive = survivors(alive)
-    pending = []
-    for i in sorted(alive, key=lambda i: -bound[i]):
-        if bound[i] <= best[1]:
-            break
-        pending.append(i)
-        if len(pending) == batch:
-            take(pending)
-            pending = []
-    take(pending)
-    return best[0], best[1]
+        alive = search.tighten(alive, tight)
+    search.settle(alive)
+    return search.best, search.value
+
+
+class _Search:
+    """The state of :func:`best_candidate`: the best exact value so far and the candidates evaluated."""
+
+    def __init__(self, order, bound, evaluate, floor, batch, shift):
+        self.rank = {int(i): n for n, i in enumerate(order)}
+        self.bound, self.evaluate, self.batch, self.shift = bound, evaluate, batch, shift
+        self.best, self.value = None, floor
+        self.seen = set()
+
+    def take(self, group):
+        """Evaluate ``group``; ties go to the candidate first in ``order``."""
+        self.seen.update(group)
+        for i, u in zip(group, self.evaluate(group, self.value + self.shift) if group else ()):
+            if u > self.value or (u == self.value and self.best is not None and self.rank[i] < self.rank[self.best]):
+                self.best, self.value = i, u
+
+    def survivors(self, candidates):
+        return [i for i in candidates if i not in self.seen and self.bound[i] > self.value]
+
+    def tighten(self, alive, tight):
+        """Lower the bounds of ``alive`` to ``tight``, evaluate the best few, return the survivors."""
+        self.bound[alive] = np.minimum(self.bound[alive], tight - self.shift)
+        alive = sorted(self.survivors(alive), key=lambda i: -self.bound[i])
+        self.take(alive[:self.batch])
+        return self.survivors(alive)
+
+    def settle(self, alive):
+        """Evaluate ``alive`` by decreasing bound, ``batch`` at a time, until no bound beats the best value."""
+        pending = []
+        for i in sorted(alive, key=lambda i: -self.bound[i]):
+            if self.bound[i] <= self.value:
+                break
+            pending.append(i)
+            if len(pending) == self.batch:
+                self.take(pending)
+                pending = []
+        self.take(pending)
 
 
 def _tighter(problem, q, index, k, eig):
@@ -108,3 +137,35 @@ def _tighter(problem, q, index, k, eig):
         return None
     tight = np.concatenate([np.asarray(part, dtype=float) for part in parts])
     return tight + 1e-9 * np.maximum(1.0, np.abs(tight)), eig
+
+
+def _worth_splitting(problem, alive):
+    """Whether evaluating the candidates ``alive`` exactly would cost more than a level of split bounds."""
+    if len(alive) > LOCAL_COST:
+        return True
+    return len(alive) + FORM_COST * (len(alive) - problem.blocks.held(alive)) > LOCAL_COST
+
+
+def _split(problem, q, index, k):
+    """Bounds on utility(Q + I_i) for ``index`` with the round-off allowance from the criterion's split bounds
+    along the k leading eigenvectors of L^-1 (sum of their blocks) L^-T (Q = L L^T), or None when the criterion
+    has none."""
+    index = np.asarray(index, dtype=int)
+    total = problem.layout_precision(index) - problem.q0  # the blocks held are summed, the others by structure
+    chol = np.linalg.cholesky(0.5 * (q + q.T))
+    half = scipy.linalg.solve_triangular(chol, total, lower=True, check_finite=False)
+    white = scipy.linalg.solve_triangular(chol, half.T, lower=True, check_finite=False)
+    p = q.shape[0]
+    k = min(k, p)
+    white = 0.5 * (white + white.T)
+    if 2 * k <= p:  # a few eigenvectors cost less than all
+        basis = scipy.linalg.eigh(white, subset_by_index=[p - k, p - 1], driver="evr", check_finite=False)[1]
+    else:
+        basis = scipy.linalg.eigh(white, driver="evd", check_finite=False)[1][:, p - k:]
+    step = max(1, BOUND_BYTES // (8 * k * k))
+    parts = [problem.criterion.split_bounds(problem, q, index[s:s + step], basis=basis, chol=chol)
+             for s in range(0, index.size, step)]
+    if any(part is None for part in parts):
+        return None
+    tight = np.concatenate([np.asarray(part, dtype=float) for part in parts])
+    return tight + 1e-9 * np.maximum(1.0, np.abs(tight))

@@ -12,7 +12,7 @@ import numpy as np
 
 from .._errors import SolverError
 from .feasibility import packing
-from .screening import REFINE_K, best_candidate, slack
+from .screening import LOCAL_K, REFINE_K, best_candidate, slack
 
 __all__ = ["iter_greedy", "greedy", "exchange", "round_weights", "sample_roundings", "best_layout"]
 
@@ -61,7 +61,7 @@ def iter_greedy(problem, *, start=()):
                 return out
 
             best, _ = best_candidate(problem, q, sorted(ok, key=lambda i: -bounds[i]), bounds, gains, batch=batch,
-                                     refine=REFINE_K if problem.structured else (),
+                                     refine=_refinements(problem, REFINE_K), local=_local_levels(problem),
                                      shift=u_q)
         else:
             ub, eig = _first_bounds(problem, q)
@@ -69,15 +69,29 @@ def iter_greedy(problem, *, start=()):
             best, _ = best_candidate(problem, q, ok[np.argsort(-ub[ok], kind="stable")],
                                      ub + 1e-9 * np.maximum(1.0, np.abs(ub)),
                                      lambda group, above, q=q: crit.utilities_above(q, problem.blocks[group], above),
-                                     batch=batch, refine=_after_first(problem), eig=eig)
+                                     batch=batch, refine=_after_first(problem), local=_local_levels(problem), eig=eig)
         chosen.append(int(best))
         yield list(chosen), problem.utility_of(chosen)
 
 
 def _after_first(problem):
-    """The refinements of :func:`~sensorplan.design.screening.best_candidate` after the first bounds (k = 16):
-    on structured blocks only (dense blocks cost less to evaluate than tighter bounds)."""
-    return tuple(level for level in REFINE_K if level[0] > 16) if problem.structured else ()
+    """The eigen-split refinements of :func:`~sensorplan.design.screening.best_candidate` after the first bounds
+    (k = 16)."""
+    return _refinements(problem, tuple(level for level in REFINE_K if level[0] > 16))
+
+
+def _refinements(problem, levels):
+    """The eigen-split ``levels`` on structured blocks (dense blocks cost less to evaluate than tighter bounds);
+    with split bounds (:func:`_local_levels`) only k = 16, which the split bounds beat from k = 32 on."""
+    if not problem.structured:
+        return ()
+    return tuple(level for level in levels if level[0] <= 16) if _local_levels(problem) else levels
+
+
+def _local_levels(problem):
+    """The split-bound levels of :func:`~sensorplan.design.screening.best_candidate`: on structured blocks for
+    criteria with ``split_bounds``."""
+    return LOCAL_K if problem.structured and getattr(problem.criterion, "split_bounds", None) is not None else ()
 
 
 def _first_bounds(problem, q):
@@ -131,20 +145,35 @@ def exchange(problem, layout, *, max_sweeps=50, coarse_above=None, polish=True):
     the coarse local optimum is returned (to polish only the best of several
     starts).
     """
+    layout, util, converged, step = _coarse(problem, layout, coarse_above, max_sweeps)
+    if step is None or not polish:
+        return layout, util
+    return _polish(problem, layout, step, converged, max_sweeps)
+
+
+def _coarse(problem, layout, coarse_above, max_sweeps):
+    """(layout, utility, converged, k) of the coarse stage of :func:`exchange` (k None: no coarse grid, the
+    full search was run)."""
     layout = [int(i) for i in layout]
     c = problem.n_candidates
     coarse_above = COARSE_ABOVE if coarse_above is None else coarse_above
-    if c > coarse_above:
-        step = max(2, c // (coarse_above // 2))
-        index = np.union1d(np.arange(0, c, step), layout)
-        local = {int(j): n for n, j in enumerate(index)}
-        sub = _subproblem(problem, index)
-        coarse, util = _exchange(sub, [local[i] for i in layout], max_sweeps=max_sweeps)
-        layout = [int(index[n]) for n in coarse]
-        if not polish:
-            return layout, util
-        layout = _local_moves(problem, layout, step, max_sweeps=max_sweeps)
-    return _exchange(problem, layout, max_sweeps=max_sweeps)
+    if c <= coarse_above:
+        return *_exchange(problem, layout, max_sweeps=max_sweeps), None
+    step = max(2, c // (coarse_above // 2))
+    index = np.union1d(np.arange(0, c, step), layout)
+    local = {int(j): n for n, j in enumerate(index)}
+    coarse, util, converged = _exchange(_subproblem(problem, index), [local[i] for i in layout],
+                                        max_sweeps=max_sweeps)
+    return [int(index[n]) for n in coarse], util, converged, step
+
+
+def _polish(problem, layout, step, converged, max_sweeps):
+    """The polish of :func:`exchange` from a coarse result.  A converged coarse result needs no second coarse
+    search: its grid (every k-th candidate plus the layout) lies within the one it was optimal on."""
+    if not converged:
+        layout, _, converged, step = _coarse(problem, layout, None, max_sweeps)
+    layout = _local_moves(problem, layout, step, max_sweeps=max_sweeps)
+    return _exchange(problem, layout, max_sweeps=max_sweeps)[:2]
 
 
 def _local_moves(problem, layout, radius, *, max_sweeps=50):
@@ -187,12 +216,14 @@ def _best_replacement(problem, rest, q_rest, taken, best, order, ub=None, eig=No
                              lambda group, above: crit.utilities_above(q_rest, problem.blocks[group], above),
                              floor=best + 1e-12 * max(1.0, abs(best)),
                              usable=lambda i: i not in taken and problem.partial_ok(rest + [i]), batch=batch,
-                             refine=_after_first(problem) if ub is not None else (), eig=eig)
+                             refine=_after_first(problem) if ub is not None else (), local=_local_levels(problem),
+                             eig=eig)
     return cand
 
 
 def _exchange(problem, layout, *, max_sweeps=50):
-    """Swap local search from ``layout``: best improving swap per removed sensor, until none.
+    """(layout, utility, converged): swap local search from ``layout``, best improving swap per removed sensor,
+    until none (converged) or ``max_sweeps`` rounds.
 
     Sensors are visited in turn; the search stops when a whole round of
     sensors in a row has no improving swap (or after ``max_sweeps`` rounds).
@@ -221,7 +252,7 @@ def _exchange(problem, layout, *, max_sweeps=50):
             quiet += 1
         pos = (pos + 1) % n
         visited += 1
-    return layout, best
+    return layout, best, quiet >= n
 
 
 def round_weights(problem, weights):
@@ -270,17 +301,21 @@ def best_layout(problem, weights, starts, *, greedy_layout=None, rng=None):
     def consider(method, start):
         # on large grids: the coarse-grid local optimum only; the best one is polished below
         nonlocal best
-        layout, util = exchange(problem, start, polish=False)
+        layout, util, converged, step = _coarse(problem, start, None, 50)
         if best is None or util > best[2] + 1e-12 * max(1.0, abs(util)):
-            best = (method, layout, util)
+            best = (method, layout, util, converged, step)
 
     for method, start in tried:
         consider(method, start)
     for util, name, start in scored[1:]:  # a baseline still better than the result
         if util > best[2]:
             consider(f"exchange from {name}", start)
-    layout, util = exchange(problem, best[1])
-    return best[0], layout, util
+    method, layout, util, converged, step = best
+    if step is not None:
+        layout, util = _polish(problem, layout, step, converged, 50)
+    elif not converged:  # a converged full search is already the local optimum
+        layout, util = exchange(problem, layout)
+    return method, layout, util
 
 
 def _starts(problem, weights, starts, greedy_layout, rng):

@@ -10,6 +10,7 @@ Owns: DCriterion, DsCriterion.  May import: errors, design.criteria.
 import math
 
 import numpy as np
+import scipy.linalg
 
 from ..._errors import ConfigError
 from .base import Criterion
@@ -62,6 +63,19 @@ class DCriterion(Criterion):
         first = problem.block_dot((w / lam[k:]) @ w.T, index)
         return logdet + float(np.sum(np.log(lam[k:]))) + first
 
+    def split_bounds(self, problem, q, index, *, basis, chol):
+        """b_i >= utility(Q + I_i) from the whitened split: with B_i = L^-1 I_i L^-T and [U W] orthonormal
+        (U = ``basis``), log det(I + B_i) <= log det(I + U^T B_i U) + log det(I + W^T B_i W) (Fischer) and
+        log det(I + X) <= tr X, where tr W^T B_i W = <Q^-1, I_i> - tr U^T B_i U.  Tight when U spans B_i."""
+        v = scipy.linalg.solve_triangular(chol, basis, lower=True, trans="T", check_finite=False)  # L^-T U
+        small = problem.congruence(v, index)  # U^T B_i U
+        k = small.shape[1]
+        inside = np.trace(small, axis1=1, axis2=2)
+        small[:, np.arange(k), np.arange(k)] += 1.0
+        logdet = 2.0 * np.log(np.diagonal(np.linalg.cholesky(small), axis1=1, axis2=2)).sum(axis=1)
+        rest = np.maximum(problem.block_dot(inverse_from_cholesky(chol), index) - inside, 0.0)
+        return 2.0 * float(np.sum(np.log(np.diag(chol)))) + logdet + rest
+
     def cvxpy_objective(self, cp, q_expr, constraints):
         return cp.Maximize(cp.log_det(q_expr)), None
 
@@ -80,6 +94,7 @@ class DsCriterion(DCriterion):
     description = "log det of the posterior precision of log EI, springs marginalised"
     submodular = False
     utilities = Criterion.utilities  # not D's: the value is a difference of two log determinants
+    split_bounds = None  # type: ignore[assignment]  # none: D's hold for log det Q, not a difference of two
 
     def __init__(self, n_params, *, n_keep=None):
         super().__init__(n_params)

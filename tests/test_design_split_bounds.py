@@ -1,0 +1,123 @@
+"""The whitened split bounds of the D criterion (``split_bounds``) and the searches that use them.
+
+References: exact values computed here with numpy's slogdet of Q + I_i (not the criteria's code), brute force
+over every candidate (greedy steps, swaps).
+"""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sensorplan.design.criteria import make_criterion
+from sensorplan.design.problem import DesignProblem
+
+
+def _random_problem(seed, *, c=30, p=10, rank=3):
+    rng = np.random.default_rng(seed)
+    jac = rng.standard_normal((c, rank, p)) * rng.uniform(0.2, 3.0, (c, 1, 1))
+    a = rng.standard_normal((p, p))
+    return DesignProblem(np.sort(rng.uniform(0.0, 50.0, c)), np.zeros(c, dtype=int),
+                         np.einsum("cri,crj->cij", jac, jac), a @ a.T / p + 0.1 * np.eye(p),
+                         criterion=make_criterion("D", p), count=3)
+
+
+def _exact(problem, q):
+    return np.array([np.linalg.slogdet(q + b)[1] for b in problem.blocks])
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10_000), k=st.integers(0, 10))
+def test_split_bounds_hold_for_any_basis_and_are_exact_for_a_full_one(seed, k):
+    problem = _random_problem(seed)
+    rng = np.random.default_rng(seed + 1)
+    q = problem.layout_precision(rng.choice(problem.n_candidates, 2, replace=False))
+    exact = _exact(problem, q)
+    basis = np.linalg.qr(rng.standard_normal((problem.n_params, problem.n_params)))[0][:, :k]
+    index = np.sort(rng.choice(problem.n_candidates, 12, replace=False))
+    b = problem.criterion.split_bounds(problem, q, index, basis=basis, chol=np.linalg.cholesky(q))
+    assert np.all(b >= exact[index] - 1e-9 * np.maximum(1.0, np.abs(exact[index])))
+    if k == problem.n_params:  # nothing left to bound: the exact values
+        assert b == pytest.approx(exact[index], rel=1e-10, abs=1e-10)
+
+
+def test_split_bounds_are_exact_when_the_basis_spans_the_whitened_block():
+    problem = _random_problem(3)
+    q = problem.layout_precision([0, 5])
+    chol = np.linalg.cholesky(q)
+    l_inv = np.linalg.inv(chol)
+    white = l_inv @ problem.blocks[7] @ l_inv.T  # rank 3
+    basis = np.linalg.eigh(white)[1][:, -3:]
+    b = problem.criterion.split_bounds(problem, q, [7, 8], basis=basis, chol=chol)
+    exact = _exact(problem, q)
+    assert b[0] == pytest.approx(exact[7], abs=1e-10)
+    assert b[1] > exact[8] + 1e-6  # another candidate's block is not spanned: a bound, not the value
+
+
+def test_ds_has_no_split_bounds_and_searches_keep_the_eigen_split_levels():
+    from sensorplan.design import selection
+
+    problem = replace(_random_problem(1), criterion=make_criterion("Ds", 10))
+    assert getattr(problem.criterion, "split_bounds", None) is None
+    assert selection._local_levels(problem) == ()
+
+
+@pytest.fixture(scope="module")
+def structured_problem():
+    from sensorplan.design import recommend as module
+    from sensorplan.design.recommend import CandidateGrid, build_problem
+    from sensorplan.io.config import example_case
+
+    keep = module.DENSE_CACHE_BYTES
+    module.DENSE_CACHE_BYTES = 0  # structured blocks even where dense ones fit
+    try:
+        problem = build_problem(example_case("three-span"), 5, "D", grid=CandidateGrid(spacing=0.5))
+    finally:
+        module.DENSE_CACHE_BYTES = keep
+    assert problem.structured
+    return problem
+
+
+def test_split_bounds_on_structured_blocks_hold_and_are_exact_with_every_direction(structured_problem):
+    problem = structured_problem
+    rng = np.random.default_rng(2)
+    q = problem.layout_precision([3, 30, 60])
+    index = np.sort(rng.choice(problem.n_candidates, 25, replace=False))
+    dense = problem.blocks[index]
+    exact = np.array([np.linalg.slogdet(q + b)[1] for b in dense])
+    chol = np.linalg.cholesky(q)
+    for k in (4, 16, problem.n_params):
+        basis = np.linalg.qr(rng.standard_normal((problem.n_params, k)))[0]
+        b = problem.criterion.split_bounds(problem, q, index, basis=basis, chol=chol)
+        assert np.all(b >= exact - 1e-9 * np.abs(exact))
+    assert b == pytest.approx(exact, rel=1e-11)
+
+
+@pytest.mark.parametrize("coarse_above", [None, 40])
+def test_greedy_and_exchange_with_split_bounds_at_every_step_equal_brute_force(monkeypatch, structured_problem,
+                                                                                coarse_above):
+    from sensorplan.design import screening, selection
+
+    monkeypatch.setattr(screening, "LOCAL_COST", 0)  # a level of split bounds whenever anything survives
+    monkeypatch.setattr(screening, "LOCAL_K", (4, 8, 16))
+    monkeypatch.setattr(selection, "LOCAL_K", (4, 8, 16))
+    problem = structured_problem
+    dense = replace(problem, blocks=problem.blocks[np.arange(problem.n_candidates)])
+    chosen = []  # brute-force greedy
+    while len(chosen) < problem.count:
+        q = dense.q0 + dense.blocks[chosen].sum(axis=0)
+        values = [(np.linalg.slogdet(q + dense.blocks[i])[1], -i) for i in range(problem.n_candidates)
+                  if i not in chosen]
+        chosen.append(-max(values)[1])
+    layout, _ = selection.greedy(problem)
+    assert layout == chosen
+    start = np.random.default_rng(5).choice(problem.n_candidates, 5, replace=False).tolist()
+    swapped, value = selection.exchange(problem, start, coarse_above=coarse_above)
+    for pos in range(len(swapped)):  # a local optimum: no swap with any candidate improves (brute force)
+        rest = swapped[:pos] + swapped[pos + 1:]
+        q = dense.q0 + dense.blocks[rest].sum(axis=0)
+        best_swap = max(np.linalg.slogdet(q + dense.blocks[i])[1] for i in range(problem.n_candidates)
+                        if i not in swapped)
+        assert best_swap <= value + 1e-9 * max(1.0, abs(value))
