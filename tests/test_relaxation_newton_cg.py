@@ -162,3 +162,20 @@ def test_stale_hessian_extended_equals_the_exact_hessian_of_the_union(monkeypatc
     np.testing.assert_allclose(h, ref, rtol=0, atol=1e-4 * np.abs(ref).max())
     np.testing.assert_array_equal(stale.members, second)
     assert stale.refreshes == 1 and stale.rows == first.size + (second.size - (first.size - c // 4))
+
+
+def test_working_blocks_sums_and_inner_products_equal_the_dense_blocks(monkeypatch):
+    # reference: the dense blocks (BlockFamily.dense, formed element by element) summed and contracted directly
+    from sensorplan.design.relaxation.working_blocks import WorkingBlocks
+
+    problem, dense = structured_problem(monkeypatch, "D")
+    rng = np.random.default_rng(5)
+    idx = np.sort(rng.choice(problem.n_candidates, problem.n_candidates // 2, replace=False))
+    blocks = dense.blocks[idx]
+    working = WorkingBlocks(problem.blocks.subset(idx))
+    w = rng.uniform(0.0, 1.0, idx.size)
+    ref = np.einsum("c,cij->ij", w, blocks)
+    np.testing.assert_allclose(working.weighted(w), ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+    g = rng.standard_normal((problem.n_params, problem.n_params))
+    ref = np.einsum("cij,ij->c", blocks, 0.5 * (g + g.T))
+    np.testing.assert_allclose(working.dot(g), ref, rtol=0, atol=1e-12 * np.abs(ref).max())
