@@ -134,3 +134,48 @@ def test_newton_cg_relaxation_equals_the_exact_hessian_relaxation(monkeypatch, c
     # optimal precision is (log det and trace of the inverse are strictly concave / convex in Q)
     q_cg, q_exact = dense.precision(cg.weights), dense.precision(exact.weights)
     np.testing.assert_allclose(q_cg, q_exact, rtol=0, atol=1e-3 * np.abs(q_exact).max())
+
+
+@pytest.mark.parametrize("criterion", ["D", "A", "Ds"])
+def test_stale_hessian_extended_equals_the_exact_hessian_of_the_union(monkeypatch, criterion):
+    # reference: the criterion's exact Hessian (closed form, checked against differences above) of the new working
+    # set at the point where the first rows were computed; members that left the set are forgotten
+    from sensorplan.design.relaxation.newton_cg import Point, StaleHessian
+
+    if criterion == "Ds":
+        from sensorplan.design import recommend as module
+
+        monkeypatch.setattr(module, "DENSE_CACHE_BYTES", 0)
+        problem = build_problem(small_case(), 3, "Ds", grid=sp.CandidateGrid(spacing=1.0), springs=True)
+        assert problem.criterion.n_keep < problem.n_params
+    else:
+        problem, _ = structured_problem(monkeypatch, criterion)
+    _, w, q = point(problem, 4)
+    chol = np.linalg.cholesky(q)
+    c = problem.n_candidates
+    first, second = np.arange(0, c // 2), np.arange(c // 4, 3 * c // 4)
+    grad = problem.gradient(w)
+    stale = StaleHessian(problem)
+    stale.refresh(first, Point(q, chol), np.ones(first.size), grad[first])
+    h = stale.extend(second, np.ones(second.size), grad[second])
+    ref = problem.criterion.hessian(q, chol, problem.blocks[second])
+    np.testing.assert_allclose(h, ref, rtol=0, atol=1e-4 * np.abs(ref).max())
+    np.testing.assert_array_equal(stale.members, second)
+    assert stale.refreshes == 1 and stale.rows == first.size + (second.size - (first.size - c // 4))
+
+
+def test_working_blocks_sums_and_inner_products_equal_the_dense_blocks(monkeypatch):
+    # reference: the dense blocks (BlockFamily.dense, formed element by element) summed and contracted directly
+    from sensorplan.design.relaxation.working_blocks import WorkingBlocks
+
+    problem, dense = structured_problem(monkeypatch, "D")
+    rng = np.random.default_rng(5)
+    idx = np.sort(rng.choice(problem.n_candidates, problem.n_candidates // 2, replace=False))
+    blocks = dense.blocks[idx]
+    working = WorkingBlocks(problem.blocks.subset(idx))
+    w = rng.uniform(0.0, 1.0, idx.size)
+    ref = np.einsum("c,cij->ij", w, blocks)
+    np.testing.assert_allclose(working.weighted(w), ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+    g = rng.standard_normal((problem.n_params, problem.n_params))
+    ref = np.einsum("cij,ij->c", blocks, 0.5 * (g + g.T))
+    np.testing.assert_allclose(working.dot(g), ref, rtol=0, atol=1e-12 * np.abs(ref).max())

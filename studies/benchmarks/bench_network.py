@@ -49,7 +49,28 @@ timeout of ``TIMEOUT_S``; a child that times out or fails is reported as such.
 
 Last run
 --------
-2026-11-28 02:30-02:50 UTC, branch s15-int2 (commits e20b965..fb2a57d:
+2026-11-28 04:43-04:56 UTC, branch s16-relax (f1307fc: preconditioner rows
+extended at the stale point, structured rounds keeping members down to
+weight 1e-3 and solving the first rounds to 1e-4), one BLAS thread,
+children one at a time, machine shared with three other jobs (load
+average 3.5-4.7 on 2 cores; CPU seconds are inflated by the contention,
+compare stages with care against the quieter run below)::
+
+    configuration                      build  base greedy  relax   best  curve  total     gap   eff  peak
+    D N=400 C=3000 R=20                  1.2   7.6   20.4   36.8   46.2    2.9  115.0  1.8e-10 0.989  1.87
+    A N=400 C=3000 R=20                  0.7   8.0   30.2   57.2   85.5    4.1  185.8  1.0e-8  0.928  2.72
+    mixed D N=400 C=3000 R=20            0.9  12.1   15.5   26.6   42.0    5.7  102.8  1.5e-9  0.989  2.04
+
+The relaxations: D 15 rounds, working set 271, 207 Newton steps, 2 full
+preconditioner refreshes (1,550 Hessian rows in all, was 3,781), 625
+conjugate-gradient iterations; A 13 rounds, 614, 203 steps, 4 refreshes
+(2,865 rows, was 6,366); mixed 9 rounds, 234, 132 steps.  Gaps within
+the tolerance 1e-7, each optimum below the other run's bound, the
+recommended layouts' efficiencies as below.  The relaxation stage alone
+(the greedy start fixed), measured before and after under the same load:
+D 41.2 -> 33.4 s, A 74.5 -> 53.3 s.
+
+Earlier, 2026-11-28 02:30-02:50 UTC, branch s15-int2 (commits e20b965..fb2a57d:
 the Newton-CG interior point on structured blocks, the screened greedy and
 exchange of sensorplan.design.screening, E's Cholesky test, structured
 blocks from 160 parameters on), one BLAS thread, children one at a time

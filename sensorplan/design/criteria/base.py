@@ -123,6 +123,12 @@ class Criterion(ABC):
             h[:, j] = flat @ ((plus - minus) / (2.0 * step)).ravel()
         return 0.5 * (h + h.T)
 
+    def hessian_factors(self, q, chol, blocks):
+        """(N, M) with Hessian = M M^T - N N^T (M may be None), one row per block of ``blocks``, rows computed
+        for different blocks at the same ``q`` combining into the Hessian of all of them; None where the
+        criterion has no such form (default)."""
+        return None
+
     def hessian_product(self, q, chol, s):
         """Symmetric G with (H v)_i = <G, I_i>, where S = sum_j v_j I_j: the Hessian of the utility in the
         weights applied to ``v`` without the per-candidate blocks (``chol`` the lower Cholesky factor of

@@ -62,16 +62,21 @@ class ACriterion(Criterion):
         return qi_ct @ qi_ct.T
 
     def hessian(self, q, chol, blocks):
-        # utility -tr(C Q^-1 C^T): H_ij = -2 tr(M I_i Q^-1 I_j), M = N N^T, N = Q^-1 C^T,
-        # so H_ij = -2 <B_i, B_j> with B_i = L^-1 I_i N
+        negative, _ = self.hessian_factors(q, chol, blocks)
+        return -(negative @ negative.T).astype(float)
+
+    def hessian_factors(self, q, chol, blocks):
+        """(sqrt 2 B, None): H = -2 B B^T (utility -tr(C Q^-1 C^T): H_ij = -2 tr(M I_i Q^-1 I_j),
+        M = N N^T, N = Q^-1 C^T, so H_ij = -2 <B_i, B_j> with B_i = L^-1 I_i N), row i of B the flattened B_i
+        in the blocks' precision."""
         m, p, _ = blocks.shape
         dtype = blocks.dtype
         n = scipy.linalg.cho_solve((chol, True), self.targets.T)
         nt = n.shape[1]
         li = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True)
         y = (blocks.reshape(m * p, p) @ n.astype(dtype)).reshape(m, p, nt).transpose(0, 2, 1).reshape(m * nt, p)
-        b = (y @ li.T.astype(dtype)).reshape(m, -1)
-        return -2.0 * (b @ b.T).astype(float)
+        b = (y @ (np.sqrt(2.0) * li.T).astype(dtype)).reshape(m, -1)
+        return b, None
 
     def hessian_operator(self, q, chol, *, dtype=np.float64):
         # (H v)_i = -2 tr(M I_i Q^-1 S), M = N N^T, N = Q^-1 C^T: G = -(Q^-1 S M + M S Q^-1)

@@ -14,7 +14,7 @@ import scipy.linalg
 
 from ..._errors import ConfigError
 from .base import Criterion
-from .linalg import (cholesky, congruence, eigen_split, inverse, inverse_from_cholesky, log_det, symmetric_gram,
+from .linalg import (cholesky, congruence, eigen_split, inverse, inverse_from_cholesky, log_det, packed_upper,
                      symmetrise, whitened_blocks)
 from .registry import register_criterion
 
@@ -42,7 +42,13 @@ class DCriterion(Criterion):
     def hessian(self, q, chol, blocks):
         # H_ij = -<A_i, A_j>, A_i = L^-1 I_i L^-T (Q = L L^T), symmetric: a Gram
         # matrix on the upper triangles (off-diagonals scaled by sqrt 2)
-        return -symmetric_gram(whitened_blocks(chol, blocks))
+        negative, _ = self.hessian_factors(q, chol, blocks)
+        return -(negative @ negative.T).astype(float)
+
+    def hessian_factors(self, q, chol, blocks):
+        """(N, None): H = -N N^T, row i of N the packed upper triangle of L^-1 I_i L^-T (in the blocks'
+        precision), so that rows computed at one ``q`` for different blocks combine into one Hessian."""
+        return packed_upper(whitened_blocks(chol, blocks)), None
 
     def hessian_operator(self, q, chol, *, dtype=np.float64):
         # (H v)_i = -tr(Q^-1 I_i Q^-1 S): G = -Q^-1 S Q^-1
@@ -124,12 +130,19 @@ class DsCriterion(DCriterion):
         return g
 
     def hessian(self, q, chol, blocks):
-        h = super().hessian(q, chol, blocks)
+        negative, positive = self.hessian_factors(q, chol, blocks)
+        h = -(negative @ negative.T).astype(float)
+        return h if positive is None else h + (positive @ positive.T).astype(float)
+
+    def hessian_factors(self, q, chol, blocks):
+        """(N, M): H = M M^T - N N^T, N as D's, M (None without nuisance) the packed upper triangles of
+        L22^-1 I_i,22 L22^-T (the Hessian of -log det Q22)."""
+        negative, _ = super().hessian_factors(q, chol, blocks)
         k = self.n_keep
-        if k < q.shape[0]:
-            ls = np.linalg.inv(np.linalg.cholesky(symmetrise(q)[k:, k:])).astype(blocks.dtype)
-            h = h + symmetric_gram(np.matmul(ls, np.matmul(blocks[:, k:, k:], ls.T)))
-        return h
+        if k == q.shape[0]:
+            return negative, None
+        ls = np.linalg.inv(np.linalg.cholesky(symmetrise(q)[k:, k:])).astype(blocks.dtype)
+        return negative, packed_upper(np.matmul(ls, np.matmul(blocks[:, k:, k:], ls.T)))
 
     def hessian_operator(self, q, chol, *, dtype=np.float64):
         # D's product plus Q22^-1 S22 Q22^-1 on the nuisance block (the Hessian of -log det Q22)

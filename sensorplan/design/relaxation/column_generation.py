@@ -32,8 +32,9 @@ def initial_size(n_candidates, count, divisor, *, cap=None):
 class WorkingSet:
     """The candidates a restricted problem is solved over, and those that already left it once."""
 
-    def __init__(self, n_candidates, initial, *, start_layout=None):
+    def __init__(self, n_candidates, initial, *, start_layout=None, drop_below=1e-2):
         self.n_candidates = n_candidates
+        self.drop_below = drop_below  # a member with a smaller weight (and a gradient below the threshold) leaves
         self.members = set(initial)
         if start_layout is not None:
             self.members |= {int(i) for i in start_layout}
@@ -65,9 +66,9 @@ class WorkingSet:
         return np.union1d(enter, np.setdiff1d(np.nonzero(maximiser > 1e-9)[0], idx))
 
     def update(self, idx, x, grad, threshold, enter):
-        """Drop the members that look out (small weight ``x``, gradient below ``threshold``; each at most
-        once, so the rounds cannot cycle), then add ``enter``."""
-        drop = [i for i in idx[(x < 1e-2) & (grad[idx] < threshold)].tolist() if i not in self.dropped]
+        """Drop the members that look out (weight ``x`` below ``drop_below``, gradient below ``threshold``;
+        each at most once, so the rounds cannot cycle), then add ``enter``."""
+        drop = [i for i in idx[(x < self.drop_below) & (grad[idx] < threshold)].tolist() if i not in self.dropped]
         self.dropped.update(drop)
         self.members -= set(drop)
         self.members |= set(enter.tolist())
@@ -96,13 +97,14 @@ class Round:
     entry_gradient: Callable[[], np.ndarray]
 
 
-def column_generation(problem, working, solve_round, *, tol, max_rounds):
+def column_generation(problem, working, solve_round, *, tol, max_rounds, first_tol=1e-3):
     """Rounds of ``solve_round(working, idx, weights, inner_tol) -> Round`` until the certified relative
-    gap is <= ``tol`` (or the set is complete and solved accurately, or nothing enters).
+    gap is <= ``tol`` (or the set is complete and solved accurately, or nothing enters).  The first rounds
+    are solved to the relative tolerance ``first_tol``, the later ones to a tenth of the last gap.
 
     Returns (last Round, rounds, total inner iterations).
     """
-    weights, iterations, inner = None, 0, 1e-3  # early rounds only locate the support: solve them loosely
+    weights, iterations, inner = None, 0, first_tol  # early rounds only locate the support: solve them loosely
     for rounds in range(1, max_rounds + 1):
         result = solve_round(working, working.index(), weights, inner)
         iterations += result.iterations

@@ -29,6 +29,23 @@ from .registry import register_fast_method
 __all__ = ["solve_column_generation", "restricted_interior_point"]
 
 
+@dataclass(frozen=True)
+class RoundPolicy:
+    """How the rounds of column generation treat the working set."""
+
+    drop_below: float  # a member with a smaller weight (and a gradient below the multiplier) leaves the set
+    first_tol: float  # relative tolerance of the first restricted solves (later: a tenth of the last gap)
+
+
+# dense blocks (small problems): loose first rounds, members below 1 % leave (the Newton steps cost m P^3)
+DENSE_ROUNDS = RoundPolicy(drop_below=1e-2, first_tol=1e-3)
+# structured blocks (dense candidate grids): the relaxed optimum spreads small weights over neighbouring
+# candidates; a member leaves only when its weight is negligible (dropping those to see them re-enter costs
+# more rounds than keeping them costs: their preconditioner rows are kept, or diagonal), and the first rounds
+# are solved tighter, so that their weights are sparse enough for members to leave at all
+STRUCTURED_ROUNDS = RoundPolicy(drop_below=1e-3, first_tol=1e-4)
+
+
 @register_fast_method("interior-point")
 def solve_column_generation(problem, *, tol=1e-7, start_layout=None, max_rounds=50):
     """Relaxation by column generation with a certified duality gap (relative ``tol``).
@@ -46,12 +63,13 @@ def solve_column_generation(problem, *, tol=1e-7, start_layout=None, max_rounds=
     # a first working set of at most 8 R + 40 candidates: the Newton steps cost m P^3 on m candidates, and
     # the support of the relaxed optimum is a few times R (the rounds add what is missing)
     first = np.argsort(-g, kind="stable")[:initial_size(c, problem.count, 8, cap=8 * problem.count + 40)].tolist()
-    working = WorkingSet(c, first, start_layout=start_layout)
+    policy = STRUCTURED_ROUNDS if problem.structured else DENSE_ROUNDS
+    working = WorkingSet(c, first, start_layout=start_layout, drop_below=policy.drop_below)
     tally = {"hessians": 0, "stale": None}
     if problem.structured:
         tally.update(cg_iterations=0, stale=StaleHessian(problem))
     last, rounds, newton_iters = column_generation(problem, working, partial(_solve_round, problem, tally), tol=tol,
-                                                   max_rounds=max_rounds)
+                                                   max_rounds=max_rounds, first_tol=policy.first_tol)
     if problem.structured:
         tally["hessians"], tally["hessian_rows"] = tally["stale"].refreshes, tally["stale"].rows
     stats = {"solver": "column-generation+interior-point" + ("+newton-cg" if problem.structured else ""),

@@ -36,7 +36,13 @@ class _Family:
         self.coef, self.cross, self.own = fam.coef.astype(dtype), fam.cross.astype(dtype), fam.own.astype(dtype)
         self.elem, self.dtype = fam.elem, dtype
         self.start = fam.elem + 1
-        self.uu = np.ascontiguousarray(x[:f, :, :f, :].transpose(0, 2, 1, 3).reshape(f * f, p * p))
+        # the free-free pairs enter as the packed upper triangles of S_ab = X_ab + X_ba (a < b) and S_aa = X_aa:
+        # the sums and inner products are symmetric in (a, b), so half the pairs and half of each matrix
+        self.pairs, self.tri = np.triu_indices(f), np.triu_indices(p)
+        a, b = self.pairs
+        sym = x[a, :, b, :] + np.where((a < b)[:, None, None], np.swapaxes(x[a, :, b, :], 1, 2), 0.0)
+        self.uu = np.ascontiguousarray(sym[:, self.tri[0], self.tri[1]])
+        self.off = np.where(self.tri[0] == self.tri[1], 1.0, 2.0).astype(dtype)  # <S, G> on the triangle
         # um[j, i, (a, b)] = X_ab[i, j] (a free, b masked); mm[i, j, (a, b)] = X_ab[i, j] (both masked)
         self.um = np.ascontiguousarray(x[:f, :, f:, :].transpose(3, 1, 0, 2).reshape(p, p, f * n_m))
         self.mm = np.ascontiguousarray(x[f:, :, f:, :].transpose(1, 3, 0, 2).reshape(p, p, n_m * n_m))
@@ -54,7 +60,10 @@ class _Family:
         """sum_c w_c F_c over the members (not yet symmetrised)."""
         f, p, t = self.f, self.p, self.coef
         wt = t * w[:, None]
-        out = ((wt[:, :f].T @ t[:, :f]).ravel() @ self.uu).reshape(p, p)
+        packed = (wt[:, :f].T @ t[:, :f])[self.pairs] @ self.uu
+        out = np.zeros((p, p), dtype=self.dtype)
+        out[self.tri] = packed
+        out += np.triu(out, 1).T
         s = self._cumulative((wt[:, :f, None] * t[:, None, f:]).reshape(len(w), -1))  # (P, f * m)
         y = np.matmul(self.um, s[:, :, None])[:, :, 0]  # y[j, i] = sum_k X_k[i, j] s[j, k]
         out += y + y.T
@@ -70,7 +79,9 @@ class _Family:
         """<G, F_c> for every member (``g`` symmetric)."""
         f, p, t = self.f, self.p, self.coef
         tu, tm = t[:, :f], t[:, f:]
-        zu = (self.uu @ g.ravel()).reshape(f, f)
+        zu = np.zeros((f, f), dtype=self.dtype)
+        zu[self.pairs] = self.uu @ (g[self.tri] * self.off)  # <S_ab, G> = 2 <X_ab, G> (a < b), <X_aa, G>
+        zu = (zu + zu.T) / 2.0
         out = np.einsum("ca,ab,cb->c", tu, zu, tu)
         v = _suffix(np.einsum("jik,ij->jk", self.um, g))  # sum over j >= s of column j of X_k (.) G
         out += 2.0 * np.einsum("ca,cab,cb->c", tu, v[self.start].reshape(-1, f, tm.shape[1]), tm)
