@@ -154,3 +154,12 @@ def test_a_split_bounds_are_exact_when_the_basis_spans_the_whitened_block_and_no
 
     region = replace(problem, criterion=ACriterion(10, targets=np.eye(10)[:4]))
     assert region.criterion.split_bounds(region, q, [9], basis=basis, chol=chol) is None
+
+
+def test_search_utilities_equal_numpy_values():
+    # reference: numpy's slogdet and inverse of Q + I_i (the searches' exact evaluations use LAPACK's dpotrf)
+    problem = _random_problem(8)
+    q = problem.layout_precision([0, 3])
+    for name, exact in EXACT.items():
+        crit = make_criterion(name, problem.n_params)
+        assert crit.utilities(q, problem.blocks) == pytest.approx([exact(q + b) for b in problem.blocks], rel=1e-12)

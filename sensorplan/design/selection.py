@@ -56,7 +56,7 @@ def iter_greedy(problem, *, start=()):
                 bounds = _upper_bounds(problem, q)[1] - u_q + slack(u_q)
 
             def gains(group, above, q=q, u_q=u_q):  # every gain exact: they are the bounds of later steps
-                out = [crit.utility(q + block) - u_q for block in problem.blocks[group]]
+                out = [u - u_q for u in crit.utilities(q, problem.blocks[group])]
                 bounds[group] = np.asarray(out) + slack(u_q)  # gains only shrink: bounds for later steps
                 return out
 

@@ -11,7 +11,7 @@ import scipy.linalg
 
 from ..._errors import ConfigError
 from .base import Criterion
-from .linalg import cholesky, eigen_split, inverse_from_cholesky, symmetrise
+from .linalg import cholesky, eigen_split, inverse_from_cholesky, lower_factor, symmetrise
 from .registry import register_criterion
 
 __all__ = ["ACriterion"]
@@ -56,6 +56,15 @@ class ACriterion(Criterion):
                 return float(np.sum(z * z))
         z = scipy.linalg.solve_triangular(chol, self.targets.T, lower=True, check_finite=False)
         return float(np.sum(z * z))
+
+    def utilities(self, q, blocks):
+        if not self.all_parameters:
+            return super().utilities(q, blocks)
+        out = []
+        for b in blocks:  # -||L^-1||_F^2 (Q and the blocks are symmetric: the factor reads one triangle)
+            z, info = scipy.linalg.lapack.dtrtri(lower_factor(q + b), lower=1)
+            out.append(-float(np.sum(np.tril(z) ** 2)) if info == 0 else self.utility(q + b))
+        return out
 
     def gradient_matrix(self, q):
         qi_ct = scipy.linalg.cho_solve((cholesky(symmetrise(q)), True), self.targets.T)
