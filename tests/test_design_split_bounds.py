@@ -1,6 +1,6 @@
-"""The whitened split bounds of the D criterion (``split_bounds``) and the searches that use them.
+"""The whitened split bounds of the D and A criteria (``split_bounds``) and the searches that use them.
 
-References: exact values computed here with numpy's slogdet of Q + I_i (not the criteria's code), brute force
+References: exact values computed here with numpy's slogdet or inverse of Q + I_i (not the criteria's code), brute force
 over every candidate (greedy steps, swaps).
 """
 
@@ -95,21 +95,25 @@ def test_split_bounds_on_structured_blocks_hold_and_are_exact_with_every_directi
     assert b == pytest.approx(exact, rel=1e-11)
 
 
+EXACT = {"D": lambda m: np.linalg.slogdet(m)[1], "A": lambda m: -np.trace(np.linalg.inv(m))}
+
+
+@pytest.mark.parametrize("name", ["D", "A"])
 @pytest.mark.parametrize("coarse_above", [None, 40])
 def test_greedy_and_exchange_with_split_bounds_at_every_step_equal_brute_force(monkeypatch, structured_problem,
-                                                                                coarse_above):
+                                                                                coarse_above, name):
     from sensorplan.design import screening, selection
 
     monkeypatch.setattr(screening, "LOCAL_COST", 0)  # a level of split bounds whenever anything survives
     monkeypatch.setattr(screening, "LOCAL_K", (4, 8, 16))
     monkeypatch.setattr(selection, "LOCAL_K", (4, 8, 16))
-    problem = structured_problem
+    problem = replace(structured_problem, criterion=make_criterion(name, structured_problem.n_params))
     dense = replace(problem, blocks=problem.blocks[np.arange(problem.n_candidates)])
+    exact = EXACT[name]
     chosen = []  # brute-force greedy
     while len(chosen) < problem.count:
         q = dense.q0 + dense.blocks[chosen].sum(axis=0)
-        values = [(np.linalg.slogdet(q + dense.blocks[i])[1], -i) for i in range(problem.n_candidates)
-                  if i not in chosen]
+        values = [(exact(q + dense.blocks[i]), -i) for i in range(problem.n_candidates) if i not in chosen]
         chosen.append(-max(values)[1])
     layout, _ = selection.greedy(problem)
     assert layout == chosen
@@ -118,6 +122,44 @@ def test_greedy_and_exchange_with_split_bounds_at_every_step_equal_brute_force(m
     for pos in range(len(swapped)):  # a local optimum: no swap with any candidate improves (brute force)
         rest = swapped[:pos] + swapped[pos + 1:]
         q = dense.q0 + dense.blocks[rest].sum(axis=0)
-        best_swap = max(np.linalg.slogdet(q + dense.blocks[i])[1] for i in range(problem.n_candidates)
-                        if i not in swapped)
+        best_swap = max(exact(q + dense.blocks[i]) for i in range(problem.n_candidates) if i not in swapped)
         assert best_swap <= value + 1e-9 * max(1.0, abs(value))
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 10_000), k=st.integers(0, 10))
+def test_a_split_bounds_hold_for_any_basis_and_are_exact_for_a_full_one(seed, k):
+    # reference: -trace of numpy's inverse of Q + I_i
+    problem = replace(_random_problem(seed), criterion=make_criterion("A", 10))
+    rng = np.random.default_rng(seed + 3)
+    q = problem.layout_precision(rng.choice(problem.n_candidates, 2, replace=False))
+    exact = np.array([-np.trace(np.linalg.inv(q + b)) for b in problem.blocks])
+    basis = np.linalg.qr(rng.standard_normal((problem.n_params, problem.n_params)))[0][:, :k]
+    b = problem.criterion.split_bounds(problem, q, np.arange(problem.n_candidates), basis=basis,
+                                       chol=np.linalg.cholesky(q))
+    assert np.all(b >= exact - 1e-9 * np.maximum(1.0, np.abs(exact)))
+    if k == problem.n_params:
+        assert b == pytest.approx(exact, rel=1e-9)
+
+
+def test_a_split_bounds_are_exact_when_the_basis_spans_the_whitened_block_and_none_for_a_region():
+    problem = replace(_random_problem(4), criterion=make_criterion("A", 10))
+    q = problem.layout_precision([1, 2])
+    chol = np.linalg.cholesky(q)
+    l_inv = np.linalg.inv(chol)
+    basis = np.linalg.eigh(l_inv @ problem.blocks[9] @ l_inv.T)[1][:, -3:]
+    b = problem.criterion.split_bounds(problem, q, [9], basis=basis, chol=chol)
+    assert b[0] == pytest.approx(-np.trace(np.linalg.inv(q + problem.blocks[9])), rel=1e-10)
+    from sensorplan.design.criteria.covariance import ACriterion
+
+    region = replace(problem, criterion=ACriterion(10, targets=np.eye(10)[:4]))
+    assert region.criterion.split_bounds(region, q, [9], basis=basis, chol=chol) is None
+
+
+def test_search_utilities_equal_numpy_values():
+    # reference: numpy's slogdet and inverse of Q + I_i (the searches' exact evaluations use LAPACK's dpotrf)
+    problem = _random_problem(8)
+    q = problem.layout_precision([0, 3])
+    for name, exact in EXACT.items():
+        crit = make_criterion(name, problem.n_params)
+        assert crit.utilities(q, problem.blocks) == pytest.approx([exact(q + b) for b in problem.blocks], rel=1e-12)

@@ -6,7 +6,11 @@ eigenvectors) leave hundreds of candidates whose bound beats the best
 value found, and each exact evaluation forms a dense block and factorises
 it.  The criterion's ``subset_bounds`` with more eigenvectors (tighter for
 a larger k) computed for those survivors only leave fewer, which are
-evaluated exactly.  The answer is the one of evaluating every candidate
+evaluated exactly.  Criteria with ``split_bounds`` do better: the
+survivors are close candidates whose whitened blocks L^-1 I_i L^-T share
+a few directions, so a split of the whitened space along the leading
+eigenvectors of their sum leaves almost nothing of them to the first-order
+part of the bound.  The answer is the one of evaluating every candidate
 whose first bound beats the best value: the largest exact value, ties
 going to the candidate first in the order of the first bounds.  (The
 concavity bound at the best candidate evaluated, utility(Q + I_b) +

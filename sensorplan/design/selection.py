@@ -56,7 +56,7 @@ def iter_greedy(problem, *, start=()):
                 bounds = _upper_bounds(problem, q)[1] - u_q + slack(u_q)
 
             def gains(group, above, q=q, u_q=u_q):  # every gain exact: they are the bounds of later steps
-                out = [crit.utility(q + block) - u_q for block in problem.blocks[group]]
+                out = [u - u_q for u in crit.utilities(q, problem.blocks[group])]
                 bounds[group] = np.asarray(out) + slack(u_q)  # gains only shrink: bounds for later steps
                 return out
 
@@ -74,24 +74,26 @@ def iter_greedy(problem, *, start=()):
         yield list(chosen), problem.utility_of(chosen)
 
 
-def _after_first(problem):
+def _after_first(problem, *, split=True):
     """The eigen-split refinements of :func:`~sensorplan.design.screening.best_candidate` after the first bounds
-    (k = 16)."""
-    return _refinements(problem, tuple(level for level in REFINE_K if level[0] > 16))
+    (k = 16); none where the split bounds of :func:`_local_levels` are used (``split``)."""
+    return _refinements(problem, tuple(level for level in REFINE_K if level[0] > 16), split=split)
 
 
-def _refinements(problem, levels):
+def _refinements(problem, levels, *, split=True):
     """The eigen-split ``levels`` on structured blocks (dense blocks cost less to evaluate than tighter bounds);
-    with split bounds (:func:`_local_levels`) only k = 16, which the split bounds beat from k = 32 on."""
+    with split bounds (:func:`_local_levels`, ``split``) only k <= 16, which the split bounds beat beyond."""
     if not problem.structured:
         return ()
-    return tuple(level for level in levels if level[0] <= 16) if _local_levels(problem) else levels
+    return tuple(level for level in levels if level[0] <= 16) if split and _local_levels(problem) else levels
 
 
-def _local_levels(problem):
+def _local_levels(problem, *, split=True):
     """The split-bound levels of :func:`~sensorplan.design.screening.best_candidate`: on structured blocks for
-    criteria with ``split_bounds``."""
-    return LOCAL_K if problem.structured and getattr(problem.criterion, "split_bounds", None) is not None else ()
+    criteria with ``split_bounds``, unless not ``split``."""
+    if not (split and problem.structured) or getattr(problem.criterion, "split_bounds", None) is None:
+        return ()
+    return LOCAL_K
 
 
 def _first_bounds(problem, q):
@@ -162,8 +164,10 @@ def _coarse(problem, layout, coarse_above, max_sweeps):
     step = max(2, c // (coarse_above // 2))
     index = np.union1d(np.arange(0, c, step), layout)
     local = {int(j): n for n, j in enumerate(index)}
+    # no split bounds on the coarse grid: its candidates lie too far apart to share a few directions, and their
+    # dense blocks are held
     coarse, util, converged = _exchange(_subproblem(problem, index), [local[i] for i in layout],
-                                        max_sweeps=max_sweeps)
+                                        max_sweeps=max_sweeps, split=False)
     return [int(index[n]) for n in coarse], util, converged, step
 
 
@@ -182,6 +186,7 @@ def _local_moves(problem, layout, radius, *, max_sweeps=50):
     order = np.argsort(problem.positions, kind="stable")
     rank = np.empty_like(order)
     rank[order] = np.arange(order.size)
+    _hold(problem, layout)
     best = problem.utility_of(layout)
     for _ in range(max_sweeps):
         moved = False
@@ -199,13 +204,21 @@ def _local_moves(problem, layout, radius, *, max_sweeps=50):
     return layout
 
 
-def _best_replacement(problem, rest, q_rest, taken, best, order, ub=None, eig=None):
+def _hold(problem, layout):
+    """Form the dense blocks of ``layout`` once (structured blocks keep them): the precision of every layout
+    without one sensor is then a sum of held blocks, not a pass over the structure."""
+    if problem.structured:
+        problem.blocks[list(layout)]
+
+
+def _best_replacement(problem, rest, q_rest, taken, best, order, ub=None, eig=None, *, split=True):
     """The candidate of ``order`` whose addition to ``rest`` beats ``best`` the most (None if none does).
 
     Utilities are exact; with upper bounds ``ub`` (``order`` by decreasing
     bound) the candidates no bound can exclude are evaluated (on structured
     blocks after tighter bounds for the survivors, ``eig`` the
-    eigendecomposition of ``q_rest`` if known), ties going to the first in ``order``.
+    eigendecomposition of ``q_rest`` if known), ties going to the first in ``order``; split bounds
+    (:func:`_local_levels`) only if ``split``.
     """
     crit = problem.criterion
     # evaluated together, crit.batch_size at a time (cheaper per candidate for some criteria); structured
@@ -216,12 +229,12 @@ def _best_replacement(problem, rest, q_rest, taken, best, order, ub=None, eig=No
                              lambda group, above: crit.utilities_above(q_rest, problem.blocks[group], above),
                              floor=best + 1e-12 * max(1.0, abs(best)),
                              usable=lambda i: i not in taken and problem.partial_ok(rest + [i]), batch=batch,
-                             refine=_after_first(problem) if ub is not None else (), local=_local_levels(problem),
-                             eig=eig)
+                             refine=_after_first(problem, split=split) if ub is not None else (),
+                             local=_local_levels(problem, split=split), eig=eig)
     return cand
 
 
-def _exchange(problem, layout, *, max_sweeps=50):
+def _exchange(problem, layout, *, max_sweeps=50, split=True):
     """(layout, utility, converged): swap local search from ``layout``, best improving swap per removed sensor,
     until none (converged) or ``max_sweeps`` rounds.
 
@@ -235,6 +248,7 @@ def _exchange(problem, layout, *, max_sweeps=50):
     evaluated).
     """
     layout = list(layout)
+    _hold(problem, layout)
     best = problem.utility_of(layout)
     n = len(layout)
     quiet, pos, visited = 0, 0, 0  # positions in a row without an improving swap
@@ -243,7 +257,7 @@ def _exchange(problem, layout, *, max_sweeps=50):
         q_rest = problem.layout_precision(rest)
         ub, eig = _first_bounds(problem, q_rest)
         cand_best = _best_replacement(problem, rest, q_rest, set(layout), best, np.argsort(-ub, kind="stable"), ub,
-                                      eig)
+                                      eig, split=split)
         if cand_best is not None:
             layout = rest[:pos] + [cand_best] + rest[pos:]
             best = problem.utility_of(layout)

@@ -31,6 +31,7 @@ from ..._cache import Cache
 __all__ = ["BlockFamily", "StructuredBlocks", "DENSE_CACHE_BYTES"]
 
 DENSE_CACHE_BYTES = 2**30  # dense blocks kept (greedy and exchange evaluate the same few candidates many times)
+_FROM_PRODUCTS = ("_pair_matrices", "_free_flat", "_triangles")  # derived from the shared products only
 
 
 def _symmetrise(a):
@@ -72,9 +73,21 @@ class BlockFamily:
         return self.products.shape[1]
 
     def subset(self, local, index):
-        """The members at positions ``local`` renumbered as ``index``."""
-        return BlockFamily(np.asarray(index), self.products, self.n_free, self.coef[local], self.elem[local],
-                           self.cross[local], self.own[local])
+        """The members at positions ``local`` renumbered as ``index`` (sharing what is derived from the products)."""
+        out = BlockFamily(np.asarray(index), self.products, self.n_free, self.coef[local], self.elem[local],
+                          self.cross[local], self.own[local])
+        for name in _FROM_PRODUCTS:
+            if name in self.__dict__:
+                out.__dict__[name] = self.__dict__[name]
+        return out
+
+    @cached_property
+    def _triangles(self):
+        """triu(X_ab) and tril(X_ab, -1)^T of the masked matrices, (2, m, m, P, P) contiguous (for congruences)."""
+        f, n_m = self.n_free, self.products.shape[0] - self.n_free
+        x = self.products
+        return np.array([[[np.triu(x[f + a, :, f + b, :]) for b in range(n_m)] for a in range(n_m)],
+                         [[np.tril(x[f + a, :, f + b, :], -1).T for b in range(n_m)] for a in range(n_m)]])
 
     def _split(self):
         f = self.n_free
@@ -202,11 +215,11 @@ class BlockFamily:
         # masked parts are V^T(sums from the start on of these rows (x) V[j]), with V^T triu(X) V transposed
         upper = np.empty((p, n_m, n_m, k))
         lower = np.empty((p, n_m, n_m, k))
+        triangles = self._triangles
         for a in range(n_m):
             for b in range(n_m):
-                x = self.products[f + a, :, f + b, :]
-                upper[:, a, b] = np.triu(x) @ v
-                lower[:, a, b] = np.tril(x, -1).T @ v
+                upper[:, a, b] = triangles[0, a, b] @ v
+                lower[:, a, b] = triangles[1, a, b] @ v
         mixed = xv[f:, :, :f, :].transpose(1, 2, 0, 3).reshape(p, f * n_m * k)
         rows = np.concatenate([upper.reshape(p, -1), mixed, lower.reshape(p, -1)], axis=1)
         sums = np.zeros((rows.shape[1], k))

@@ -11,7 +11,7 @@ import scipy.linalg
 
 from ..._errors import ConfigError
 from .base import Criterion
-from .linalg import cholesky, eigen_split, inverse_from_cholesky, symmetrise
+from .linalg import cholesky, eigen_split, inverse_from_cholesky, lower_factor, symmetrise
 from .registry import register_criterion
 
 __all__ = ["ACriterion"]
@@ -56,6 +56,15 @@ class ACriterion(Criterion):
                 return float(np.sum(z * z))
         z = scipy.linalg.solve_triangular(chol, self.targets.T, lower=True, check_finite=False)
         return float(np.sum(z * z))
+
+    def utilities(self, q, blocks):
+        if not self.all_parameters:
+            return super().utilities(q, blocks)
+        out = []
+        for b in blocks:  # -||L^-1||_F^2 (Q and the blocks are symmetric: the factor reads one triangle)
+            z, info = scipy.linalg.lapack.dtrtri(lower_factor(q + b), lower=1)
+            out.append(-float(np.sum(np.tril(z) ** 2)) if info == 0 else self.utility(q + b))
+        return out
 
     def gradient_matrix(self, q):
         qi_ct = scipy.linalg.cho_solve((cholesky(symmetrise(q)), True), self.targets.T)
@@ -109,6 +118,27 @@ class ACriterion(Criterion):
         trace = np.trace(np.linalg.inv(small), axis1=1, axis2=2)
         first = problem.block_dot((w / lam[k:] ** 2) @ w.T, index)
         return -(trace + float(np.sum(1.0 / lam[k:])) - first)
+
+    def split_bounds(self, problem, q, index, *, basis, chol):
+        """b_i >= utility(Q + I_i) from the whitened split (None unless C is the identity): with B_i =
+        L^-1 I_i L^-T and H = L^-1 L^-T, utility(Q + I_i) = -tr H + f(B_i), f(B) = tr H - tr (I + B)^-1 H concave,
+        bounded by its tangent at U C_i U^T (U = ``basis``, C_i = U^T B_i U):
+        f(U C U^T) = tr D S with D = C (I + C)^-1, S = U^T H U, and the gradient there
+        (I - U D U^T) H (I - U D U^T).  Exact when U spans B_i."""
+        if not self.all_parameters:
+            return None
+        k = basis.shape[1]
+        y = scipy.linalg.solve_triangular(chol, basis, lower=True, trans="T", check_finite=False)  # L^-T U
+        q_inv = inverse_from_cholesky(chol)
+        both = problem.congruence(np.hstack([q_inv @ y, y]), index)
+        cross, small = both[:, :k, k:], both[:, k:, k:]  # U^T H B_i U and C_i
+        s = y.T @ y
+        d = np.eye(k) - np.linalg.inv(np.eye(k)[None] + small)
+        ds = d @ s
+        linear = problem.block_dot(q_inv @ q_inv, index)  # tr H B_i
+        tangent = (np.trace(ds, axis1=1, axis2=2) - 2.0 * np.einsum("cij,cji->c", d, cross)
+                   - np.einsum("ij,cji->c", s, small) + 2.0 * np.einsum("cij,cji->c", ds, small))
+        return -float(np.trace(q_inv)) + linear + tangent
 
     def cvxpy_objective(self, cp, q_expr, constraints):
         return cp.Minimize(cp.matrix_frac(self.targets.T, q_expr)), None

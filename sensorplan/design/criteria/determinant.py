@@ -14,8 +14,8 @@ import scipy.linalg
 
 from ..._errors import ConfigError
 from .base import Criterion
-from .linalg import (cholesky, congruence, eigen_split, inverse, inverse_from_cholesky, log_det, packed_upper,
-                     symmetrise, whitened_blocks)
+from .linalg import (congruence, eigen_split, inverse, inverse_from_cholesky, log_det, lower_factor,
+                     packed_upper, symmetrise, whitened_blocks)
 from .registry import register_criterion
 
 __all__ = ["DCriterion", "DsCriterion"]
@@ -37,7 +37,7 @@ class DCriterion(Criterion):
 
     def utilities(self, q, blocks):
         # Q and the blocks are symmetric, so Q + I_i is (no symmetrised copy; the factor reads one triangle)
-        return [2.0 * float(np.sum(np.log(np.diag(cholesky(q + b))))) for b in blocks]
+        return [2.0 * float(np.sum(np.log(np.diag(lower_factor(q + b))))) for b in blocks]
 
     def hessian(self, q, chol, blocks):
         # H_ij = -<A_i, A_j>, A_i = L^-1 I_i L^-T (Q = L L^T), symmetric: a Gram

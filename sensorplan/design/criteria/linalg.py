@@ -8,7 +8,7 @@ import scipy.linalg
 
 from ..._errors import ConfigError
 
-__all__ = ["symmetrise", "cholesky", "log_det", "inverse", "whitened_blocks", "symmetric_gram", "packed_upper", "inverse_from_cholesky",
+__all__ = ["symmetrise", "cholesky", "lower_factor", "log_det", "inverse", "whitened_blocks", "symmetric_gram", "packed_upper", "inverse_from_cholesky",
            "congruence", "eigen_split"]
 
 
@@ -23,6 +23,16 @@ def cholesky(q):
         return np.linalg.cholesky(q)
     except np.linalg.LinAlgError:
         raise ConfigError("The posterior precision is not positive definite; the prior must be proper.") from None
+
+
+def lower_factor(q):
+    """The lower triangle of Q's Cholesky factor by LAPACK's dpotrf (the other triangle is not cleared): what
+    the searches' many exact evaluations use, about three times faster than numpy's routine for P = 400; the
+    same factor up to round-off.  ConfigError if Q is not positive definite."""
+    factor, info = scipy.linalg.lapack.dpotrf(q, lower=1, clean=0)
+    if info != 0:
+        raise ConfigError("The posterior precision is not positive definite; the prior must be proper.")
+    return factor
 
 
 def log_det(q):
