@@ -208,8 +208,8 @@ class BlockFamily:
         f, p = self.n_free, self.n_params
         n_m, k, n = self.products.shape[0] - f, v.shape[1], self.coef.shape[0]
         tu, tm = self.coef[:, :f], self.coef[:, f:]
-        xv = np.matmul(self.products, v)  # (A, P, A, m): X_ab V
-        z = np.tensordot(v, xv[:f, :, :f, :], axes=([0], [1])).transpose(1, 2, 0, 3).reshape(f * f, k * k)
+        xv = np.matmul(self.products[:, :, :f, :], v)  # (A, P, f, m): X_ab V (b free: the only ones used)
+        z = np.tensordot(v, xv[:f], axes=([0], [1])).transpose(1, 2, 0, 3).reshape(f * f, k * k)
         out = ((tu[:, :, None] * tu[:, None, :]).reshape(n, f * f) @ z).reshape(n, k, k)
         # rows j of triu(X_ab) V (a, b masked), of X_ba V (a free, b masked) and of tril(X_ab, -1)^T V: the
         # masked parts are V^T(sums from the start on of these rows (x) V[j]), with V^T triu(X) V transposed
@@ -220,7 +220,7 @@ class BlockFamily:
             for b in range(n_m):
                 upper[:, a, b] = triangles[0, a, b] @ v
                 lower[:, a, b] = triangles[1, a, b] @ v
-        mixed = xv[f:, :, :f, :].transpose(1, 2, 0, 3).reshape(p, f * n_m * k)
+        mixed = xv[f:].transpose(1, 2, 0, 3).reshape(p, f * n_m * k)
         rows = np.concatenate([upper.reshape(p, -1), mixed, lower.reshape(p, -1)], axis=1)
         sums = np.zeros((rows.shape[1], k))
         mm, fm = n_m * n_m, f * n_m
@@ -240,9 +240,11 @@ class BlockFamily:
             left = (coef[g0:g1, :mm + fm] @ flat[:mm + fm]).reshape(-1, k, k)
             masked[g0:g1] = np.swapaxes(left, 1, 2) + (coef[g0:g1, mm:] @ flat[mm:]).reshape(-1, k, k)
         out[by_start] += masked
-        rv, vj = self.cross @ v, v[self.elem]
-        out += rv[:, :, None] * vj[:, None, :] + vj[:, :, None] * rv[:, None, :]
-        out += self.own[:, None, None] * vj[:, :, None] * vj[:, None, :]
+        # r_c (x) v_j + v_j (x) r_c + own_c v_j (x) v_j, with v_j = V[j_c], is twice the symmetric part of
+        # (r_c + own_c v_j / 2) (x) v_j: added once, then the whole is symmetrised
+        vj = v[self.elem]
+        half = self.cross @ v + 0.5 * self.own[:, None] * vj
+        out += 2.0 * half[:, :, None] * vj[:, None, :]
         return _symmetrise(out)
 
 
