@@ -21,9 +21,9 @@ __all__ = ["solve_eigen_subspace"]
 K_MAX = 160  # basis size beyond which directions are aggregated
 N_MIN, N_MAX = 4, 12  # eigenvectors of Q(w) (the lowest) that join the basis each round
 CLARABEL_MAX_ENTRIES = 200_000  # m k^2 above which a failed small SDP is not handed to cvxpy + Clarabel
-INNER_TOL_MAX = 1e-5  # the small SDPs' tolerance: a hundredth of the last certified gap, at most this ...
+INNER_TOL_MAX = 1e-5  # the small SDPs' tolerance: a tenth of the last certified gap, at most this ...
 INNER_TOL_SHARE = 0.01  # ... and at least this share of ``tol`` (the bound is certified from any multiplier)
-SDP_MAX_ITER = 50  # interior-point steps per small SDP at most (an unfinished iterate still certifies)
+SDP_MAX_ITER = 80  # interior-point steps per small SDP at most (an unfinished iterate still certifies)
 SPREAD = 10  # the first working set also holds every SPREAD-th candidate
 ENTER_MAX = 2  # candidates that join the working set per round, at most this many times R (and 20): the
 # relaxed optimum ties many neighbouring candidates, and the small SDP costs m^2 k^2 on m of them
@@ -49,7 +49,7 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
     are near copies of each other: without them the small SDP's Z favours
     directions only the missing regions inform, and the bound over all
     candidates stays far above it), and the small SDPs are solved to a
-    hundredth of the last gap.
+    tenth of the last gap.
     """
     t0 = time.perf_counter()
     c, p, r = problem.n_candidates, problem.n_params, problem.count
@@ -68,7 +68,7 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
     bound, gap, sdp_time, counts = np.inf, np.inf, 0.0, {"clarabel": 0, "inexact": 0}
     for rounds in range(1, max_rounds + 1):
         idx = np.array(sorted(working))
-        inner = max(INNER_TOL_SHARE * tol, min(INNER_TOL_MAX, 0.01 * gap))
+        inner = max(INNER_TOL_SHARE * tol, min(INNER_TOL_MAX, 0.1 * gap))
         small_value, wr, x, nu, dt, used = _small_e_sdp(problem, idx, basis, agg, tol=inner)
         sdp_time += dt
         if used != "interior-point":
