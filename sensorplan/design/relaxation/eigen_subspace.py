@@ -21,6 +21,12 @@ __all__ = ["solve_eigen_subspace"]
 K_MAX = 160  # basis size beyond which directions are aggregated
 N_MIN, N_MAX = 4, 12  # eigenvectors of Q(w) (the lowest) that join the basis each round
 CLARABEL_MAX_ENTRIES = 200_000  # m k^2 above which a failed small SDP is not handed to cvxpy + Clarabel
+INNER_TOL_MAX = 1e-5  # the small SDPs' tolerance: a tenth of the last certified gap, at most this ...
+INNER_TOL_SHARE = 0.01  # ... and at least this share of ``tol`` (the bound is certified from any multiplier)
+SDP_MAX_ITER = 80  # interior-point steps per small SDP at most (an unfinished iterate still certifies)
+SPREAD = 10  # the first working set also holds every SPREAD-th candidate
+ENTER_MAX = 2  # candidates that join the working set per round, at most this many times R (and 20): the
+# relaxed optimum ties many neighbouring candidates, and the small SDP costs m^2 k^2 on m of them
 
 
 @register_fast_method("eigen-subspace")
@@ -38,7 +44,12 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
     of X is aggregated into W, and the lowest eigenvectors of Q(w) join, so
     the basis stays small (Helmberg & Rendl, SIAM J. Optim. 10 (2000)
     673-696); candidates whose <Z, I_i> exceeds the count multiplier join the
-    working set, until the gap is below ``tol``.
+    working set, until the gap is below ``tol``.  The working set always
+    holds candidates spread evenly over the grid (a dense grid's neighbours
+    are near copies of each other: without them the small SDP's Z favours
+    directions only the missing regions inform, and the bound over all
+    candidates stays far above it), and the small SDPs are solved to a
+    tenth of the last gap.
     """
     t0 = time.perf_counter()
     c, p, r = problem.n_candidates, problem.n_params, problem.count
@@ -47,14 +58,18 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
     basis = vec[:, : min(p, k0)]
     agg = _Aggregate.start(problem, vec[:, min(p, k0)] if p > k0 else None)
     g = problem.block_dot(basis @ basis.T)
-    working = set(np.argsort(-g, kind="stable")[:initial_size(c, r, 4)].tolist())
+    working = set(np.argsort(-g, kind="stable")[:initial_size(c, r, 4, cap=ENTER_MAX * r + 20)].tolist())
+    # and candidates spread evenly over the grid, kept throughout, so that no region is missing from the certificates
+    spread = set(np.linspace(0, c - 1, min(c, max(ENTER_MAX * r + 20, c // SPREAD))).astype(int).tolist())
+    working |= spread
     if start_layout is not None:
         working |= set(int(i) for i in start_layout)
     best = (-np.inf, None)
     bound, gap, sdp_time, counts = np.inf, np.inf, 0.0, {"clarabel": 0, "inexact": 0}
     for rounds in range(1, max_rounds + 1):
         idx = np.array(sorted(working))
-        small_value, wr, x, nu, dt, used = _small_e_sdp(problem, idx, basis, agg, tol=0.01 * tol)
+        inner = max(INNER_TOL_SHARE * tol, min(INNER_TOL_MAX, 0.1 * gap))
+        small_value, wr, x, nu, dt, used = _small_e_sdp(problem, idx, basis, agg, tol=inner)
         sdp_time += dt
         if used != "interior-point":
             counts[used] += 1
@@ -71,6 +86,7 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
         if gap <= tol:
             break
         _grow_working_set(problem, working, idx, (wr, z, nu, small_value), bound, tol)
+        working |= spread
         basis, agg = _next_basis(problem, basis, x, agg, vec, lam, small_value)
     stats = {"solver": "eigen-subspace+interior-point", "status": "optimal" if gap <= tol else "gap above tolerance",
              "rounds": rounds, "working_set": len(working), "subspace": basis.shape[1],
@@ -124,8 +140,9 @@ def _next_basis(problem, basis, x, agg, vec, lam, small_value):
 
 
 def _grow_working_set(problem, working, idx, sdp, bound, tol):
-    """Add the candidates that would enter while the working set limits the small SDP (at most as many
-    as it holds); drop those with no weight and a gradient well below the threshold (in place)."""
+    """Add the candidates that would enter while the working set limits the small SDP (the best
+    max(ENTER_MAX R, 20, a quarter of the set)); drop those with no weight and a gradient well below the
+    threshold (in place)."""
     wr, z, nu, small_value = sdp
     c, r = problem.n_candidates, problem.count
     trace = max(float(np.trace(z)), 1e-300)
@@ -134,7 +151,7 @@ def _grow_working_set(problem, working, idx, sdp, bound, tol):
     if small_value < bound - 0.1 * tol * max(1.0, abs(bound)) and len(working) < c:
         outside = np.setdiff1d(np.arange(c), idx)
         enter = outside[gz[outside] > threshold]
-        enter = enter[np.argsort(-gz[enter], kind="stable")][: max(2 * r, 20, len(working))]
+        enter = enter[np.argsort(-gz[enter], kind="stable")][: max(ENTER_MAX * r, 20, len(working) // 4)]
         working |= set(enter.tolist())
     # (the SDP is solved afresh each round, so a smaller set only saves time)
     working -= set(idx[(wr < 1e-7) & (gz[idx] < threshold - 0.05 * abs(threshold))].tolist())
@@ -160,7 +177,8 @@ def _small_e_sdp(problem, idx, basis, agg, *, tol):
         b0[k, k], bmat[:, k, k] = agg.q0_dot, agg.dots[idx]
     bmat = 0.5 * (bmat + bmat.transpose(0, 2, 1))
     rows, rhs = _side_rows(problem, idx)
-    value, w, x, nu, status, _ = lmi.lmi_interior_point(0.5 * (b0 + b0.T), bmat, rows, rhs, problem.count, tol=tol)
+    value, w, x, nu, status, _ = lmi.lmi_interior_point(0.5 * (b0 + b0.T), bmat, rows, rhs, problem.count, tol=tol,
+                                                         max_iter=SDP_MAX_ITER)
     if status == "optimal":
         return value, np.clip(w, 0.0, 1.0), x, abs(nu), time.perf_counter() - start, "interior-point"
     if w is not None and np.all(np.isfinite(w)) and np.all(np.isfinite(x)):
