@@ -57,13 +57,7 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
     lam, vec = np.linalg.eigh(problem.precision(w))
     basis = vec[:, : min(p, k0)]
     agg = _Aggregate.start(problem, vec[:, min(p, k0)] if p > k0 else None)
-    g = problem.block_dot(basis @ basis.T)
-    working = set(np.argsort(-g, kind="stable")[:initial_size(c, r, 4, cap=ENTER_MAX * r + 20)].tolist())
-    # and candidates spread evenly over the grid, kept throughout, so that no region is missing from the certificates
-    spread = set(np.linspace(0, c - 1, min(c, max(ENTER_MAX * r + 20, c // SPREAD))).astype(int).tolist())
-    working |= spread
-    if start_layout is not None:
-        working |= set(int(i) for i in start_layout)
+    working, spread = _first_working_set(problem, basis, start_layout)
     best = (-np.inf, None)
     bound, gap, sdp_time, counts = np.inf, np.inf, 0.0, {"clarabel": 0, "inexact": 0}
     for rounds in range(1, max_rounds + 1):
@@ -93,6 +87,20 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
              "sdp_time_s": sdp_time, "clarabel_fallbacks": counts["clarabel"], "inexact_sdps": counts["inexact"],
              "time_s": time.perf_counter() - t0}
     return Relaxation(best[1], best[0], max(bound, best[0]), "fast", stats)
+
+
+def _first_working_set(problem, basis, start_layout):
+    """(working set, spread): the candidates most informative along ``basis``, the start layout, and
+    candidates spread evenly over the grid (kept throughout, so that no region is missing from the
+    certificates)."""
+    c, r = problem.n_candidates, problem.count
+    g = problem.block_dot(basis @ basis.T)
+    working = set(np.argsort(-g, kind="stable")[:initial_size(c, r, 4, cap=ENTER_MAX * r + 20)].tolist())
+    spread = set(np.linspace(0, c - 1, min(c, max(ENTER_MAX * r + 20, c // SPREAD))).astype(int).tolist())
+    working |= spread
+    if start_layout is not None:
+        working |= set(int(i) for i in start_layout)
+    return working, spread
 
 
 class _Aggregate:
