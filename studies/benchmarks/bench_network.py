@@ -49,26 +49,67 @@ timeout of ``TIMEOUT_S``; a child that times out or fails is reported as such.
 
 Last run
 --------
-2026-11-28 04:43-04:56 UTC, branch s16-relax (f1307fc: preconditioner rows
-extended at the stale point, structured rounds keeping members down to
-weight 1e-3 and solving the first rounds to 1e-4), one BLAS thread,
-children one at a time, machine shared with three other jobs (load
-average 3.5-4.7 on 2 cores; CPU seconds are inflated by the contention,
-compare stages with care against the quieter run below)::
+2026-11-28 05:00-05:27 UTC, branch s16-int (= main after this session: the
+structured blocks' sums and congruences made cheaper, the whitened split
+bounds and LAPACK factorisations of greedy and exchange, the
+preconditioner's factors extended across rounds, E's spread working set,
+and the children tuned as the command line is, ``keep_freed_memory``), one
+BLAS thread, children one at a time, the clean-clone CI suite or a helper
+on the other core (load average about 2)::
 
     configuration                      build  base greedy  relax   best  curve  total     gap   eff  peak
-    D N=400 C=3000 R=20                  1.2   7.6   20.4   36.8   46.2    2.9  115.0  1.8e-10 0.989  1.87
-    A N=400 C=3000 R=20                  0.7   8.0   30.2   57.2   85.5    4.1  185.8  1.0e-8  0.928  2.72
-    mixed D N=400 C=3000 R=20            0.9  12.1   15.5   26.6   42.0    5.7  102.8  1.5e-9  0.989  2.04
+    D N=400 C=3000 R=20                  0.8   2.6    5.6   29.6   24.1    1.9   64.7  1.8e-10 0.989  2.00
+    A N=400 C=3000 R=20                  0.7   2.8   14.4   46.2   57.4    2.6  124.2  1.0e-8  0.928  3.17
+    E N=400 C=3000 R=20                  0.7   3.0    4.5  201.3   41.3    3.4  254.1  6.6e-8  0.897  1.42
+    mixed D N=400 C=3000 R=20            1.6   4.4    7.4   20.0   29.7    4.1   67.1  1.5e-9  0.989  2.21
+    growth, D:
+    D N=400 C=200  R=20                  0.3   2.0    2.4    4.7   15.0    1.9   26.3  1.4e-9  0.990  0.84
+    D N=400 C=400  R=20                  0.3   2.1    3.2    8.8   21.5    2.0   37.9  2.5e-9  0.990  1.28
+    D N=400 C=800  R=20                  0.4   2.4    4.1   15.7   17.6    1.8   42.0  4.1e-10 0.990  1.78
+    D N=400 C=1600 R=20                  0.5   2.4    5.1   21.4   21.4    1.8   52.6  1.6e-8  0.989  2.04
+    D N=60  C=800  R=20 (dense)          0.4   0.1    0.1    0.1    0.5    0.1    1.2  1.9e-10 0.972  0.22
+    D N=120 C=800  R=20 (dense)          0.8   0.2    0.3    0.7    4.5    0.3    6.9  7.9e-10 0.980  0.40
+    D N=240 C=800  R=20                  0.2   0.8    1.5    3.7    7.7    0.5   14.4  1.9e-8  0.985  0.58
+    D N=400 C=800  R=20                  0.4   2.2    4.5   14.7   17.3    1.8   40.8  4.1e-10 0.990  1.78
 
-The relaxations: D 15 rounds, working set 271, 207 Newton steps, 2 full
-preconditioner refreshes (1,550 Hessian rows in all, was 3,781), 625
-conjugate-gradient iterations; A 13 rounds, 614, 203 steps, 4 refreshes
-(2,865 rows, was 6,366); mixed 9 rounds, 234, 132 steps.  Gaps within
-the tolerance 1e-7, each optimum below the other run's bound, the
-recommended layouts' efficiencies as below.  The relaxation stage alone
-(the greedy start fixed), measured before and after under the same load:
-D 41.2 -> 33.4 s, A 74.5 -> 53.3 s.
+The recommended layouts keep their methods and certified efficiencies
+(D 0.98937 "greedy + exchange", A 0.92762 "relaxation rounding +
+exchange"); on the search's branch the greedy and recommended layouts and
+utilities were checked equal to the session before's bit for bit (D
+greedy 1971.1630690600293, recommended 1971.460873879109; A recommended
+-5.9090643321625596), and the relaxations' optima agree within each
+other's bounds.  Relaxations: D 15 rounds,
+working set 271, 207 Newton steps, 2 full preconditioner refreshes (1,550
+Hessian rows, was 3,781), 625 CG iterations; A 13 rounds, 614, 203 steps;
+E 24 rounds, working set 865, basis 120 directions (the small SDPs are
+nearly all of its time: 10-25 s each at the end).  Kernel CPU (page
+faults of fresh mappings) of the D child: 15.2 s untuned, 2.4 s tuned.
+
+Acceptance (issue 38) at N = 400, C = 3,000, R = 20:
+
+* D: 64.7 s CPU (not met: < 60 s; 107.3 s before this session, 304.6 s at
+  d95c1d0), gap 1.8e-10 (met), peak 2.00 GiB (met).
+* A: 124.2 s (not met; 178.7 s before), gap 1.0e-8 (met), peak 3.17 GiB
+  (met).
+* E: 254.1 s (not met; did not finish before), gap 6.6e-8 (met), peak
+  1.42 GiB (met).
+* Mixed kinds (rotation + deflection, costs 1 and 3, budget 40): 67.1 s
+  (met: < 120 s), gap 1.5e-9, peak 2.21 GiB.
+
+Cost growth (D, least squares on the logs, the rows above with the target
+row): time ~ C^0.31 at N = 400, C = 200 -> 3,000 (26.3 -> 64.7 s); time ~
+N^1.75 at C = 800, N = 60 -> 400 (1.2 -> 40.8 s; N <= 120 on dense
+blocks).  Before this session C^0.37 and N^1.9; before issue 38's work
+(79499f2) C^0.61 and N^2.2.  The up-front estimate
+(:mod:`sensorplan.design.resources`) is now 2-3x high for structured
+blocks (154 s at the target) and 2x low for N = 120 on dense blocks.
+
+Where the time goes now (D at the target, cProfile): the relaxation's
+Hessian products in CG (13 s: structured sum, W S W, inner products; about
+P^3 each) and preconditioner rows (6.5 s); in best the three coarse-grid
+exchanges (about 5 s each: eigen-split bounds k = 16 and ~30 exact
+evaluations per replacement search on the 151-candidate grid) and the
+polish (10 s); the congruences V^T I_i V of the bounds (8 s, 380 calls).
 
 Earlier, 2026-11-28 02:30-02:50 UTC, branch s15-int2 (commits e20b965..fb2a57d:
 the Newton-CG interior point on structured blocks, the screened greedy and
