@@ -5,7 +5,9 @@ code), brute force over every candidate (argmax, greedy step, swap), and the den
 :func:`sensorplan.model.fisher.fisher_blocks` for the structured congruences.
 """
 
+import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,6 +17,9 @@ from hypothesis import strategies as st
 from sensorplan.design.criteria import make_criterion
 from sensorplan.design.problem import DesignProblem
 from sensorplan.design.screening import best_candidate
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from design_problems import structured_three_span  # noqa: E402
 
 EXACT = {"D": lambda m: np.linalg.slogdet(m)[1], "A": lambda m: -np.trace(np.linalg.inv(m)),
          "E": lambda m: np.linalg.eigvalsh(m)[0]}
@@ -104,18 +109,7 @@ def _brute_greedy(problem):
 
 @pytest.fixture(scope="module")
 def structured_problem():
-    from sensorplan.design import recommend as module
-    from sensorplan.design.recommend import CandidateGrid, build_problem
-    from sensorplan.io.config import example_case
-
-    keep = module.DENSE_CACHE_BYTES
-    module.DENSE_CACHE_BYTES = 0  # structured blocks even where dense ones fit
-    try:
-        problem = build_problem(example_case("three-span"), 5, "D", grid=CandidateGrid(spacing=0.5))
-    finally:
-        module.DENSE_CACHE_BYTES = keep
-    assert problem.structured
-    return problem
+    return structured_three_span()
 
 
 @pytest.mark.parametrize("name", ["D", "A", "E"])

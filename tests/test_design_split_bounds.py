@@ -4,7 +4,9 @@ References: exact values computed here with numpy's slogdet or inverse of Q + I_
 over every candidate (greedy steps, swaps).
 """
 
+import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,6 +15,9 @@ from hypothesis import strategies as st
 
 from sensorplan.design.criteria import make_criterion
 from sensorplan.design.problem import DesignProblem
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from design_problems import structured_three_span  # noqa: E402
 
 
 def _random_problem(seed, *, c=30, p=10, rank=3):
@@ -66,18 +71,7 @@ def test_ds_has_no_split_bounds_and_searches_keep_the_eigen_split_levels():
 
 @pytest.fixture(scope="module")
 def structured_problem():
-    from sensorplan.design import recommend as module
-    from sensorplan.design.recommend import CandidateGrid, build_problem
-    from sensorplan.io.config import example_case
-
-    keep = module.DENSE_CACHE_BYTES
-    module.DENSE_CACHE_BYTES = 0  # structured blocks even where dense ones fit
-    try:
-        problem = build_problem(example_case("three-span"), 5, "D", grid=CandidateGrid(spacing=0.5))
-    finally:
-        module.DENSE_CACHE_BYTES = keep
-    assert problem.structured
-    return problem
+    return structured_three_span()
 
 
 def test_split_bounds_on_structured_blocks_hold_and_are_exact_with_every_direction(structured_problem):
