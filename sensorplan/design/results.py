@@ -214,9 +214,10 @@ class DesignResult:
         if self.support_margin_m > 0:
             lines.append(f"  candidates kept at least {self.support_margin_m:g} m from every support")
         lines += [f"  {note}" for note in self.support_notes]
-        gap = self.value - self.bound
+        gap = self.value - self.bound  # a maximised criterion sits below its bound, a minimised one above
+        side = "below" if gap < 0 else "above"
         how = "relaxation" if self.solver.details.get("bound_method", "relaxation") == "relaxation" else "exact"
-        lines.append(f"  criterion {self.value:.6g}; {how} bound {self.bound:.6g}; gap {gap:.3g}; "
+        lines.append(f"  criterion {self.value:.6g}; {how} bound {self.bound:.6g}, {abs(gap):.3g} {side} it; "
                      f"certified efficiency >= {100 * self.efficiency:.2f} %  (method: {self.method})")
         if how == "exact":
             lines.append(f"  bound: {self.solver.details['bound_method']}")
