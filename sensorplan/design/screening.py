@@ -38,8 +38,9 @@ BOUND_BYTES = 2**28  # size of one (n, k, k) array of eigen-split blocks compute
 
 
 def slack(u):
-    """Round-off allowance on a bound (the bound and the exact value are computed differently)."""
-    return 1e-9 * max(1.0, abs(u))
+    """Round-off allowance on a bound or an array of bounds (the bound and the exact value are computed
+    differently)."""
+    return 1e-9 * np.maximum(1.0, np.abs(u))
 
 
 def best_candidate(problem, q, order, bound, evaluate, *, floor=-np.inf, usable=None, batch=8, refine=(),
@@ -134,13 +135,8 @@ def _tighter(problem, q, index, k, eig):
         return None
     if eig is None:
         eig = np.linalg.eigh(0.5 * (q + q.T))
-    index = np.asarray(index, dtype=int)
-    step = max(1, BOUND_BYTES // (8 * k * k))  # candidates a call: bounds the (n, k, k) temporaries
-    parts = [method(problem, q, index[s:s + step], k=k, eig=eig) for s in range(0, index.size, step)]
-    if any(part is None for part in parts):
-        return None
-    tight = np.concatenate([np.asarray(part, dtype=float) for part in parts])
-    return tight + 1e-9 * np.maximum(1.0, np.abs(tight)), eig
+    tight = _in_chunks(lambda part: method(problem, q, part, k=k, eig=eig), index, k)
+    return None if tight is None else (tight, eig)
 
 
 def _worth_splitting(problem, alive):
@@ -166,10 +162,16 @@ def _split(problem, q, index, k):
         basis = scipy.linalg.eigh(white, subset_by_index=[p - k, p - 1], driver="evr", check_finite=False)[1]
     else:
         basis = scipy.linalg.eigh(white, driver="evd", check_finite=False)[1][:, p - k:]
+    return _in_chunks(lambda part: problem.criterion.split_bounds(problem, q, part, basis=basis, chol=chol), index, k)
+
+
+def _in_chunks(bounds, index, k):
+    """``bounds(part)`` over ``index`` a part at a time (a part's (n, k, k) temporaries within ``BOUND_BYTES``),
+    with the round-off allowance; None if the criterion gave none."""
+    index = np.asarray(index, dtype=int)
     step = max(1, BOUND_BYTES // (8 * k * k))
-    parts = [problem.criterion.split_bounds(problem, q, index[s:s + step], basis=basis, chol=chol)
-             for s in range(0, index.size, step)]
+    parts = [bounds(index[s:s + step]) for s in range(0, index.size, step)]
     if any(part is None for part in parts):
         return None
     tight = np.concatenate([np.asarray(part, dtype=float) for part in parts])
-    return tight + 1e-9 * np.maximum(1.0, np.abs(tight))
+    return tight + slack(tight)

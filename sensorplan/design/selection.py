@@ -67,7 +67,7 @@ def iter_greedy(problem, *, start=()):
             ub, eig = _first_bounds(problem, q)
             ok = np.array(ok)
             best, _ = best_candidate(problem, q, ok[np.argsort(-ub[ok], kind="stable")],
-                                     ub + 1e-9 * np.maximum(1.0, np.abs(ub)),
+                                     ub + slack(ub),
                                      lambda group, above, q=q: crit.utilities_above(q, problem.blocks[group], above),
                                      batch=batch, refine=_after_first(problem), local=_local_levels(problem), eig=eig)
         chosen.append(int(best))
@@ -224,7 +224,7 @@ def _best_replacement(problem, rest, q_rest, taken, best, order, ub=None, eig=No
     # evaluated together, crit.batch_size at a time (cheaper per candidate for some criteria); structured
     # blocks are formed densely a batch at a time: one pass over the shared products per batch
     batch = max(crit.batch_size, STRUCTURED_BATCH) if problem.structured else crit.batch_size
-    bound = np.full(problem.n_candidates, np.inf) if ub is None else ub + 1e-9 * np.maximum(1.0, np.abs(ub))
+    bound = np.full(problem.n_candidates, np.inf) if ub is None else ub + slack(ub)
     cand, _ = best_candidate(problem, q_rest, [int(i) for i in order], bound,
                              lambda group, above: crit.utilities_above(q_rest, problem.blocks[group], above),
                              floor=best + 1e-12 * max(1.0, abs(best)),

@@ -17,7 +17,7 @@ coefficients t_c, r_c = (J_c - g_c e_j^T)^T g_c and g_c^T g_c: sums over
 candidates become cumulative sums over the mask's first element, and
 <G, F_c> for all c costs O(A^2 P^2 + C (A^2 + P)) instead of C P^2.
 
-Owns: BlockFamily, StructuredBlocks.  May import: nothing of the package.
+Owns: BlockFamily, StructuredBlocks, suffix_sums, sums_by_start.  May import: nothing of the package.
 """
 
 from dataclasses import dataclass
@@ -28,7 +28,7 @@ import scipy.sparse
 
 from ..._cache import Cache
 
-__all__ = ["BlockFamily", "StructuredBlocks", "DENSE_CACHE_BYTES"]
+__all__ = ["BlockFamily", "StructuredBlocks", "DENSE_CACHE_BYTES", "suffix_sums", "sums_by_start"]
 
 DENSE_CACHE_BYTES = 2**30  # dense blocks kept (greedy and exchange evaluate the same few candidates many times)
 _FROM_PRODUCTS = ("_pair_matrices", "_free_flat", "_triangles")  # derived from the shared products only
@@ -38,11 +38,20 @@ def _symmetrise(a):
     return 0.5 * (a + np.swapaxes(a, -1, -2))
 
 
-def _suffix(values, n):
-    """Suffix sums over the first axis with a trailing zero: out[s] = sum_{j >= s} values[j], shape (n + 1, ...)."""
-    out = np.zeros((n + 1,) + values.shape[1:])
-    out[:n] = np.cumsum(values[::-1], axis=0)[::-1]
+def suffix_sums(values):
+    """Suffix sums over the first axis with a trailing zero (a mask that starts past the last element):
+    out[s] = sum_{j >= s} values[j], shape (n + 1, ...) for n rows, in ``values``' precision."""
+    out = np.zeros((values.shape[0] + 1,) + values.shape[1:], dtype=values.dtype)
+    out[:-1] = np.cumsum(values[::-1], axis=0)[::-1]
     return out
+
+
+def sums_by_start(values, start, n):
+    """S[j] = sum of the rows of ``values`` whose mask ``start`` is at or before j, shape (n, ...), in
+    ``values``' precision (n the number of parameters)."""
+    spread = np.zeros((n + 1,) + values.shape[1:], dtype=values.dtype)
+    np.add.at(spread, start, values)
+    return np.cumsum(spread, axis=0)[:n]
 
 
 @dataclass(frozen=True, eq=False)
@@ -148,14 +157,6 @@ class BlockFamily:
         out[rows, e, e] += self.own[local]
         return _symmetrise(out)
 
-    def _cumulative(self, values, start=None):
-        """S[j] = sum of ``values`` over the members (starting at ``start``, default the members' own) whose
-        mask starts at or before j, shape (P, ...)."""
-        p = self.n_params
-        spread = np.zeros((p + 1,) + values.shape[1:])
-        np.add.at(spread, self.start if start is None else start, values)
-        return np.cumsum(spread, axis=0)[:p]
-
     def weighted(self, w):
         """sum_c w_c F_c over the members (``w`` in member order; members without weight are skipped)."""
         f, p = self.n_free, self.n_params
@@ -165,10 +166,10 @@ class BlockFamily:
         pair = wt.T @ coef
         out = (pair[:f, :f].reshape(1, f * f) @ self._free_flat).reshape(p, p)  # sum_ab pair_ab X_ab
         mixed, masked = self._weighted_layout
-        s = self._cumulative(wt[:, :f, None] * coef[:, None, f:], elem + 1).reshape(p, -1)  # (P, f m)
+        s = sums_by_start(wt[:, :f, None] * coef[:, None, f:], elem + 1, p).reshape(p, -1)  # (P, f m)
         y = np.einsum("ijk,jk->ij", mixed, s)  # sum_ab X_ab[i, j] s[j, a, b] (a free, b masked)
         out += y + y.T
-        s2 = self._cumulative(wt[:, f:, None] * coef[:, None, f:], elem + 1).reshape(p, -1)  # (P, m m)
+        s2 = sums_by_start(wt[:, f:, None] * coef[:, None, f:], elem + 1, p).reshape(p, -1)  # (P, m m)
         low = np.minimum.outer(np.arange(p), np.arange(p))
         out += np.einsum("ijk,ijk->ij", masked, s2[low])
         # sum_c w_c (e_j r_c^T + r_c e_j^T): the rows r_c summed by element (a sparse (P, members) product)
@@ -184,14 +185,14 @@ class BlockFamily:
         tu, tm = self.coef[:, :f], self.coef[:, f:]
         zu = np.dot(self._free_flat, g.reshape(p * p, 1)).reshape(f, f)  # tensordot(uu, g, ([1, 3], [0, 1]))
         out = np.einsum("ca,ab,cb->c", tu, zu, tu)
-        v = _suffix(np.einsum("aibj,ij->jab", um, g), p)  # (P + 1, f, m): sum over j >= s of column sums
+        v = suffix_sums(np.einsum("aibj,ij->jab", um, g))  # (P + 1, f, m): sum over j >= s of column sums
         out += 2.0 * np.einsum("ca,cab,cb->c", tu, v[self.start], tm)
         n_m = mm.shape[0]
         q = np.zeros((p + 1, n_m, n_m))  # q[s] = sum over i, j >= s of G (.) X_ab
         for a in range(n_m):
             for b in range(n_m):
                 e = mm[a, :, b, :] * g
-                q[:, a, b] = _suffix(np.triu(e).sum(axis=1) + np.tril(e, -1).sum(axis=0), p)
+                q[:, a, b] = suffix_sums(np.triu(e).sum(axis=1) + np.tril(e, -1).sum(axis=0))
         out += np.einsum("ca,cab,cb->c", tm, q[self.start], tm)
         out += 2.0 * np.einsum("ck,ck->c", g[self.elem], self.cross) + self.own * g[self.elem, self.elem]
         return out

@@ -14,7 +14,7 @@ import scipy.linalg
 
 from ..._errors import ConfigError
 from .base import Criterion
-from .linalg import (congruence, eigen_split, inverse, inverse_from_cholesky, log_det, lower_factor,
+from .linalg import (congruence, eigen_split, inverse, inverse_from_cholesky, log_det, log_dets, lower_factor,
                      packed_upper, symmetrise, whitened_blocks)
 from .registry import register_criterion
 
@@ -65,7 +65,7 @@ class DCriterion(Criterion):
         on V, concavity of log det on W.  A larger k gives tighter bounds (k = P: the exact values)."""
         lam, v, w, small = eigen_split(problem, q, k, index=index, eig=eig)
         k = v.shape[1]
-        logdet = 2.0 * np.log(np.diagonal(np.linalg.cholesky(small), axis1=1, axis2=2)).sum(axis=1)
+        logdet = log_dets(small)
         first = problem.block_dot((w / lam[k:]) @ w.T, index)
         return logdet + float(np.sum(np.log(lam[k:]))) + first
 
@@ -78,7 +78,7 @@ class DCriterion(Criterion):
         k = small.shape[1]
         inside = np.trace(small, axis1=1, axis2=2)
         small[:, np.arange(k), np.arange(k)] += 1.0
-        logdet = 2.0 * np.log(np.diagonal(np.linalg.cholesky(small), axis1=1, axis2=2)).sum(axis=1)
+        logdet = log_dets(small)
         rest = np.maximum(problem.block_dot(inverse_from_cholesky(chol), index) - inside, 0.0)
         return 2.0 * float(np.sum(np.log(np.diag(chol)))) + logdet + rest
 

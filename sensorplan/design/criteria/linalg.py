@@ -8,8 +8,8 @@ import scipy.linalg
 
 from ..._errors import ConfigError
 
-__all__ = ["symmetrise", "cholesky", "lower_factor", "log_det", "inverse", "whitened_blocks", "symmetric_gram", "packed_upper", "inverse_from_cholesky",
-           "congruence", "eigen_split"]
+__all__ = ["symmetrise", "cholesky", "lower_factor", "log_det", "log_dets", "inverse", "whitened_blocks", "packed_upper",
+           "inverse_from_cholesky", "congruence", "eigen_split"]
 
 
 def symmetrise(q):
@@ -33,6 +33,11 @@ def lower_factor(q):
     if info != 0:
         raise ConfigError("The posterior precision is not positive definite; the prior must be proper.")
     return factor
+
+
+def log_dets(mats):
+    """log det of each positive definite matrix of the stack ``mats`` (n, k, k), from their Cholesky factors."""
+    return 2.0 * np.log(np.diagonal(np.linalg.cholesky(mats), axis1=1, axis2=2)).sum(axis=1)
 
 
 def log_det(q):
@@ -63,12 +68,6 @@ def inverse_from_cholesky(chol):
 def congruence(w, s):
     """W S W for symmetric W and S (symmetric, by construction)."""
     return symmetrise(w @ symmetrise(s) @ w)
-
-
-def symmetric_gram(a):
-    """<A_i, A_j>_F for symmetric A (m, P, P), from the upper triangles, in double precision."""
-    v = packed_upper(a)
-    return (v @ v.T).astype(float)
 
 
 def packed_upper(a):

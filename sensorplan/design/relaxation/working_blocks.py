@@ -10,19 +10,14 @@ are laid out once per working set in the order the contractions read them
 per column), so that each sum or inner product is a few matrix-vector
 products and no transposed copy of the products is made per call.
 
-Owns: WorkingBlocks.  May import: nothing of the package.
+Owns: WorkingBlocks.  May import: design.blocks.
 """
 
 import numpy as np
 
+from ..blocks.algebra import suffix_sums, sums_by_start
+
 __all__ = ["WorkingBlocks"]
-
-
-def _suffix(values):
-    """out[s] = sum_{j >= s} values[j], with a trailing zero row (a mask that starts past the last element)."""
-    out = np.zeros((values.shape[0] + 1,) + values.shape[1:], dtype=values.dtype)
-    out[:-1] = np.cumsum(values[::-1], axis=0)[::-1]
-    return out
 
 
 class _Family:
@@ -50,12 +45,6 @@ class _Family:
         self.mm_upper, self.mm_lower = self.mm * upper, self.mm * (1.0 - upper)  # j >= i, and i > j
         self.low = np.minimum.outer(np.arange(p), np.arange(p))
 
-    def _cumulative(self, values):
-        """S[j] = sum of ``values`` over the members whose mask starts at or before j, shape (P, ...)."""
-        spread = np.zeros((self.p + 1,) + values.shape[1:], dtype=self.dtype)
-        np.add.at(spread, self.start, values)
-        return np.cumsum(spread, axis=0)[:self.p]
-
     def weighted(self, w):
         """sum_c w_c F_c over the members (not yet symmetrised)."""
         f, p, t = self.f, self.p, self.coef
@@ -64,10 +53,10 @@ class _Family:
         out = np.zeros((p, p), dtype=self.dtype)
         out[self.tri] = packed
         out += np.triu(out, 1).T
-        s = self._cumulative((wt[:, :f, None] * t[:, None, f:]).reshape(len(w), -1))  # (P, f * m)
+        s = sums_by_start((wt[:, :f, None] * t[:, None, f:]).reshape(len(w), -1), self.start, p)  # (P, f * m)
         y = np.matmul(self.um, s[:, :, None])[:, :, 0]  # y[j, i] = sum_k X_k[i, j] s[j, k]
         out += y + y.T
-        s2 = self._cumulative((wt[:, f:, None] * t[:, None, f:]).reshape(len(w), -1))  # (P, m * m)
+        s2 = sums_by_start((wt[:, f:, None] * t[:, None, f:]).reshape(len(w), -1), self.start, p)  # (P, m * m)
         out += np.einsum("ijk,ijk->ij", self.mm, s2[self.low])
         part = np.zeros((p, p), dtype=self.dtype)
         np.add.at(part, self.elem, w[:, None] * self.cross)
@@ -83,10 +72,10 @@ class _Family:
         zu[self.pairs] = self.uu @ (g[self.tri] * self.off)  # <S_ab, G> = 2 <X_ab, G> (a < b), <X_aa, G>
         zu = (zu + zu.T) / 2.0
         out = np.einsum("ca,ab,cb->c", tu, zu, tu)
-        v = _suffix(np.einsum("jik,ij->jk", self.um, g))  # sum over j >= s of column j of X_k (.) G
+        v = suffix_sums(np.einsum("jik,ij->jk", self.um, g))  # sum over j >= s of column j of X_k (.) G
         out += 2.0 * np.einsum("ca,cab,cb->c", tu, v[self.start].reshape(-1, f, tm.shape[1]), tm)
         # sum over i, j >= s of X_k (.) G: each pair counted once, at the smaller of i and j
-        q = _suffix(np.einsum("ijk,ij->ik", self.mm_upper, g) + np.einsum("ijk,ij->jk", self.mm_lower, g))
+        q = suffix_sums(np.einsum("ijk,ij->ik", self.mm_upper, g) + np.einsum("ijk,ij->jk", self.mm_lower, g))
         n_m = tm.shape[1]
         out += np.einsum("ca,cab,cb->c", tm, q[self.start].reshape(-1, n_m, n_m), tm)
         out += 2.0 * np.einsum("ck,ck->c", g[self.elem], self.cross) + self.own * g[self.elem, self.elem]
