@@ -101,7 +101,9 @@ def _first_bounds(problem, q):
     tighter bounds on the survivors reuse it), else None."""
     method = getattr(problem.criterion, "subset_bounds", None)
     if problem.structured and method is not None:
-        eig = np.linalg.eigh(0.5 * (q + q.T))
+        # a criterion whose bounds use only the k smallest eigenvectors computes those alone (no eig passed on)
+        smallest = getattr(problem.criterion, "smallest_eigenvectors_only", False)
+        eig = None if smallest else np.linalg.eigh(0.5 * (q + q.T))
         ub = method(problem, q, k=16, eig=eig)
         if ub is not None:
             return ub, eig
