@@ -108,7 +108,8 @@ class DesignProblem:
         if self.structured:
             # a few blocks from the cache (greedy and exchange keep a layout's there) cost less than the sum
             if len(index) <= SMALL_LAYOUT and len(index) - self.blocks.held(index) <= SMALL_LAYOUT // 8:
-                return self.q0 + self.blocks[index].sum(axis=0)
+                blocks = self.blocks.each(index)
+                return self.q0 + _summed(blocks) if blocks else self.q0.copy()
             return self.q0 + self.blocks.weighted(np.bincount(index, minlength=self.n_candidates).astype(float))
         step = self._chunk
         if len(index) <= step:
@@ -117,6 +118,13 @@ class DesignProblem:
         for start in range(0, len(index), step):
             total += self.blocks[index[start:start + step]].sum(axis=0)
         return total
+
+    def block_list(self, index):
+        """The dense blocks of the candidates at ``index`` as a list of read-only arrays (structured blocks:
+        those in their cache without a copy)."""
+        if self.structured:
+            return self.blocks.each(index)
+        return [self.blocks[i] for i in np.atleast_1d(index)]
 
     @cached_property
     def _chunk(self):
@@ -240,3 +248,11 @@ class DesignProblem:
     def dual_bound(self, w):
         """Certified bound on the relaxation optimum of the utility from (near-optimal) weights ``w``."""
         return self.criterion.bound(self, w)
+
+
+def _summed(blocks):
+    """The sum of a list of arrays, added in order (the numbers of ``np.sum(stack, axis=0)``)."""
+    total = blocks[0].copy()
+    for block in blocks[1:]:
+        total += block
+    return total

@@ -56,7 +56,7 @@ def iter_greedy(problem, *, start=()):
                 bounds = _upper_bounds(problem, q)[1] - u_q + slack(u_q)
 
             def gains(group, above, q=q, u_q=u_q):  # every gain exact: they are the bounds of later steps
-                out = [u - u_q for u in crit.utilities(q, problem.blocks[group])]
+                out = [u - u_q for u in crit.utilities(q, problem.block_list(group))]
                 bounds[group] = np.asarray(out) + slack(u_q)  # gains only shrink: bounds for later steps
                 return out
 
@@ -68,7 +68,7 @@ def iter_greedy(problem, *, start=()):
             ok = np.array(ok)
             best, _ = best_candidate(problem, q, ok[np.argsort(-ub[ok], kind="stable")],
                                      ub + slack(ub),
-                                     lambda group, above, q=q: crit.utilities_above(q, problem.blocks[group], above),
+                                     lambda group, above, q=q: crit.utilities_above(q, problem.block_list(group), above),
                                      batch=batch, refine=_after_first(problem), local=_local_levels(problem), eig=eig)
         chosen.append(int(best))
         yield list(chosen), problem.utility_of(chosen)
@@ -228,7 +228,7 @@ def _best_replacement(problem, rest, q_rest, taken, best, order, ub=None, eig=No
     batch = max(crit.batch_size, STRUCTURED_BATCH) if problem.structured else crit.batch_size
     bound = np.full(problem.n_candidates, np.inf) if ub is None else ub + slack(ub)
     cand, _ = best_candidate(problem, q_rest, [int(i) for i in order], bound,
-                             lambda group, above: crit.utilities_above(q_rest, problem.blocks[group], above),
+                             lambda group, above: crit.utilities_above(q_rest, problem.block_list(group), above),
                              floor=best + 1e-12 * max(1.0, abs(best)),
                              usable=lambda i: i not in taken and problem.partial_ok(rest + [i]), batch=batch,
                              refine=_after_first(problem, split=split) if ub is not None else (),

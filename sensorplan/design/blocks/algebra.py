@@ -309,6 +309,25 @@ class StructuredBlocks:
                     self._cache.put((), out[n].copy(), key=int(self._origin[index[n]]))
         return out[0] if single else out
 
+    def each(self, index):
+        """The dense blocks of the candidates at ``index`` as a list of read-only arrays, those in the cache
+        without a copy (``blocks[index]`` copies them into one new array)."""
+        index = np.atleast_1d(np.arange(self.n_candidates)[index])
+        out, missing = [], []
+        for n, i in enumerate(index):
+            found, block = self._cache.lookup((), key=int(self._origin[i]))
+            out.append(block if found else None)
+            if not found:
+                missing.append(n)
+        if missing:
+            formed = self[index[missing]]  # forms and caches them
+            for n, i in enumerate(missing):
+                found, block = self._cache.lookup((), key=int(self._origin[index[i]]))
+                out[i] = block if found else formed[n]
+        for block in out:
+            block.flags.writeable = False
+        return out
+
     def held(self, index):
         """How many of the candidates at ``index`` have their dense block in the cache."""
         return sum(self._cache.lookup((), key=int(self._origin[i]))[0] for i in np.atleast_1d(index))

@@ -61,9 +61,13 @@ class ECriterion(Criterion):
                 continue
             value = smallest_eigenvalue(a, factor, threshold - margin, shifted)
             # within round-off of the threshold the full solver decides (what ``value`` gives): nothing at or
-            # below the threshold is ever reported above it
-            near = value <= threshold + NEAR_THRESHOLD * max(1.0, abs(threshold))
-            out.append(float(np.linalg.eigvalsh(a)[0]) if near else value)
+            # below the threshold is ever reported above it; clearly below it, the value is not needed
+            near = NEAR_THRESHOLD * max(1.0, abs(threshold))
+            if value < threshold - near:
+                value = -np.inf
+            elif value <= threshold + near:
+                value = float(np.linalg.eigvalsh(a)[0])
+            out.append(value)
         return out
 
     def gradient_matrix(self, q):
