@@ -119,6 +119,7 @@ def test_greedy_and_exchange_with_refined_bounds_equal_brute_force(monkeypatch, 
     monkeypatch.setattr(selection, "REFINE_K", ((4, 0), (8, 0), (16, 0), (32, 0)))  # refine whenever anything survives
     monkeypatch.setattr(screening, "BOUND_BYTES", 8 * 32 * 32 * 5)  # the tighter bounds 5 candidates a call at k = 32
     problem = replace(structured_problem, criterion=make_criterion(name, structured_problem.n_params))
+    monkeypatch.setattr(problem.criterion, "refine_levels", None, raising=False)  # the levels above, for A too
     dense = replace(problem, blocks=problem.blocks[np.arange(problem.n_candidates)])
     layout, _ = selection.greedy(problem)
     assert layout == _brute_greedy(dense)

@@ -61,8 +61,8 @@ def iter_greedy(problem, *, start=()):
                 return out
 
             best, _ = best_candidate(problem, q, sorted(ok, key=lambda i: -bounds[i]), bounds, gains, batch=batch,
-                                     refine=_refinements(problem, REFINE_K), local=_local_levels(problem),
-                                     shift=u_q)
+                                     refine=_refinements(problem, _refine_levels(problem)),
+                                     local=_local_levels(problem), shift=u_q)
         else:
             ub, eig = _first_bounds(problem, q)
             ok = np.array(ok)
@@ -77,7 +77,13 @@ def iter_greedy(problem, *, start=()):
 def _after_first(problem, *, split=True):
     """The eigen-split refinements of :func:`~sensorplan.design.screening.best_candidate` after the first bounds
     (k = 16); none where the split bounds of :func:`_local_levels` are used (``split``)."""
-    return _refinements(problem, tuple(level for level in REFINE_K if level[0] > 16), split=split)
+    return _refinements(problem, tuple(level for level in _refine_levels(problem) if level[0] > 16), split=split)
+
+
+def _refine_levels(problem):
+    """The criterion's eigen-split levels (``refine_levels``, where its exact evaluations cost more than a
+    factorisation), else ``REFINE_K``; levels a bound cannot use leave the answer of a search as it is."""
+    return getattr(problem.criterion, "refine_levels", None) or REFINE_K
 
 
 def _refinements(problem, levels, *, split=True):
