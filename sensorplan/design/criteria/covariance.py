@@ -11,10 +11,14 @@ import scipy.linalg
 
 from ..._errors import ConfigError
 from .base import Criterion
-from .linalg import cholesky, eigen_split, inverse_from_cholesky, lower_factor, symmetrise
+from .linalg import cholesky, eigen_split, inverse_from_cholesky, lower_factor, lower_inverse, symmetrise
 from .registry import register_criterion
 
 __all__ = ["ACriterion"]
+
+# relative margin by which the blocked inverse's value must lie below a search's threshold to be settled without
+# dtrtri: both inversions are backward stable, their values agree to round-off (~1e-15 relative) far below this
+LOSER_MARGIN = 1e-9
 
 
 @register_criterion
@@ -66,6 +70,26 @@ class ACriterion(Criterion):
         out = []
         for b in blocks:  # -||L^-1||_F^2 (Q and the blocks are symmetric: the factor reads one triangle)
             z, info = scipy.linalg.lapack.dtrtri(lower_factor(q + b), lower=1)
+            out.append(-float(np.sum(np.tril(z) ** 2)) if info == 0 else self.utility(q + b))
+        return out
+
+    def utilities_above(self, q, blocks, threshold):
+        """As :meth:`utilities` where utility(Q + I_i) may reach ``threshold``; elsewhere -||L^-1||_F^2 from the
+        blocked triangular inverse (:func:`~sensorplan.design.criteria.linalg.lower_inverse`), which is below the
+        threshold by more than its round-off (``LOSER_MARGIN``): a search's losers, most of its evaluations,
+        skip dtrtri, and the values that can win are the ones of :meth:`utilities`."""
+        if not self.all_parameters:
+            return self.utilities(q, blocks)
+        cut = threshold - LOSER_MARGIN * max(1.0, abs(threshold)) if np.isfinite(threshold) else threshold
+        out = []
+        for b in blocks:
+            factor = lower_factor(q + b)
+            z = lower_inverse(factor)
+            fast = -float(np.sum(z * z))
+            if fast < cut:
+                out.append(fast)
+                continue
+            z, info = scipy.linalg.lapack.dtrtri(factor, lower=1)
             out.append(-float(np.sum(np.tril(z) ** 2)) if info == 0 else self.utility(q + b))
         return out
 

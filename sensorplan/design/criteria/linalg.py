@@ -9,7 +9,9 @@ import scipy.linalg
 from ..._errors import ConfigError
 
 __all__ = ["symmetrise", "cholesky", "lower_factor", "log_det", "log_dets", "inverse", "whitened_blocks", "packed_upper",
-           "inverse_from_cholesky", "congruence", "eigen_split"]
+           "inverse_from_cholesky", "congruence", "eigen_split", "lower_inverse"]
+
+INVERSE_LEAF = 128  # lower_inverse: triangles up to this size are inverted by LAPACK's dtrtri directly
 
 
 def symmetrise(q):
@@ -33,6 +35,29 @@ def lower_factor(q):
     if info != 0:
         raise ConfigError("The posterior precision is not positive definite; the prior must be proper.")
     return factor
+
+
+def lower_inverse(factor):
+    """L^-1 (zeros above the diagonal) from the lower triangle of ``factor`` (the other triangle is not read).
+
+    The halves are inverted (recursively) and the off-diagonal block is
+    -L22^-1 L21 L11^-1, two triangular matrix products: BLAS-3 throughout,
+    several times faster than dtrtri on one thread for P = 400; the same
+    inverse up to round-off.
+    """
+    n = factor.shape[0]
+    if n <= INVERSE_LEAF:
+        z, info = scipy.linalg.lapack.dtrtri(factor, lower=1)
+        if info != 0:
+            raise ConfigError("The posterior precision is not positive definite; the prior must be proper.")
+        return np.tril(z)
+    h = n // 2
+    out = np.zeros((n, n), order="F")
+    out[:h, :h] = lower_inverse(factor[:h, :h])
+    out[h:, h:] = lower_inverse(factor[h:, h:])
+    half = scipy.linalg.blas.dtrmm(1.0, out[:h, :h], factor[h:, :h], side=1, lower=1)  # L21 L11^-1
+    out[h:, :h] = scipy.linalg.blas.dtrmm(-1.0, out[h:, h:], half, lower=1)
+    return out
 
 
 def log_dets(mats):
