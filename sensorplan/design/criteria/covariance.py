@@ -11,7 +11,8 @@ import scipy.linalg
 
 from ..._errors import ConfigError
 from .base import Criterion
-from .linalg import cholesky, eigen_split, inverse_from_cholesky, lower_factor, lower_inverse, symmetrise
+from .linalg import (cholesky, eigen_split, factor_inverse, inverse_from_cholesky, lower_factor, lower_inverse,
+                     scaled_gram, symmetrise)
 from .registry import register_criterion
 
 __all__ = ["ACriterion"]
@@ -143,7 +144,7 @@ class ACriterion(Criterion):
         lam, v, w, small = eigen_split(problem, q, k, index=index, eig=eig)
         k = v.shape[1]
         trace = np.trace(np.linalg.inv(small), axis1=1, axis2=2)
-        first = problem.block_dot((w / lam[k:] ** 2) @ w.T, index)
+        first = problem.block_dot(scaled_gram(w, lam[k:] ** -2.0), index)
         return -(trace + float(np.sum(1.0 / lam[k:])) - first)
 
     def split_bounds(self, problem, q, index, *, basis, chol):
@@ -156,13 +157,13 @@ class ACriterion(Criterion):
             return None
         k = basis.shape[1]
         y = scipy.linalg.solve_triangular(chol, basis, lower=True, trans="T", check_finite=False)  # L^-T U
-        q_inv = inverse_from_cholesky(chol)
+        q_inv = factor_inverse(chol)
         both = problem.congruence(np.hstack([q_inv @ y, y]), index)
         cross, small = both[:, :k, k:], both[:, k:, k:]  # U^T H B_i U and C_i
         s = y.T @ y
         d = np.eye(k) - np.linalg.inv(np.eye(k)[None] + small)
         ds = d @ s
-        linear = problem.block_dot(q_inv @ q_inv, index)  # tr H B_i
+        linear = problem.block_dot(q_inv @ q_inv.T, index)  # tr H B_i (Q^-2, a symmetric product)
         tangent = (np.trace(ds, axis1=1, axis2=2) - 2.0 * np.einsum("cij,cji->c", d, cross)
                    - np.einsum("ij,cji->c", s, small) + 2.0 * np.einsum("cij,cji->c", ds, small))
         return -float(np.trace(q_inv)) + linear + tangent
