@@ -29,9 +29,9 @@ class ACriterion(Criterion):
     name = "A"
     description = "trace of the posterior covariance"
     maximise = False
-    # the eigen-split levels of the searches' coarse grid (selection): an exact A evaluation (a factor and its
-    # triangular inverse) costs more than D's, so tighter bounds pay sooner; k = 32 removes too few
-    refine_levels = ((16, 16), (64, 16), (128, 24))
+    # the eigen-split levels of the searches (selection; the first, every candidate's first bounds): an exact A
+    # evaluation (a factor and a triangular inverse) costs more than D's, so tighter bounds pay sooner
+    refine_levels = ((32, 16), (64, 16), (128, 24))
 
     def __init__(self, n_params, *, targets=None):
         super().__init__(n_params)

@@ -28,6 +28,9 @@ class DCriterion(Criterion):
     name = "D"
     description = "log det of the posterior precision"
     submodular = True
+    # the eigen-split levels of the searches (selection; the first, every candidate's first bounds): with k = 32
+    # first, fewer candidates reach the split bounds, whose cost grows with their number
+    refine_levels = ((32, 40), (64, 64), (128, 96))
 
     def value(self, q):
         return log_det(q)
