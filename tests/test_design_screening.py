@@ -119,6 +119,7 @@ def test_greedy_and_exchange_with_refined_bounds_equal_brute_force(monkeypatch, 
     monkeypatch.setattr(selection, "REFINE_K", ((4, 0), (8, 0), (16, 0), (32, 0)))  # refine whenever anything survives
     monkeypatch.setattr(screening, "BOUND_BYTES", 8 * 32 * 32 * 5)  # the tighter bounds 5 candidates a call at k = 32
     problem = replace(structured_problem, criterion=make_criterion(name, structured_problem.n_params))
+    monkeypatch.setattr(problem.criterion, "refine_levels", None, raising=False)  # the levels above, for A too
     dense = replace(problem, blocks=problem.blocks[np.arange(problem.n_candidates)])
     layout, _ = selection.greedy(problem)
     assert layout == _brute_greedy(dense)
@@ -134,6 +135,25 @@ def test_greedy_and_exchange_with_refined_bounds_equal_brute_force(monkeypatch, 
             q = dense.q0 + dense.blocks[rest].sum(axis=0)
             best_swap = max(EXACT[name](q + dense.blocks[i]) for i in range(problem.n_candidates) if i not in swapped)
             assert best_swap <= value + 1e-9 * max(1.0, abs(value))
+
+
+@pytest.mark.parametrize("name", ["D", "A"])
+def test_the_criteria_own_refine_levels_give_brute_force_greedy_and_local_optima(monkeypatch, structured_problem,
+                                                                                   name):
+    # the criterion's levels (first bounds at their first k, then the rest), scaled to the small problem so that
+    # every level is used
+    from sensorplan.design import selection
+
+    problem = replace(structured_problem, criterion=make_criterion(name, structured_problem.n_params))
+    monkeypatch.setattr(problem.criterion, "refine_levels", ((8, 0), (12, 0), (16, 0)), raising=False)
+    dense = replace(problem, blocks=problem.blocks[np.arange(problem.n_candidates)])
+    assert selection.greedy(problem)[0] == _brute_greedy(dense)
+    swapped, value = selection.exchange(problem, list(range(0, problem.n_candidates, 9))[:5], coarse_above=20)
+    for pos in range(len(swapped)):  # a local optimum: no swap with any candidate improves (brute force)
+        rest = swapped[:pos] + swapped[pos + 1:]
+        q = dense.q0 + dense.blocks[rest].sum(axis=0)
+        best_swap = max(EXACT[name](q + dense.blocks[i]) for i in range(problem.n_candidates) if i not in swapped)
+        assert best_swap <= value + 1e-9 * max(1.0, abs(value))
 
 
 def test_layout_precision_of_a_small_structured_layout_equals_the_weighted_sum(structured_problem):

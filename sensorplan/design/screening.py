@@ -153,11 +153,12 @@ def _split(problem, q, index, k):
     index = np.asarray(index, dtype=int)
     total = problem.layout_precision(index) - problem.q0  # the blocks held are summed, the others by structure
     chol = np.linalg.cholesky(0.5 * (q + q.T))
-    half = scipy.linalg.solve_triangular(chol, total, lower=True, check_finite=False)
-    white = scipy.linalg.solve_triangular(chol, half.T, lower=True, check_finite=False)
+    white, info = scipy.linalg.lapack.dsygst(0.5 * (total + total.T), chol, itype=1, lower=1)  # L^-1 total L^-T
+    if info != 0:
+        return None
+    white = np.tril(white) + np.tril(white, -1).T  # dsygst forms one triangle
     p = q.shape[0]
     k = min(k, p)
-    white = 0.5 * (white + white.T)
     if 2 * k <= p:  # a few eigenvectors cost less than all
         basis = scipy.linalg.eigh(white, subset_by_index=[p - k, p - 1], driver="evr", check_finite=False)[1]
     else:

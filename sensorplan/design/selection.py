@@ -61,8 +61,8 @@ def iter_greedy(problem, *, start=()):
                 return out
 
             best, _ = best_candidate(problem, q, sorted(ok, key=lambda i: -bounds[i]), bounds, gains, batch=batch,
-                                     refine=_refinements(problem, REFINE_K), local=_local_levels(problem),
-                                     shift=u_q)
+                                     refine=_refinements(problem, _refine_levels(problem)),
+                                     local=_local_levels(problem), shift=u_q)
         else:
             ub, eig = _first_bounds(problem, q)
             ok = np.array(ok)
@@ -76,8 +76,16 @@ def iter_greedy(problem, *, start=()):
 
 def _after_first(problem, *, split=True):
     """The eigen-split refinements of :func:`~sensorplan.design.screening.best_candidate` after the first bounds
-    (k = 16); none where the split bounds of :func:`_local_levels` are used (``split``)."""
-    return _refinements(problem, tuple(level for level in REFINE_K if level[0] > 16), split=split)
+    (:func:`_first_bounds`); none where the split bounds of :func:`_local_levels` are used (``split``)."""
+    first = _refine_levels(problem)[0][0]
+    return _refinements(problem, tuple(level for level in _refine_levels(problem) if level[0] > first), split=split)
+
+
+def _refine_levels(problem):
+    """The criterion's eigen-split levels (``refine_levels``, where its exact evaluations cost more than a
+    factorisation), else ``REFINE_K``; the first level's k is that of every candidate's first bounds.  Levels
+    only prune: a search's answer is the same with any."""
+    return getattr(problem.criterion, "refine_levels", None) or REFINE_K
 
 
 def _refinements(problem, levels, *, split=True):
@@ -104,7 +112,7 @@ def _first_bounds(problem, q):
         # a criterion whose bounds use only the k smallest eigenvectors computes those alone (no eig passed on)
         smallest = getattr(problem.criterion, "smallest_eigenvectors_only", False)
         eig = None if smallest else np.linalg.eigh(0.5 * (q + q.T))
-        ub = method(problem, q, k=16, eig=eig)
+        ub = method(problem, q, k=_refine_levels(problem)[0][0], eig=eig)
         if ub is not None:
             return ub, eig
     return _upper_bounds(problem, q)[1], None

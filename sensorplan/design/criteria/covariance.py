@@ -11,10 +11,15 @@ import scipy.linalg
 
 from ..._errors import ConfigError
 from .base import Criterion
-from .linalg import cholesky, eigen_split, inverse_from_cholesky, lower_factor, symmetrise
+from .linalg import (cholesky, eigen_split, factor_inverse, inverse_from_cholesky, lower_factor, lower_inverse,
+                     scaled_gram, symmetrise)
 from .registry import register_criterion
 
 __all__ = ["ACriterion"]
+
+# relative margin by which the blocked inverse's value must lie below a search's threshold to be settled without
+# dtrtri: both inversions are backward stable, their values agree to round-off (~1e-15 relative) far below this
+LOSER_MARGIN = 1e-9
 
 
 @register_criterion
@@ -24,6 +29,9 @@ class ACriterion(Criterion):
     name = "A"
     description = "trace of the posterior covariance"
     maximise = False
+    # the eigen-split levels of the searches (selection; the first, every candidate's first bounds): an exact A
+    # evaluation (a factor and a triangular inverse) costs more than D's, so tighter bounds pay sooner
+    refine_levels = ((32, 16), (64, 16), (128, 24))
 
     def __init__(self, n_params, *, targets=None):
         super().__init__(n_params)
@@ -63,6 +71,26 @@ class ACriterion(Criterion):
         out = []
         for b in blocks:  # -||L^-1||_F^2 (Q and the blocks are symmetric: the factor reads one triangle)
             z, info = scipy.linalg.lapack.dtrtri(lower_factor(q + b), lower=1)
+            out.append(-float(np.sum(np.tril(z) ** 2)) if info == 0 else self.utility(q + b))
+        return out
+
+    def utilities_above(self, q, blocks, threshold):
+        """As :meth:`utilities` where utility(Q + I_i) may reach ``threshold``; elsewhere -||L^-1||_F^2 from the
+        blocked triangular inverse (:func:`~sensorplan.design.criteria.linalg.lower_inverse`), which is below the
+        threshold by more than its round-off (``LOSER_MARGIN``): a search's losers, most of its evaluations,
+        skip dtrtri, and the values that can win are the ones of :meth:`utilities`."""
+        if not self.all_parameters:
+            return self.utilities(q, blocks)
+        cut = threshold - LOSER_MARGIN * max(1.0, abs(threshold)) if np.isfinite(threshold) else threshold
+        out = []
+        for b in blocks:
+            factor = lower_factor(q + b)
+            z = lower_inverse(factor)
+            fast = -float(np.sum(z * z))
+            if fast < cut:
+                out.append(fast)
+                continue
+            z, info = scipy.linalg.lapack.dtrtri(factor, lower=1)
             out.append(-float(np.sum(np.tril(z) ** 2)) if info == 0 else self.utility(q + b))
         return out
 
@@ -116,7 +144,7 @@ class ACriterion(Criterion):
         lam, v, w, small = eigen_split(problem, q, k, index=index, eig=eig)
         k = v.shape[1]
         trace = np.trace(np.linalg.inv(small), axis1=1, axis2=2)
-        first = problem.block_dot((w / lam[k:] ** 2) @ w.T, index)
+        first = problem.block_dot(scaled_gram(w, lam[k:] ** -2.0), index)
         return -(trace + float(np.sum(1.0 / lam[k:])) - first)
 
     def split_bounds(self, problem, q, index, *, basis, chol):
@@ -129,13 +157,13 @@ class ACriterion(Criterion):
             return None
         k = basis.shape[1]
         y = scipy.linalg.solve_triangular(chol, basis, lower=True, trans="T", check_finite=False)  # L^-T U
-        q_inv = inverse_from_cholesky(chol)
+        q_inv = factor_inverse(chol)
         both = problem.congruence(np.hstack([q_inv @ y, y]), index)
         cross, small = both[:, :k, k:], both[:, k:, k:]  # U^T H B_i U and C_i
         s = y.T @ y
         d = np.eye(k) - np.linalg.inv(np.eye(k)[None] + small)
         ds = d @ s
-        linear = problem.block_dot(q_inv @ q_inv, index)  # tr H B_i
+        linear = problem.block_dot(q_inv @ q_inv.T, index)  # tr H B_i (Q^-2, a symmetric product)
         tangent = (np.trace(ds, axis1=1, axis2=2) - 2.0 * np.einsum("cij,cji->c", d, cross)
                    - np.einsum("ij,cji->c", s, small) + 2.0 * np.einsum("cij,cji->c", ds, small))
         return -float(np.trace(q_inv)) + linear + tangent

@@ -14,8 +14,8 @@ import scipy.linalg
 
 from ..._errors import ConfigError
 from .base import Criterion
-from .linalg import (congruence, eigen_split, inverse, inverse_from_cholesky, log_det, log_dets, lower_factor,
-                     packed_upper, symmetrise, whitened_blocks)
+from .linalg import (congruence, eigen_split, factor_inverse, inverse, inverse_from_cholesky, log_det, log_dets,
+                     lower_factor, packed_upper, scaled_gram, symmetrise, whitened_blocks)
 from .registry import register_criterion
 
 __all__ = ["DCriterion", "DsCriterion"]
@@ -28,6 +28,9 @@ class DCriterion(Criterion):
     name = "D"
     description = "log det of the posterior precision"
     submodular = True
+    # the eigen-split levels of the searches (selection; the first, every candidate's first bounds): with k = 32
+    # first, fewer candidates reach the split bounds, whose cost grows with their number
+    refine_levels = ((32, 40), (64, 64), (128, 96))
 
     def value(self, q):
         return log_det(q)
@@ -66,7 +69,7 @@ class DCriterion(Criterion):
         lam, v, w, small = eigen_split(problem, q, k, index=index, eig=eig)
         k = v.shape[1]
         logdet = log_dets(small)
-        first = problem.block_dot((w / lam[k:]) @ w.T, index)
+        first = problem.block_dot(scaled_gram(w, 1.0 / lam[k:]), index)
         return logdet + float(np.sum(np.log(lam[k:]))) + first
 
     def split_bounds(self, problem, q, index, *, basis, chol):
@@ -79,7 +82,7 @@ class DCriterion(Criterion):
         inside = np.trace(small, axis1=1, axis2=2)
         small[:, np.arange(k), np.arange(k)] += 1.0
         logdet = log_dets(small)
-        rest = np.maximum(problem.block_dot(inverse_from_cholesky(chol), index) - inside, 0.0)
+        rest = np.maximum(problem.block_dot(factor_inverse(chol), index) - inside, 0.0)
         return 2.0 * float(np.sum(np.log(np.diag(chol)))) + logdet + rest
 
     def cvxpy_objective(self, cp, q_expr, constraints):

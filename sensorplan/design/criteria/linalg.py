@@ -9,7 +9,10 @@ import scipy.linalg
 from ..._errors import ConfigError
 
 __all__ = ["symmetrise", "cholesky", "lower_factor", "log_det", "log_dets", "inverse", "whitened_blocks", "packed_upper",
-           "inverse_from_cholesky", "congruence", "eigen_split"]
+           "inverse_from_cholesky", "congruence", "eigen_split", "lower_inverse",
+           "factor_inverse", "scaled_gram"]
+
+INVERSE_LEAF = 128  # lower_inverse: triangles up to this size are inverted by LAPACK's dtrtri directly
 
 
 def symmetrise(q):
@@ -33,6 +36,29 @@ def lower_factor(q):
     if info != 0:
         raise ConfigError("The posterior precision is not positive definite; the prior must be proper.")
     return factor
+
+
+def lower_inverse(factor):
+    """L^-1 (zeros above the diagonal) from the lower triangle of ``factor`` (the other triangle is not read).
+
+    The halves are inverted (recursively) and the off-diagonal block is
+    -L22^-1 L21 L11^-1, two triangular matrix products: BLAS-3 throughout,
+    several times faster than dtrtri on one thread for P = 400; the same
+    inverse up to round-off.
+    """
+    n = factor.shape[0]
+    if n <= INVERSE_LEAF:
+        z, info = scipy.linalg.lapack.dtrtri(factor, lower=1)
+        if info != 0:
+            raise ConfigError("The posterior precision is not positive definite; the prior must be proper.")
+        return np.tril(z)
+    h = n // 2
+    out = np.zeros((n, n), order="F")
+    out[:h, :h] = lower_inverse(factor[:h, :h])
+    out[h:, h:] = lower_inverse(factor[h:, h:])
+    half = scipy.linalg.blas.dtrmm(1.0, out[:h, :h], factor[h:, :h], side=1, lower=1)  # L21 L11^-1
+    out[h:, :h] = scipy.linalg.blas.dtrmm(-1.0, out[h:, h:], half, lower=1)
+    return out
 
 
 def log_dets(mats):
@@ -63,6 +89,24 @@ def inverse_from_cholesky(chol):
     """Q^-1 (symmetric) from the lower Cholesky factor of Q."""
     w = scipy.linalg.cho_solve((chol, True), np.eye(chol.shape[0]), check_finite=False)
     return symmetrise(w)
+
+
+def factor_inverse(chol):
+    """Q^-1 (symmetric) from the lower Cholesky factor of Q by LAPACK's dpotri (a triangular inverse and its
+    product with its transpose: a third of the flops of two solves against the identity); what the bounds use,
+    equal to :func:`inverse_from_cholesky` up to round-off."""
+    w, info = scipy.linalg.lapack.dpotri(chol, lower=1)
+    if info != 0:
+        raise ConfigError("The posterior precision is not positive definite; the prior must be proper.")
+    lower = np.tril(w)
+    return lower + np.tril(w, -1).T
+
+
+def scaled_gram(w, scale):
+    """W diag(scale) W^T for positive ``scale`` as one symmetric rank-k product (X X^T with X = W diag(scale)^1/2,
+    half the flops of a general product)."""
+    x = w * np.sqrt(scale)
+    return x @ x.T
 
 
 def congruence(w, s):
