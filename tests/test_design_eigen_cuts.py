@@ -68,18 +68,18 @@ def random_e_problem(seed, *, c, p, count):
 @settings(max_examples=8, deadline=None)
 @given(seed=st.integers(0, 10_000), c=st.integers(10, 30), p=st.integers(12, 20), count=st.integers(1, 5))
 def test_a_basis_shedding_cuts_still_certifies(seed, c, p, count):
-    # Basis capped at 5 columns (the first one holds 10) (directions beyond become cuts): reference the relaxed E problem by
-    # cvxpy + Clarabel.  The bound is never below lambda_min at Clarabel's weights (numpy's eigvalsh), the
+    # Basis capped at 5 columns (directions beyond become cuts; the first basis has 10): reference the
+    # relaxed E problem by cvxpy + Clarabel.  The bound is never below lambda_min at Clarabel's weights (numpy's eigvalsh), the
     # utility is eigvalsh at the fast method's weights and never above Clarabel's bound.
     problem = random_e_problem(seed, c=c, p=p, count=count)
     reference = solve_relaxation(problem, "cvxpy")
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(eigen_subspace, "K_SOFT", 5)
+        patch.setattr(eigen_subspace, "K_MAX", 5)
         patch.setattr(eigen_subspace, "N_MIN", 2)
         patch.setattr(eigen_subspace, "N_MAX", 3)
         rel = solve_relaxation(problem, "fast")
     scale = max(1.0, abs(reference.bound))
-    assert rel.stats["rounds"] == 1 or rel.stats["cuts"] > 0  # (the first basis holds 10 columns)
+    assert rel.stats["rounds"] == 1 or rel.stats["cuts"] > 0  # (the first basis has 10 columns)
     assert rel.bound >= np.linalg.eigvalsh(problem.precision(reference.weights))[0] - 1e-9 * scale
     assert rel.utility <= reference.bound + 1e-9 * scale
     assert abs(rel.utility - np.linalg.eigvalsh(problem.precision(rel.weights))[0]) <= 1e-9 * scale
