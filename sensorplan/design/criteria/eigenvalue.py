@@ -44,11 +44,16 @@ class ECriterion(Criterion):
         p = q.shape[0]
         out = []
         for block in blocks:
-            a = symmetrise(q + block)
-            margin = 1e-9 * max(1.0, abs(threshold)) + 8.0 * p * np.finfo(float).eps * float(np.abs(a).max())
-            shifted = a - (threshold - margin) * np.eye(p)
-            _, info = scipy.linalg.lapack.dpotrf(shifted, lower=1, clean=0, overwrite_a=1)
-            out.append(self.value(a) if info == 0 else -np.inf)
+            a = q + block
+            diagonal = np.diagonal(a)
+            # ||A||'s largest entry: on the diagonal of a positive definite matrix (the only kind that passes)
+            size = float(diagonal.max()) if diagonal.min() > 0 else float(np.abs(symmetrise(a)).max())
+            margin = 1e-9 * max(1.0, abs(threshold)) + 8.0 * p * np.finfo(float).eps * size
+            a.flat[::p + 1] -= threshold - margin
+            # the transpose is Fortran-ordered (no copy); its lower triangle differs from the symmetric part's
+            # by round-off only, far inside the margin
+            _, info = scipy.linalg.lapack.dpotrf(a.T, lower=1, clean=0, overwrite_a=1)
+            out.append(self.value(q + block) if info == 0 else -np.inf)
         return out
 
     def gradient_matrix(self, q):
