@@ -23,6 +23,8 @@ from .interior_point import boundary_step
 
 __all__ = ["lmi_interior_point"]
 
+EXTRA_STEPS = 3  # steps after convergence that tighten the primal residual (X, the caller's certificate)
+
 
 @dataclass(frozen=True)
 class _Point:
@@ -224,7 +226,7 @@ def lmi_interior_point(b0, bmat, rows, rhs, count, *, cuts=None, cut_rhs=None, t
         if lmi.converged(res, p, tol):
             best = (float(p.y[m]), p.y[:m].copy(), lmi.full_multiplier(p), float(p.nu))
             extra += 1  # a few more steps to tighten the primal residual
-            if extra > 3 or res.gap <= 0.1 * tol * res.scale and np.linalg.norm(res.r_p) <= tol:
+            if extra > EXTRA_STEPS or res.gap <= 0.1 * tol * res.scale and np.linalg.norm(res.r_p) <= tol:
                 break
         try:
             newton = _Newton(lmi, p, res)
