@@ -18,52 +18,58 @@ from .registry import register_fast_method
 
 __all__ = ["solve_eigen_subspace"]
 
-K_MAX = 160  # basis size beyond which directions are aggregated
+K_MAX = 160  # basis size beyond which the directions of least weight in X_V leave the basis (a memory and time
+# guard): aggregated into W and kept as cuts (rank-one blocks of the LMI, one linear row each in the small SDP)
+SIGNIFICANT = 1e-6  # (directions whose weight exceeds this share of X_V's largest eigenvalue always stay)
 N_MIN, N_MAX = 4, 12  # eigenvectors of Q(w) (the lowest) that join the basis each round
 CLARABEL_MAX_ENTRIES = 200_000  # m k^2 above which a failed small SDP is not handed to cvxpy + Clarabel
 INNER_TOL_MAX = 1e-5  # the small SDPs' tolerance: a tenth of the last certified gap, at most this ...
 INNER_TOL_SHARE = 0.01  # ... and at least this share of ``tol`` (the bound is certified from any multiplier)
 SDP_MAX_ITER = 80  # interior-point steps per small SDP at most (an unfinished iterate still certifies)
-SPREAD = 10  # the first working set also holds every SPREAD-th candidate
-ENTER_MAX = 2  # candidates that join the working set per round, at most this many times R (and 20): the
-# relaxed optimum ties many neighbouring candidates, and the small SDP costs m^2 k^2 on m of them
+SPREAD = 10  # the first working set also holds every SPREAD-th candidate, ...
+SPREAD_GAP = 1e-3  # ... kept in it while the relative gap exceeds this
+ENTER_SHARE = 0.1  # candidates enter when they would move the bound by more than this share of the gap over R
+ENTER_MAX = 2  # and at most this many times R (and 20) of them per round: the relaxed optimum ties many
+# neighbouring candidates, and the small SDP costs m^2 k^2 on m of them
+DROP_WEIGHT = 1e-4  # candidates leave when their weight is below this and their gradient below the threshold
+DROP_SHARE = 1.0  # by more than this share of the gap over R (ten times the entering margin: no cycling) ...
+DROP_FLOOR = 1e-4  # ... and than this share of the threshold (near-ties that leave return the next round)
 
 
 @register_fast_method("eigen-subspace")
 def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=10):
     """E relaxation by an eigen-subspace cutting-plane method (a spectral bundle method).
 
-    For an orthonormal basis V (P x k) and a trace-one PSD aggregate W,
-    lambda_min(Q) <= min(lambda_min(V^T Q V), <W, Q>) for every Q, so the
-    small SDP  max_w min(lambda_min(V^T Q(w) V), <W, Q(w)>)  (a (k + 1) x (k + 1)
-    block-diagonal LMI over a working set of candidates, :func:`_small_e_sdp`)
-    is a relaxation of the E problem.  Its multiplier X gives
-    Z = V X_V V^T + x_W W, trace one and PSD, hence a certified bound over
-    *all* candidates (:meth:`ECriterion.bound_from_dual`) whatever the small
-    SDP's accuracy.  Each round the basis keeps the range of X_V, the rest
-    of X is aggregated into W, and the lowest eigenvectors of Q(w) join, so
-    the basis stays small (Helmberg & Rendl, SIAM J. Optim. 10 (2000)
-    673-696); candidates whose <Z, I_i> exceeds the count multiplier join the
-    working set, until the gap is below ``tol``.  The working set always
-    holds candidates spread evenly over the grid (a dense grid's neighbours
-    are near copies of each other: without them the small SDP's Z favours
-    directions only the missing regions inform, and the bound over all
-    candidates stays far above it), and the small SDPs are solved to a
-    tenth of the last gap.
+    For an orthonormal basis V (P x k), a trace-one PSD aggregate W and unit
+    vectors u_j (the cuts), lambda_min(Q) <= min(lambda_min(V^T Q V), <W, Q>,
+    u_j^T Q u_j) for every Q, so the small SDP maximising that minimum over
+    w (a block-diagonal LMI over a working set of candidates,
+    :func:`_small_e_sdp`) is a relaxation of the E problem.  Its multiplier X
+    gives Z = V X_V V^T + x_W W + sum_j x_j u_j u_j^T, trace one and PSD,
+    hence a certified bound over *all* candidates
+    (:meth:`ECriterion.bound_from_dual`) whatever the small SDP's accuracy.
+    Each round the lowest eigenvectors of Q(w) join the basis; beyond
+    ``K_MAX`` columns the directions of least weight in X_V leave it for W
+    and the cuts (Helmberg & Rendl, SIAM J. Optim. 10 (2000) 673-696).
+    Candidates whose <Z, I_i> exceeds the count multiplier by a share of the
+    gap join the working set, those with no weight well below it leave, until
+    the gap is below ``tol`` (many neighbours of a dense grid tie at the
+    optimum; only those that move the bound at the present accuracy are
+    worth the small SDP's m^2 k^2).  While the gap is large the working set
+    also holds candidates spread evenly over the grid (without them the
+    small SDP's Z favours directions only the missing regions inform).  The
+    small SDPs are solved to a tenth of the last gap.
     """
     t0 = time.perf_counter()
-    c, p, r = problem.n_candidates, problem.n_params, problem.count
-    w = np.full(c, r / c)
-    lam, vec = np.linalg.eigh(problem.precision(w))
-    basis = vec[:, : min(p, k0)]
-    agg = _Aggregate.start(problem, vec[:, min(p, k0)] if p > k0 else None)
+    c = problem.n_candidates
+    basis, agg, cuts = _first_basis(problem, k0)
     working, spread = _first_working_set(problem, basis, start_layout)
     best = (-np.inf, None)
     bound, gap, sdp_time, counts = np.inf, np.inf, 0.0, {"clarabel": 0, "inexact": 0}
     for rounds in range(1, max_rounds + 1):
         idx = np.array(sorted(working))
         inner = max(INNER_TOL_SHARE * tol, min(INNER_TOL_MAX, 0.1 * gap))
-        small_value, wr, x, nu, dt, used = _small_e_sdp(problem, idx, basis, agg, tol=inner)
+        small_value, wr, x, nu, dt, used = _small_e_sdp(problem, idx, basis, agg, cuts, tol=inner)
         sdp_time += dt
         if used != "interior-point":
             counts[used] += 1
@@ -74,19 +80,31 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
         if lam[0] > best[0]:
             best = (float(lam[0]), w)
         k = basis.shape[1]
-        z = basis @ x[:k, :k] @ basis.T + agg.matrix(x[k, k])
+        z = basis @ x[:k, :k] @ basis.T + agg.matrix(x[k, k]) + cuts.matrix(np.diag(x)[k + 1:])
         bound = min(bound, problem.criterion.bound_from_dual(problem, z))
         gap = (bound - best[0]) / max(1.0, abs(bound))
         if gap <= tol:
             break
-        _grow_working_set(problem, working, idx, (wr, z, nu, small_value), bound, tol)
-        working |= spread
-        basis, agg = _next_basis(problem, basis, x, agg, vec, lam, small_value)
+        # the margins scale with the small SDP's distance to the best weights (not the certified gap, which
+        # stays large while outside candidates are violated, and would keep them out)
+        model_gap = max(small_value - best[0], 0.1 * tol * max(1.0, abs(bound)))
+        _grow_working_set(problem, working, idx, (wr, z, nu), model_gap)
+        if gap > SPREAD_GAP:
+            working |= spread
+        basis, agg, cuts = _next_basis(problem, basis, x, agg, cuts, vec, lam, small_value)
     stats = {"solver": "eigen-subspace+interior-point", "status": "optimal" if gap <= tol else "gap above tolerance",
-             "rounds": rounds, "working_set": len(working), "subspace": basis.shape[1],
+             "rounds": rounds, "working_set": len(working), "subspace": basis.shape[1], "cuts": cuts.size,
              "sdp_time_s": sdp_time, "clarabel_fallbacks": counts["clarabel"], "inexact_sdps": counts["inexact"],
              "time_s": time.perf_counter() - t0}
     return Relaxation(best[1], best[0], max(bound, best[0]), "fast", stats)
+
+
+def _first_basis(problem, k0):
+    """(basis, aggregate, cuts) to start from: the ``k0`` lowest eigenvectors of Q at uniform weights, the
+    next one as W, no cuts."""
+    c, p = problem.n_candidates, problem.n_params
+    _, vec = np.linalg.eigh(problem.precision(np.full(c, problem.count / c)))
+    return vec[:, : min(p, k0)], _Aggregate.start(problem, vec[:, min(p, k0)] if p > k0 else None), _Cuts.empty(problem)
 
 
 def _first_working_set(problem, basis, start_layout):
@@ -124,49 +142,83 @@ class _Aggregate:
         return 0.0 if self.mat is None else weight * self.mat
 
 
-def _next_basis(problem, basis, x, agg, vec, lam, small_value):
-    """The next basis and aggregate: the basis with the eigenvectors of Q(w) (``lam``, ``vec``) below
-    the small SDP's value added (at least ``N_MIN``, at most ``N_MAX``, orthogonalised); beyond ``K_MAX``
-    columns, the directions of least weight in X_V are aggregated with W (a memory and time guard)."""
+class _Cuts:
+    """Directions u_j that left the basis (unit vectors, P x n) with <u_j u_j^T, Q_0> and <u_j u_j^T, I_i>:
+    t <= u_j^T Q(w) u_j holds for every w and t <= lambda_min(Q(w)), so they enter the small SDP as linear
+    rows, keeping its memory of past directions at the cost of a row each."""
+
+    def __init__(self, vectors, q0_dots, dots):
+        self.vectors, self.q0_dots, self.dots = vectors, q0_dots, dots
+
+    @classmethod
+    def empty(cls, problem):
+        return cls(np.zeros((problem.n_params, 0)), np.zeros(0), np.zeros((0, problem.n_candidates)))
+
+    @property
+    def size(self):
+        return self.vectors.shape[1]
+
+    def add(self, problem, vectors):
+        """These cuts with the (orthonormal) columns of ``vectors`` added."""
+        if not vectors.shape[1]:
+            return self
+        q0_dots = np.einsum("ij,ij->j", vectors, problem.q0 @ vectors)
+        dots = np.array([problem.block_dot(np.outer(u, u)) for u in vectors.T])
+        return _Cuts(np.hstack([self.vectors, vectors]), np.concatenate([self.q0_dots, q0_dots]),
+                     np.vstack([self.dots, dots]))
+
+    def matrix(self, weights):
+        """sum_j weights_j u_j u_j^T."""
+        return (self.vectors * np.clip(weights, 0.0, None)) @ self.vectors.T
+
+
+def _next_basis(problem, basis, x, agg, cuts, vec, lam, small_value):
+    """The next basis, aggregate and cuts: the basis keeps its directions up to ``K_MAX`` columns with the
+    new ones, beyond that X_V's eigenvectors of most weight (and all those above ``SIGNIFICANT``); the
+    other directions become cuts and their weight joins the aggregate W; the eigenvectors of Q(w) (``lam``,
+    ``vec``) below the small SDP's value join the basis (at least ``N_MIN``, at most ``N_MAX``, orthogonalised)."""
     k = basis.shape[1]
-    kept = basis
     n_new = int(np.clip(np.sum(lam < small_value), N_MIN, N_MAX))
-    if k + n_new > K_MAX:
-        xv, xu = np.linalg.eigh(0.5 * (x[:k, :k] + x[:k, :k].T))
-        keep = np.arange(k) >= k - max(K_MAX - n_new, int(np.sum(xv > 1e-6 * max(xv[-1], 1e-300))))
-        weights = np.clip(xv[~keep], 0.0, None)
-        agg_weight = max(float(x[k, k]), 0.0) if agg.mat is not None else 0.0
-        if weights.sum() + agg_weight > 0:
-            dropped = basis @ xu[:, ~keep]
-            agg = _Aggregate.of(problem, (dropped * weights) @ dropped.T + agg.matrix(agg_weight))
-        kept = basis @ xu[:, keep]
+    xv, xu = np.linalg.eigh(0.5 * (x[:k, :k] + x[:k, :k].T))
+    n_keep = min(k, max(K_MAX - n_new, int(np.sum(xv > SIGNIFICANT * max(xv[-1], 1e-300)))))
+    keep = np.arange(k) >= k - n_keep
+    weights = np.clip(xv[~keep], 0.0, None)
+    agg_weight = max(float(x[k, k]), 0.0) if agg.mat is not None else 0.0
+    dropped = basis @ xu[:, ~keep]
+    if weights.sum() + agg_weight > 0:
+        agg = _Aggregate.of(problem, (dropped * weights) @ dropped.T + agg.matrix(agg_weight))
+    cuts = cuts.add(problem, dropped)
+    kept = basis @ xu[:, keep]
     new = vec[:, :n_new]
     new = new - kept @ (kept.T @ new)
     new = new - kept @ (kept.T @ new)  # twice: orthogonal to round-off
     q, rr = np.linalg.qr(new)
-    return np.hstack([kept, q[:, np.abs(np.diag(rr)) > 1e-6]]), agg
+    return np.hstack([kept, q[:, np.abs(np.diag(rr)) > 1e-6]]), agg, cuts
 
 
-def _grow_working_set(problem, working, idx, sdp, bound, tol):
-    """Add the candidates that would enter while the working set limits the small SDP (the best
-    max(ENTER_MAX R, 20, a quarter of the set)); drop those with no weight and a gradient well below the
-    threshold (in place)."""
-    wr, z, nu, small_value = sdp
+def _grow_working_set(problem, working, idx, sdp, gap):
+    """Add the candidates that would enter while the working set limits the small SDP by more than
+    ``ENTER_SHARE`` of the absolute gap ``gap`` over R (those below it move the bound by less than that
+    share of the gap), the best max(ENTER_MAX R, 20, a quarter of the set); drop those with little weight
+    and a gradient below the threshold by more than ``DROP_SHARE`` of the gap over R and ``DROP_FLOOR``
+    of the threshold (in place; the SDP is solved afresh each round, so a smaller set only saves time)."""
+    wr, z, nu = sdp
     c, r = problem.n_candidates, problem.count
     trace = max(float(np.trace(z)), 1e-300)
     gz = problem.block_dot(z / trace)
     threshold = nu / trace
-    if small_value < bound - 0.1 * tol * max(1.0, abs(bound)) and len(working) < c:
+    if len(working) < c:
         outside = np.setdiff1d(np.arange(c), idx)
-        enter = outside[gz[outside] > threshold]
+        enter = outside[gz[outside] > threshold + ENTER_SHARE * gap / r]
         enter = enter[np.argsort(-gz[enter], kind="stable")][: max(ENTER_MAX * r, 20, len(working) // 4)]
         working |= set(enter.tolist())
-    # (the SDP is solved afresh each round, so a smaller set only saves time)
-    working -= set(idx[(wr < 1e-7) & (gz[idx] < threshold - 0.05 * abs(threshold))].tolist())
+    drop = min(max(DROP_SHARE * gap / r, DROP_FLOOR * abs(threshold)), 0.05 * abs(threshold))
+    working -= set(idx[(wr < DROP_WEIGHT) & (gz[idx] < threshold - drop)].tolist())
 
 
-def _small_e_sdp(problem, idx, basis, agg, *, tol):
-    """max t s.t. V^T Q(w) V - t I >= 0 and <W, Q(w)> >= t over candidates ``idx``.
+def _small_e_sdp(problem, idx, basis, agg, cuts, *, tol):
+    """max t s.t. V^T Q(w) V - t I >= 0, <W, Q(w)> >= t and u_j^T Q(w) u_j >= t (the cuts) over candidates
+    ``idx``.
 
     Solved by :func:`~.lmi.lmi_interior_point`; an iterate it could not
     take to the tolerance is still used (the bound is certified from any
@@ -185,7 +237,8 @@ def _small_e_sdp(problem, idx, basis, agg, *, tol):
         b0[k, k], bmat[:, k, k] = agg.q0_dot, agg.dots[idx]
     bmat = 0.5 * (bmat + bmat.transpose(0, 2, 1))
     rows, rhs = _side_rows(problem, idx)
-    value, w, x, nu, status, _ = lmi.lmi_interior_point(0.5 * (b0 + b0.T), bmat, rows, rhs, problem.count, tol=tol,
+    value, w, x, nu, status, _ = lmi.lmi_interior_point(0.5 * (b0 + b0.T), bmat, rows, rhs, problem.count,
+                                                         cuts=cuts.dots[:, idx], cut_rhs=cuts.q0_dots, tol=tol,
                                                          max_iter=SDP_MAX_ITER)
     if status == "optimal":
         return value, np.clip(w, 0.0, 1.0), x, abs(nu), time.perf_counter() - start, "interior-point"
@@ -194,7 +247,8 @@ def _small_e_sdp(problem, idx, basis, agg, *, tol):
     if m * (k + 1) ** 2 > CLARABEL_MAX_ENTRIES:
         raise SolverError(f"The E relaxation's small SDP ({m} candidates, basis {k}) failed; try --solver cvxpy "
                           f"on a coarser candidate grid.")
-    value, w, x, nu = _small_e_sdp_clarabel(b0, bmat, rows, rhs, problem.count, tol=tol)
+    value, w, x, nu = _small_e_sdp_clarabel(b0, bmat, rows, rhs, problem.count, (cuts.dots[:, idx], cuts.q0_dots),
+                                            tol=tol)
     return value, w, x, nu, time.perf_counter() - start, "clarabel"
 
 
@@ -210,8 +264,8 @@ def _side_rows(problem, idx):
     return rows[keep], b_ub[keep]
 
 
-def _small_e_sdp_clarabel(b0, bmat, rows, rhs, count, *, tol):
-    """The small SDP by cvxpy + Clarabel: (value, w, X, nu)."""
+def _small_e_sdp_clarabel(b0, bmat, rows, rhs, count, cuts, *, tol):
+    """The small SDP by cvxpy + Clarabel: (value, w, blockdiag(X, the cuts' multipliers), nu)."""
     import cvxpy as cp
 
     m, k, _ = bmat.shape
@@ -223,8 +277,15 @@ def _small_e_sdp_clarabel(b0, bmat, rows, rhs, count, *, tol):
     constraints = [w >= 0, w <= 1, count_eq, lmi_constraint]
     if rows.shape[0]:
         constraints.append(rows @ w <= rhs)
+    n = cuts[0].shape[0]
+    if n:
+        cut_constraint = t - cuts[0] @ w <= cuts[1]
+        constraints.append(cut_constraint)
     prob = cp.Problem(cp.Maximize(t), constraints)
     solve_clarabel(cp, prob, w, tol=tol, what="E relaxation")
-    x = lmi_constraint.dual_value
+    x = np.zeros((k + n, k + n))
+    x[:k, :k] = 0.5 * (lmi_constraint.dual_value + lmi_constraint.dual_value.T)
+    if n:
+        x[np.arange(k, k + n), np.arange(k, k + n)] = np.clip(cut_constraint.dual_value, 0.0, None)
     nu = abs(float(count_eq.dual_value)) if count_eq.dual_value is not None else 0.0
-    return float(prob.value), np.clip(w.value, 0.0, 1.0), 0.5 * (x + x.T), nu
+    return float(prob.value), np.clip(w.value, 0.0, 1.0), x, nu

@@ -23,6 +23,8 @@ from .interior_point import boundary_step
 
 __all__ = ["lmi_interior_point"]
 
+EXTRA_STEPS = 3  # steps after convergence that tighten the primal residual (X, the caller's certificate)
+
 
 @dataclass(frozen=True)
 class _Point:
@@ -50,12 +52,20 @@ class _Residuals:
 class _SmallLmi:
     """The data of the SDP, its linear maps A (X -> (<A_j, X>)_j), A* (y -> sum_j y_j A_j) and G^T."""
 
-    def __init__(self, b0, bmat, rows, rhs, count):
+    def __init__(self, b0, bmat, rows, rhs, count, cuts=None, cut_rhs=None):
         self.m, self.k, _ = bmat.shape
         m, k = self.m, self.k
         self.b0, self.bmat, self.count = b0, bmat, count
-        self.rows = rows  # G w <= h with G = [rows; I; -I] (the box kept implicit: its part of G^T D G is diagonal)
-        self.h = np.concatenate([rhs, np.ones(m), np.zeros(m)])
+        # G y <= h with y = (w, t) and G = [rows, 0; -cuts, 1; I, 0; -I, 0]: the side rows, the cuts
+        # t <= cut_rhs + cuts w, and the box (kept implicit: its part of G^T D G is diagonal)
+        cuts = np.zeros((0, m)) if cuts is None else cuts
+        self.lin = np.zeros((rows.shape[0] + cuts.shape[0], m + 1))
+        self.lin[:rows.shape[0], :m] = rows
+        self.lin[rows.shape[0]:, :m] = -cuts
+        self.lin[rows.shape[0]:, m] = 1.0
+        self.n_cuts = cuts.shape[0]
+        cut_rhs = np.zeros(0) if cut_rhs is None else cut_rhs
+        self.h = np.concatenate([rhs, cut_rhs, np.ones(m), np.zeros(m)])
         self.bflat = bmat.reshape(m, k * k)
         self.eye = np.eye(k)
         self.ones = np.concatenate([np.ones(m), [0.0]])
@@ -68,23 +78,31 @@ class _SmallLmi:
     def a_op(self, x):
         return np.concatenate([-(self.bflat @ x.ravel()), [np.trace(x)]])
 
+    def g_mul(self, y):
+        """G y."""
+        w = y[:self.m]
+        return np.concatenate([self.lin @ y, w, -w])
+
     def gt(self, v):
-        return np.concatenate([self.g_t(v), [0.0]])
-
-    def g_mul(self, w):
-        """G w."""
-        return np.concatenate([self.rows @ w, w, -w])
-
-    def g_t(self, v):
         """G^T v."""
-        r, m = self.rows.shape[0], self.m
-        return self.rows.T @ v[:r] + v[r:r + m] - v[r + m:]
+        r, m = self.lin.shape[0], self.m
+        out = self.lin.T @ v[:r]
+        out[:m] += v[r:r + m] - v[r + m:]
+        return out
 
     def g_gram(self, d):
-        """G^T diag(d) G."""
-        r, m = self.rows.shape[0], self.m
-        out = (self.rows.T * d[:r]) @ self.rows
-        out[np.diag_indices(m)] += d[r:r + m] + d[r + m:]
+        """G^T diag(d) G, (m + 1) x (m + 1)."""
+        r, m = self.lin.shape[0], self.m
+        out = (self.lin.T * d[:r]) @ self.lin
+        out[np.arange(m), np.arange(m)] += d[r:r + m] + d[r + m:]
+        return out
+
+    def full_multiplier(self, p):
+        """blockdiag(X, multipliers of the cuts)."""
+        k, n, r = self.k, self.n_cuts, self.lin.shape[0] - self.n_cuts
+        out = np.zeros((k + n, k + n))
+        out[:k, :k] = p.x
+        out[np.arange(k, k + n), np.arange(k, k + n)] = p.lam[r:r + n]
         return out
 
     def start(self):
@@ -94,7 +112,7 @@ class _SmallLmi:
         s0 = self.b0 + (w0 @ self.bflat).reshape(k, k)
         y = np.concatenate([w0, [np.linalg.eigvalsh(0.5 * (s0 + s0.T))[0] - 1.0]])
         z = self.eye * max(1.0, float(np.max(np.abs(s0))))
-        s = np.maximum(self.h - self.g_mul(y[:m]), 1.0)
+        s = np.maximum(self.h - self.g_mul(y), 1.0)
         return _Point(self.eye / k, z, y, s, np.ones(self.h.size), 0.0)
 
     def residuals(self, p):
@@ -102,7 +120,7 @@ class _SmallLmi:
         r_p = self.b - self.a_op(p.x) - self.gt(p.lam) - p.nu * self.ones
         r_d = self.b0 - self.astar(p.y) - p.z
         r_d = 0.5 * (r_d + r_d.T)
-        r_s = self.h - self.g_mul(p.y[:m]) - p.s
+        r_s = self.h - self.g_mul(p.y) - p.s
         r_e = self.count - p.y[:m].sum()
         gap = float(np.sum(p.x * p.z) + p.s @ p.lam)
         scale = max(1.0, abs(float(p.y[m])))
@@ -141,7 +159,7 @@ class _Newton:
         mmat[:m, m] = mmat[m, :m] = col
         mmat[m, m] = np.trace(xz)
         mmat = 0.5 * (mmat + mmat.T)
-        mmat[:m, :m] += lmi.g_gram(p.lam / p.s)
+        mmat += lmi.g_gram(p.lam / p.s)
         self.factor = scipy.linalg.cho_factor(mmat, check_finite=False)
         self.u1 = scipy.linalg.cho_solve(self.factor, lmi.ones, check_finite=False)
 
@@ -154,7 +172,7 @@ class _Newton:
         dy = u0 - dnu * self.u1
         dz = res.r_d - lmi.astar(dy)
         dx = rc_x - p.x @ dz @ zi
-        ds = res.r_s - lmi.g_mul(dy[:lmi.m])
+        ds = res.r_s - lmi.g_mul(dy)
         return 0.5 * (dx + dx.T), dy, dz, ds, (rc_lin - p.lam * ds) / p.s, dnu
 
     def max_steps(self, dx, dz, ds, dlam):
@@ -185,25 +203,30 @@ class _Newton:
                       p.nu + ap * dnu)
 
 
-def lmi_interior_point(b0, bmat, rows, rhs, count, *, tol=1e-9, max_iter=100):
-    """max t s.t. B0 + sum_i w_i B_i - t I >= 0, 0 <= w <= 1, rows w <= rhs, sum w = count (module docstring).
+def lmi_interior_point(b0, bmat, rows, rhs, count, *, cuts=None, cut_rhs=None, tol=1e-9, max_iter=100):
+    """max t s.t. B0 + sum_i w_i B_i - t I >= 0, t <= cut_rhs + cuts w, 0 <= w <= 1, rows w <= rhs,
+    sum w = count (module docstring).
 
-    Returns (t, w, X, nu, status, iterations), nu the multiplier of
-    sum w = count.  ``status`` is "optimal" when the relative gap, the dual
-    residuals and the sum constraint are within ``tol`` and the primal
-    residual (the multiplier equations, which only affect the quality of X
-    as a certificate, checked independently by the caller) within 1e-5.
+    The cuts are the LMI's 1 x 1 diagonal blocks written as linear rows (a
+    rank-one direction u of the caller's certificate: t <= u^T Q(w) u).
+    Returns (t, w, X, nu, status, iterations), X the multiplier of the
+    block-diagonal LMI (the k x k block, then the cuts' multipliers on the
+    diagonal; trace one), nu the multiplier of sum w = count.  ``status``
+    is "optimal" when the relative gap, the dual residuals and the sum
+    constraint are within ``tol`` and the primal residual (the multiplier
+    equations, which only affect the quality of X as a certificate, checked
+    independently by the caller) within 1e-5.
     """
-    lmi = _SmallLmi(b0, bmat, rows, rhs, count)
+    lmi = _SmallLmi(b0, bmat, rows, rhs, count, cuts, cut_rhs)
     m = lmi.m
     p = lmi.start()
     best, extra = None, 0
     for it in range(1, max_iter + 1):
         res = lmi.residuals(p)
         if lmi.converged(res, p, tol):
-            best = (float(p.y[m]), p.y[:m].copy(), p.x.copy(), float(p.nu))
+            best = (float(p.y[m]), p.y[:m].copy(), lmi.full_multiplier(p), float(p.nu))
             extra += 1  # a few more steps to tighten the primal residual
-            if extra > 3 or res.gap <= 0.1 * tol * res.scale and np.linalg.norm(res.r_p) <= tol:
+            if extra > EXTRA_STEPS or res.gap <= 0.1 * tol * res.scale and np.linalg.norm(res.r_p) <= tol:
                 break
         try:
             newton = _Newton(lmi, p, res)
@@ -212,5 +235,5 @@ def lmi_interior_point(b0, bmat, rows, rhs, count, *, tol=1e-9, max_iter=100):
         p = newton.predictor_corrector()
     if best is None:
         status = "max iterations" if it == max_iter else "numerical problems"
-        return float(p.y[m]), p.y[:m], p.x, float(p.nu), status, it
+        return float(p.y[m]), p.y[:m], lmi.full_multiplier(p), float(p.nu), status, it
     return (*best, "optimal", it)
