@@ -129,6 +129,12 @@ class Criterion(ABC):
         criterion has no such form (default)."""
         return None
 
+    def hessian_factors_of_roots(self, q, chol, roots):
+        """:meth:`hessian_factors` of the blocks R_i R_i^T given by their roots ``roots`` (m, P, r): low-rank
+        forms of the blocks, cheaper where a criterion overrides it (m P^2 r instead of m P^3); default: the
+        blocks formed."""
+        return self.hessian_factors(q, chol, np.matmul(roots, np.swapaxes(roots, 1, 2)))
+
     def hessian_product(self, q, chol, s):
         """Symmetric G with (H v)_i = <G, I_i>, where S = sum_j v_j I_j: the Hessian of the utility in the
         weights applied to ``v`` without the per-candidate blocks (``chol`` the lower Cholesky factor of

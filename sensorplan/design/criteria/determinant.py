@@ -50,6 +50,14 @@ class DCriterion(Criterion):
         precision), so that rows computed at one ``q`` for different blocks combine into one Hessian."""
         return packed_upper(whitened_blocks(chol, blocks)), None
 
+    def hessian_factors_of_roots(self, q, chol, roots):
+        """(N, None) of :meth:`hessian_factors` for the blocks R_i R_i^T: L^-1 R_i R_i^T L^-T = Z_i Z_i^T with
+        Z_i = L^-1 R_i, in the roots' precision."""
+        m, p, r = roots.shape
+        linv = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True).astype(roots.dtype)
+        z = (linv @ np.swapaxes(roots, 0, 1).reshape(p, m * r)).reshape(p, m, r).swapaxes(0, 1)
+        return packed_upper(np.matmul(z, np.swapaxes(z, 1, 2))), None
+
     def hessian_operator(self, q, chol, *, dtype=np.float64):
         # (H v)_i = -tr(Q^-1 I_i Q^-1 S): G = -Q^-1 S Q^-1
         w = inverse_from_cholesky(chol).astype(dtype)
@@ -101,6 +109,7 @@ class DsCriterion(DCriterion):
     submodular = False
     utilities = Criterion.utilities  # not D's: the value is a difference of two log determinants
     split_bounds = None  # type: ignore[assignment]  # none: D's hold for log det Q, not a difference of two
+    hessian_factors_of_roots = Criterion.hessian_factors_of_roots  # D's form is not Ds's Hessian
 
     def __init__(self, n_params, *, n_keep=None):
         super().__init__(n_params)
