@@ -90,3 +90,17 @@ def test_row_store_keeps_rows_in_order_and_appends_new_ones():
         negative, positive = store.factors
         np.testing.assert_array_equal(negative, reference)
         assert positive is None
+
+
+def test_unsymmetrised_single_precision_blocks_equal_the_dense_blocks(monkeypatch):
+    # reference: the symmetrised double-precision dense blocks (StructuredBlocks indexing, cached path)
+    from test_relaxation_newton_cg import structured_problem
+
+    problem, dense = structured_problem(monkeypatch, "D")
+    index = np.arange(0, problem.n_candidates, 3)
+    ref = dense.blocks[index]
+    for dtype, tol in ((np.float64, 1e-12), (np.float32, 1e-4)):
+        got = problem.blocks.unsymmetrised(index, dtype=dtype)
+        assert got.dtype == dtype
+        scale = np.abs(ref).max(axis=(1, 2), keepdims=True)
+        assert np.all(np.abs(got - ref) <= tol * scale)

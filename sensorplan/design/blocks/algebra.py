@@ -31,7 +31,7 @@ from ..._cache import Cache
 __all__ = ["BlockFamily", "StructuredBlocks", "DENSE_CACHE_BYTES", "suffix_sums", "sums_by_start", "low_rank_roots"]
 
 DENSE_CACHE_BYTES = 2**30  # dense blocks kept (greedy and exchange evaluate the same few candidates many times)
-_FROM_PRODUCTS = ("_pair_matrices", "_free_flat", "_triangles")  # derived from the shared products only
+_FROM_PRODUCTS = ("_pair_matrices", "_pair_matrices_single", "_free_flat", "_triangles")  # derived from the shared products only
 
 
 def _symmetrise(a):
@@ -151,12 +151,20 @@ class BlockFamily:
         return (np.ascontiguousarray(um.transpose(1, 3, 0, 2)).reshape(p, p, -1),
                 np.ascontiguousarray(mm.transpose(1, 3, 0, 2)).reshape(p, p, -1))
 
-    def dense(self, local, *, symmetric=True):
-        """The blocks of the members at ``local``, shape (k, P, P); ``symmetric=False`` skips the final
-        symmetrisation (the blocks are then symmetric up to round-off only: enough for a preconditioner)."""
+    @cached_property
+    def _pair_matrices_single(self):
+        """:attr:`_pair_matrices` in single precision."""
         (iu_f, free), cross, (iu_m, masked) = self._pair_matrices
+        return (iu_f, free.astype(np.float32)), cross.astype(np.float32), (iu_m, masked.astype(np.float32))
+
+    def dense(self, local, *, symmetric=True, dtype=np.float64):
+        """The blocks of the members at ``local``, shape (k, P, P); ``symmetric=False`` skips the final
+        symmetrisation (the blocks are then symmetric up to round-off only: enough for a preconditioner), and
+        ``dtype`` float32 forms them in single precision."""
+        single = np.dtype(dtype) == np.float32
+        (iu_f, free), cross, (iu_m, masked) = self._pair_matrices_single if single else self._pair_matrices
         f, p = self.n_free, self.n_params
-        t = self.coef[local]
+        t = self.coef[local].astype(np.float32) if single else self.coef[local]
         tu, tm = t[:, :f], t[:, f:]
         k = len(t)
         out = (tu[:, iu_f[0]] * tu[:, iu_f[1]] @ free).reshape(k, p, p)
@@ -169,9 +177,9 @@ class BlockFamily:
             out[n, s:, s:] += z[n, s:, s:]
         rows = np.arange(len(t))
         e = self.elem[local]
-        out[rows, e, :] += self.cross[local]
-        out[rows, :, e] += self.cross[local]
-        out[rows, e, e] += self.own[local]
+        out[rows, e, :] += self.cross[local].astype(out.dtype)
+        out[rows, :, e] += self.cross[local].astype(out.dtype)
+        out[rows, e, e] += self.own[local].astype(out.dtype)
         return _symmetrise(out) if symmetric else out
 
     def weighted(self, w):
@@ -336,7 +344,7 @@ class StructuredBlocks:
             hit = np.flatnonzero(self._owner[index] == k)
             for s in range(0, hit.size, 32):
                 part = hit[s:s + 32]
-                out[part] = fam.dense(self._local[index[part]], symmetric=False)
+                out[part] = fam.dense(self._local[index[part]], symmetric=False, dtype=dtype)
         return out
 
     def held(self, index):
