@@ -31,7 +31,8 @@ from ..._cache import Cache
 __all__ = ["BlockFamily", "StructuredBlocks", "DENSE_CACHE_BYTES", "suffix_sums", "sums_by_start", "low_rank_roots"]
 
 DENSE_CACHE_BYTES = 2**30  # dense blocks kept (greedy and exchange evaluate the same few candidates many times)
-_FROM_PRODUCTS = ("_pair_matrices", "_pair_matrices_single", "_free_flat", "_triangles")  # derived from the shared products only
+# derived from the shared products only
+_FROM_PRODUCTS = ("_pair_matrices", "_pair_matrices_single", "_free_flat", "_triangles")
 
 
 def _symmetrise(a):

@@ -12,7 +12,7 @@ randomised range finder, :func:`~sensorplan.design.blocks.algebra.low_rank_roots
 computed once per candidate and kept for the whole relaxation; the factors
 then cost m P^2 r at each new point (:meth:`Criterion.hessian_factors_of_roots`).
 
-Owns: StaleHessian.  May import: design.blocks, errors.
+Owns: StaleHessian.  May import: _cache, design.blocks.
 """
 
 import numpy as np
@@ -57,10 +57,6 @@ class StaleHessian:
         self._roots = Cache()  # by candidate number, for this problem only (dropped with the preconditioner)
         self._point = None  # (q, chol) of the rows, and their factors (None: the criterion has none)
         self._store = None
-
-    @property
-    def _factors(self):
-        return None if self._store is None else self._store.factors
 
     def refresh(self, idx, point, x, grad):
         """Recompute the rows of the members of ``idx`` whose weight ``x`` is above ``core_weight`` at
