@@ -57,7 +57,10 @@ class DCriterion(Criterion):
         m, p, r = roots.shape
         linv = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True).astype(roots.dtype)
         z = (linv @ np.swapaxes(roots, 0, 1).reshape(p, m * r)).reshape(p, m, r).swapaxes(0, 1)
-        return packed_upper(np.matmul(z, np.swapaxes(z, 1, 2))), None
+        out = np.empty((m, p * (p + 1) // 2), dtype=roots.dtype)
+        for s in range(0, m, 32):  # a few blocks at a time: no (m, P, P) temporary
+            out[s:s + 32] = packed_upper(np.matmul(z[s:s + 32], np.swapaxes(z[s:s + 32], 1, 2)))
+        return out, None
 
     def hessian_operator(self, q, chol, *, dtype=np.float64):
         # (H v)_i = -tr(Q^-1 I_i Q^-1 S): G = -Q^-1 S Q^-1
