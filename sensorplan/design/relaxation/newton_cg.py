@@ -99,16 +99,19 @@ def projected_pcg(factor, apply_k, rhs, sum_residual, *, rtol, max_iter):
     y1 = scipy.linalg.cho_solve(factor, np.ones(rhs.size), check_finite=False)
     s1 = y1.sum()
 
-    def precondition(r):
-        z = scipy.linalg.cho_solve(factor, r, check_finite=False)
-        return z - (z.sum() / s1) * y1
+    def solve(r):
+        return scipy.linalg.cho_solve(factor, r, check_finite=False)
 
-    y0 = scipy.linalg.cho_solve(factor, rhs, check_finite=False)
+    def project(raw):  # the preconditioner applied to r, from raw = K~^-1 r (one solve per residual)
+        return raw - (raw.sum() / s1) * y1
+
+    y0 = solve(rhs)
     dx = y0 - ((y0.sum() - sum_residual) / s1) * y1
     r = rhs - apply_k(dx)
-    z = precondition(r)
+    raw = solve(r)
+    z = project(raw)
     rz = float(r @ z)
-    target = rtol**2 * max(float(rhs @ precondition(rhs)), 1e-300)
+    target = rtol**2 * max(float(rhs @ project(y0)), 1e-300)
     p = z
     it = 0
     while it < max_iter and rz > target:
@@ -120,10 +123,11 @@ def projected_pcg(factor, apply_k, rhs, sum_residual, *, rtol, max_iter):
         alpha = rz / curvature
         dx = dx + alpha * p
         r = r - alpha * kp
-        z = precondition(r)
+        raw = solve(r)
+        z = project(raw)
         rz, rz_old = float(r @ z), rz
         p = z + (rz / rz_old) * p
-    dnu = float(scipy.linalg.cho_solve(factor, r, check_finite=False).sum() / s1)
+    dnu = float(raw.sum() / s1)  # raw = K~^-1 r of the last residual
     return dx, dnu, it
 
 
