@@ -28,10 +28,11 @@ import scipy.sparse
 
 from ..._cache import Cache
 
-__all__ = ["BlockFamily", "StructuredBlocks", "DENSE_CACHE_BYTES", "suffix_sums", "sums_by_start"]
+__all__ = ["BlockFamily", "StructuredBlocks", "DENSE_CACHE_BYTES", "suffix_sums", "sums_by_start", "low_rank_roots"]
 
 DENSE_CACHE_BYTES = 2**30  # dense blocks kept (greedy and exchange evaluate the same few candidates many times)
-_FROM_PRODUCTS = ("_pair_matrices", "_free_flat", "_triangles")  # derived from the shared products only
+# derived from the shared products only
+_FROM_PRODUCTS = ("_pair_matrices", "_pair_matrices_single", "_free_flat", "_triangles")
 
 
 def _symmetrise(a):
@@ -52,6 +53,22 @@ def sums_by_start(values, start, n):
     spread = np.zeros((n + 1,) + values.shape[1:], dtype=values.dtype)
     np.add.at(spread, start, values)
     return np.cumsum(spread, axis=0)[:n]
+
+
+def low_rank_roots(blocks, rank, *, oversample=8, seed=0):
+    """R (k, P, r) with R_i R_i^T close to the positive semidefinite blocks (k, P, P): their ``rank`` largest
+    eigenpairs by a randomised range finder with ``oversample`` extra directions (Halko, Martinsson & Tropp,
+    SIAM Review 53 (2011), algorithms 4.1 and 5.3), one Gaussian sketch drawn from ``seed`` for all blocks;
+    the exact roots (r = P) when the sketch would not be smaller than P.  In the blocks' precision."""
+    k, p, _ = blocks.shape
+    if rank + oversample >= p:
+        lam, vec = np.linalg.eigh(blocks)
+        return (vec * np.sqrt(np.maximum(lam, 0.0))[:, None, :]).astype(blocks.dtype)
+    sketch = np.random.default_rng(seed).standard_normal((p, rank + oversample)).astype(blocks.dtype)
+    basis = np.linalg.qr(np.matmul(blocks, sketch))[0]  # (k, P, rank + oversample), orthonormal columns
+    lam, vec = np.linalg.eigh(np.matmul(np.swapaxes(basis, 1, 2), np.matmul(blocks, basis)))
+    lam, vec = lam[:, oversample:], vec[:, :, oversample:]  # ascending: the largest ``rank``
+    return np.matmul(basis, vec * np.sqrt(np.maximum(lam, 0.0))[:, None, :]).astype(blocks.dtype)
 
 
 @dataclass(frozen=True, eq=False)
@@ -135,11 +152,20 @@ class BlockFamily:
         return (np.ascontiguousarray(um.transpose(1, 3, 0, 2)).reshape(p, p, -1),
                 np.ascontiguousarray(mm.transpose(1, 3, 0, 2)).reshape(p, p, -1))
 
-    def dense(self, local):
-        """The blocks of the members at ``local``, shape (k, P, P)."""
+    @cached_property
+    def _pair_matrices_single(self):
+        """:attr:`_pair_matrices` in single precision."""
         (iu_f, free), cross, (iu_m, masked) = self._pair_matrices
+        return (iu_f, free.astype(np.float32)), cross.astype(np.float32), (iu_m, masked.astype(np.float32))
+
+    def dense(self, local, *, symmetric=True, dtype=np.float64):
+        """The blocks of the members at ``local``, shape (k, P, P); ``symmetric=False`` skips the final
+        symmetrisation (the blocks are then symmetric up to round-off only: enough for a preconditioner), and
+        ``dtype`` float32 forms them in single precision."""
+        single = np.dtype(dtype) == np.float32
+        (iu_f, free), cross, (iu_m, masked) = self._pair_matrices_single if single else self._pair_matrices
         f, p = self.n_free, self.n_params
-        t = self.coef[local]
+        t = self.coef[local].astype(np.float32) if single else self.coef[local]
         tu, tm = t[:, :f], t[:, f:]
         k = len(t)
         out = (tu[:, iu_f[0]] * tu[:, iu_f[1]] @ free).reshape(k, p, p)
@@ -152,10 +178,10 @@ class BlockFamily:
             out[n, s:, s:] += z[n, s:, s:]
         rows = np.arange(len(t))
         e = self.elem[local]
-        out[rows, e, :] += self.cross[local]
-        out[rows, :, e] += self.cross[local]
-        out[rows, e, e] += self.own[local]
-        return _symmetrise(out)
+        out[rows, e, :] += self.cross[local].astype(out.dtype)
+        out[rows, :, e] += self.cross[local].astype(out.dtype)
+        out[rows, e, e] += self.own[local].astype(out.dtype)
+        return _symmetrise(out) if symmetric else out
 
     def weighted(self, w):
         """sum_c w_c F_c over the members (``w`` in member order; members without weight are skipped)."""
@@ -326,6 +352,19 @@ class StructuredBlocks:
                 out[i] = block if found else formed[n]
         for block in out:
             block.flags.writeable = False
+        return out
+
+    def unsymmetrised(self, index, *, dtype=np.float32):
+        """The dense blocks of the candidates at ``index`` in ``dtype``, symmetric up to round-off only and
+        not cached: what a preconditioner needs of many candidates seen once (a few digits, no transposed
+        copy per block)."""
+        index = np.asarray(index, dtype=int)
+        out = np.empty((index.size, self.n_params, self.n_params), dtype=dtype)
+        for k, fam in enumerate(self.families):
+            hit = np.flatnonzero(self._owner[index] == k)
+            for s in range(0, hit.size, 32):
+                part = hit[s:s + 32]
+                out[part] = fam.dense(self._local[index[part]], symmetric=False, dtype=dtype)
         return out
 
     def held(self, index):

@@ -46,8 +46,10 @@ class Criterion(ABC):
     ``"fisher"`` blocks, or ``"detection"`` Gram stacks built by
     :mod:`~sensorplan.design.detect_problem`), ``params_label`` (what
     :attr:`n_effective` counts, for summaries), ``random_starts`` (randomised
-    roundings tried as exchange starts) and ``batch_size`` (candidates
-    :meth:`utilities` evaluates together).
+    roundings tried as exchange starts), ``batch_size`` (candidates
+    :meth:`utilities` evaluates together) and ``enter_share`` (how fast the
+    working set of the structured relaxation may grow per round: fewer
+    rounds against more preconditioner rows).
 
     A criterion becomes available to :func:`~sensorplan.design.recommend.recommend`,
     greedy, exchange, both relaxation solvers and the command line once its
@@ -69,6 +71,7 @@ class Criterion(ABC):
     params_label: ClassVar[str] = "parameters"  # what n_effective counts, for summaries
     random_starts: ClassVar[int] = 0  # randomised roundings of the relaxation tried as exchange starts
     batch_size: ClassVar[int] = 1  # candidates exchange evaluates together (``utilities``)
+    enter_share: ClassVar[float] = 0.5  # share of the working set that may join it per round of column generation
 
     def __init__(self, n_params):
         self.n_params = int(n_params)
@@ -128,6 +131,12 @@ class Criterion(ABC):
         for different blocks at the same ``q`` combining into the Hessian of all of them; None where the
         criterion has no such form (default)."""
         return None
+
+    def hessian_factors_of_roots(self, q, chol, roots):
+        """:meth:`hessian_factors` of the blocks R_i R_i^T given by their roots ``roots`` (m, P, r): low-rank
+        forms of the blocks, cheaper where a criterion overrides it (m P^2 r instead of m P^3); default: the
+        blocks formed."""
+        return self.hessian_factors(q, chol, np.matmul(roots, np.swapaxes(roots, 1, 2)))
 
     def hessian_product(self, q, chol, s):
         """Symmetric G with (H v)_i = <G, I_i>, where S = sum_j v_j I_j: the Hessian of the utility in the

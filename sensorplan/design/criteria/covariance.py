@@ -115,6 +115,18 @@ class ACriterion(Criterion):
         b = (y @ (np.sqrt(2.0) * li.T).astype(dtype)).reshape(m, -1)
         return b, None
 
+    def hessian_factors_of_roots(self, q, chol, roots):
+        """(sqrt 2 B, None) of :meth:`hessian_factors` for the blocks R_i R_i^T: B_i^T = L^-1 R_i (R_i^T N), laid
+        out as there (rows of N^T I_i L^-T), in the roots' precision."""
+        m, p, r = roots.shape
+        dtype = roots.dtype
+        n = scipy.linalg.cho_solve((chol, True), self.targets.T).astype(dtype)
+        li = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True).astype(dtype)
+        z = (li @ np.swapaxes(roots, 0, 1).reshape(p, m * r)).reshape(p, m, r).swapaxes(0, 1)  # L^-1 R_i
+        b = np.matmul(np.matmul(np.swapaxes(n, 0, 1)[None], roots), np.swapaxes(z, 1, 2))  # N^T R_i Z_i^T
+        b *= np.sqrt(2.0).astype(dtype)
+        return b.reshape(m, -1), None
+
     def hessian_operator(self, q, chol, *, dtype=np.float64):
         # (H v)_i = -2 tr(M I_i Q^-1 S), M = N N^T, N = Q^-1 C^T: G = -(Q^-1 S M + M S Q^-1)
         w = inverse_from_cholesky(chol)

@@ -32,8 +32,9 @@ def initial_size(n_candidates, count, divisor, *, cap=None):
 class WorkingSet:
     """The candidates a restricted problem is solved over, and those that already left it once."""
 
-    def __init__(self, n_candidates, initial, *, start_layout=None, drop_below=1e-2):
+    def __init__(self, n_candidates, initial, *, start_layout=None, drop_below=1e-2, enter_share=0.5):
         self.n_candidates = n_candidates
+        self.enter_share = enter_share  # at most this share of the set's size enters per round (or 2 R, or 20)
         self.drop_below = drop_below  # a member with a smaller weight (and a gradient below the threshold) leaves
         self.members = set(initial)
         if start_layout is not None:
@@ -62,7 +63,7 @@ class WorkingSet:
         number), plus those the certificate's ``maximiser`` uses."""
         outside = np.setdiff1d(np.arange(self.n_candidates), idx)
         enter = outside[grad[outside] > threshold]
-        enter = enter[np.argsort(-grad[enter], kind="stable")][: max(2 * count, 20, idx.size // 2)]
+        enter = enter[np.argsort(-grad[enter], kind="stable")][: max(2 * count, 20, int(self.enter_share * idx.size))]
         return np.union1d(enter, np.setdiff1d(np.nonzero(maximiser > 1e-9)[0], idx))
 
     def update(self, idx, x, grad, threshold, enter):

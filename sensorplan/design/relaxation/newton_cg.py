@@ -12,10 +12,11 @@ K~ = -H~ + the current barrier's Hessian, H~ an exact Hessian of an
 earlier iterate (Gould, Hribar & Nocedal, SIAM J. Sci. Comput. 23 (2001),
 projected preconditioned CG): every step uses the exact current Hessian,
 and a new H~ is computed (on the candidates with a weight, the others by a
-diagonal estimate, :class:`StaleHessian`) only when the stale one
+diagonal estimate, :class:`~.preconditioner.StaleHessian`) only when the stale one
 preconditions badly.
 
-Owns: StructuredRestricted, StaleHessian, projected_pcg, restricted_newton_cg.  May import: design.relaxation.
+Owns: StructuredRestricted, projected_pcg, restricted_newton_cg (the preconditioner: :mod:`.preconditioner`).
+May import: design.relaxation.
 """
 
 from dataclasses import dataclass
@@ -25,6 +26,7 @@ import scipy.linalg
 
 from ..._cache import Cache
 from .interior_point import RestrictedPolytope, newton_step
+from .preconditioner import StaleHessian
 from .working_blocks import WorkingBlocks
 
 __all__ = ["StructuredRestricted", "StaleHessian", "projected_pcg", "restricted_newton_cg", "NewtonCG", "NEWTON_CG"]
@@ -86,92 +88,6 @@ class StructuredRestricted:
         return lambda v: self.sub.dot(product(self.sub.weighted(v)))
 
 
-class StaleHessian:
-    """The Newton-CG preconditioner: the exact Hessian of an earlier iterate on the working set's core.
-
-    The core is the members whose weight was above ``core_weight`` when the
-    rows were computed; a member outside it enters the preconditioner
-    through its diagonal only, estimated by -c g_i^2 (g_i the current
-    gradient; for D exact with c = 1 when the whitened block
-    Q^-1/2 I_i Q^-1/2 has rank one, and the candidates' blocks are dominated
-    by one direction; c is the median ratio H_ii / -g_i^2 over the core).
-    :meth:`refresh` recomputes the rows at a new iterate.  Where the
-    criterion gives its Hessian as factors (:meth:`Criterion.hessian_factors`),
-    the factors are kept with the point they were computed at, and
-    :meth:`extend` adds the rows of members that joined the working set since
-    (a new round of column generation) at that same point: one consistent
-    Hessian, at the cost of the new members' factors only.  Rows are kept
-    across the rounds (a candidate that leaves may come back).  ``rows``
-    counts the block rows computed, ``refreshes`` the recomputations.
-    """
-
-    def __init__(self, problem, *, core_weight=1e-3):
-        self.problem = problem
-        self.core_weight = core_weight
-        self.members = np.zeros(0, dtype=int)  # sorted
-        self.matrix = np.zeros((0, 0))
-        self.rows = 0
-        self.refreshes = 0
-        self.scale = 1.0  # H_ii / -g_i^2 on the core (1 for D; the estimate is scaled for any criterion)
-        self._point = None  # (q, chol) of the rows, and their factors (None: the criterion has none)
-        self._factors = None
-
-    def refresh(self, idx, point, x, grad):
-        """Recompute the rows of the members of ``idx`` whose weight ``x`` is above ``core_weight`` at
-        ``point``; the preconditioner's Hessian on ``idx`` (gradient ``grad``)."""
-        keep = x > self.core_weight
-        core = idx[keep]
-        crit, blocks = self.problem.criterion, self.problem.blocks[core].astype(np.float32)
-        self._point = (point.q, point.chol)
-        self._factors = crit.hessian_factors(point.q, point.chol, blocks)
-        h = _gram(self._factors) if self._factors is not None else crit.hessian(point.q, point.chol, blocks)
-        self.members, self.matrix = core, 0.5 * (h + h.T)
-        self.rows, self.refreshes = self.rows + core.size, self.refreshes + 1
-        ratio = np.diag(self.matrix) / -np.maximum(grad[keep] ** 2, 1e-300)
-        self.scale = float(np.median(ratio)) if ratio.size else 1.0
-        return self.on(idx, grad)
-
-    def extend(self, idx, x, grad):
-        """Add the rows of the members of ``idx`` above ``core_weight`` that have none, at the point of the
-        others (when the criterion gives factors; members that left ``idx`` are forgotten); the
-        preconditioner's Hessian on ``idx``."""
-        new = np.setdiff1d(idx[x > self.core_weight], self.members)
-        if new.size and self._factors is not None:
-            q, chol = self._point
-            stay = np.isin(self.members, idx)
-            factors = self.problem.criterion.hessian_factors(q, chol, self.problem.blocks[new].astype(np.float32))
-            self._factors = tuple(None if a is None else np.concatenate([a[stay], b])
-                                  for a, b in zip(self._factors, factors))
-            old = int(stay.sum())
-            cross = _gram(self._factors, rows=slice(old, None))  # (new, old + new)
-            matrix = np.empty((old + new.size,) * 2)
-            matrix[:old, :old] = self.matrix[np.ix_(stay, stay)]
-            matrix[old:], matrix[:old, old:] = cross, cross[:, :old].T
-            members = np.concatenate([self.members[stay], new])
-            order = np.argsort(members, kind="stable")
-            self.members, self.matrix = members[order], matrix[np.ix_(order, order)]
-            self._factors = tuple(None if a is None else a[order] for a in self._factors)
-            self.rows += new.size
-        return self.on(idx, grad)
-
-    def on(self, idx, grad):
-        """The preconditioner's Hessian on the sorted working set ``idx`` (gradient ``grad``)."""
-        h = np.diag(-self.scale * grad**2)
-        inside = np.isin(idx, self.members)
-        if inside.any():
-            pos = np.searchsorted(self.members, idx[inside])
-            where = np.flatnonzero(inside)
-            h[np.ix_(where, where)] = self.matrix[np.ix_(pos, pos)]
-        return h
-
-
-def _gram(factors, *, rows=slice(None)):
-    """M M^T - N N^T of ``factors`` = (N, M) (M may be None), for the rows ``rows`` only, in double precision."""
-    negative, positive = factors
-    h = -(negative[rows] @ negative.T).astype(float)
-    return h if positive is None else h + (positive[rows] @ positive.T).astype(float)
-
-
 def projected_pcg(factor, apply_k, rhs, sum_residual, *, rtol, max_iter):
     """(dx, dnu, iterations) of K dx + dnu 1 = ``rhs``, 1^T dx = ``sum_residual``, K positive definite given by
     ``apply_k``; ``factor`` the Cholesky factor (scipy ``cho_factor``) of the preconditioner K~.
@@ -183,16 +99,19 @@ def projected_pcg(factor, apply_k, rhs, sum_residual, *, rtol, max_iter):
     y1 = scipy.linalg.cho_solve(factor, np.ones(rhs.size), check_finite=False)
     s1 = y1.sum()
 
-    def precondition(r):
-        z = scipy.linalg.cho_solve(factor, r, check_finite=False)
-        return z - (z.sum() / s1) * y1
+    def solve(r):
+        return scipy.linalg.cho_solve(factor, r, check_finite=False)
 
-    y0 = scipy.linalg.cho_solve(factor, rhs, check_finite=False)
+    def project(raw):  # the preconditioner applied to r, from raw = K~^-1 r (one solve per residual)
+        return raw - (raw.sum() / s1) * y1
+
+    y0 = solve(rhs)
     dx = y0 - ((y0.sum() - sum_residual) / s1) * y1
     r = rhs - apply_k(dx)
-    z = precondition(r)
+    raw = solve(r)
+    z = project(raw)
     rz = float(r @ z)
-    target = rtol**2 * max(float(rhs @ precondition(rhs)), 1e-300)
+    target = rtol**2 * max(float(rhs @ project(y0)), 1e-300)
     p = z
     it = 0
     while it < max_iter and rz > target:
@@ -204,10 +123,11 @@ def projected_pcg(factor, apply_k, rhs, sum_residual, *, rtol, max_iter):
         alpha = rz / curvature
         dx = dx + alpha * p
         r = r - alpha * kp
-        z = precondition(r)
+        raw = solve(r)
+        z = project(raw)
         rz, rz_old = float(r @ z), rz
         p = z + (rz / rz_old) * p
-    dnu = float(scipy.linalg.cho_solve(factor, r, check_finite=False).sum() / s1)
+    dnu = float(raw.sum() / s1)  # raw = K~^-1 r of the last residual
     return dx, dnu, it
 
 

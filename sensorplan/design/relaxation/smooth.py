@@ -64,7 +64,10 @@ def solve_column_generation(problem, *, tol=1e-7, start_layout=None, max_rounds=
     # the support of the relaxed optimum is a few times R (the rounds add what is missing)
     first = np.argsort(-g, kind="stable")[:initial_size(c, problem.count, 8, cap=8 * problem.count + 40)].tolist()
     policy = STRUCTURED_ROUNDS if problem.structured else DENSE_ROUNDS
-    working = WorkingSet(c, first, start_layout=start_layout, drop_below=policy.drop_below)
+    # structured blocks: the criterion says how fast the set may grow (more members per round, fewer rounds,
+    # against more preconditioner rows); dense blocks: by half the set at most
+    share = problem.criterion.enter_share if problem.structured else 0.5
+    working = WorkingSet(c, first, start_layout=start_layout, drop_below=policy.drop_below, enter_share=share)
     tally = {"hessians": 0, "stale": None}
     if problem.structured:
         tally.update(cg_iterations=0, stale=StaleHessian(problem))

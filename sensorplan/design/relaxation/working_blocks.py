@@ -14,6 +14,7 @@ Owns: WorkingBlocks.  May import: design.blocks.
 """
 
 import numpy as np
+import scipy.sparse
 
 from ..blocks.algebra import suffix_sums, sums_by_start
 
@@ -40,10 +41,12 @@ class _Family:
         self.off = np.where(self.tri[0] == self.tri[1], 1.0, 2.0).astype(dtype)  # <S, G> on the triangle
         # um[j, i, (a, b)] = X_ab[i, j] (a free, b masked); mm[i, j, (a, b)] = X_ab[i, j] (both masked)
         self.um = np.ascontiguousarray(x[:f, :, f:, :].transpose(3, 1, 0, 2).reshape(p, p, f * n_m))
-        self.mm = np.ascontiguousarray(x[f:, :, f:, :].transpose(1, 3, 0, 2).reshape(p, p, n_m * n_m))
+        mm = x[f:, :, f:, :].transpose(1, 3, 0, 2).reshape(p, p, n_m * n_m)
         upper = np.triu(np.ones((p, p)))[:, :, None]
-        self.mm_upper, self.mm_lower = self.mm * upper, self.mm * (1.0 - upper)  # j >= i, and i > j
-        self.low = np.minimum.outer(np.arange(p), np.arange(p))
+        # mm[i, j] where j >= i, and (transposed: row j, column i) where i > j: each pair is reduced by a
+        # stack of vector-matrix products over its smaller index, with no gathered copy
+        self.mm_upper = np.ascontiguousarray(mm * upper)
+        self.mm_lower_t = np.ascontiguousarray((mm * (1.0 - upper)).transpose(1, 0, 2))
 
     def weighted(self, w):
         """sum_c w_c F_c over the members (not yet symmetrised)."""
@@ -57,11 +60,12 @@ class _Family:
         y = np.matmul(self.um, s[:, :, None])[:, :, 0]  # y[j, i] = sum_k X_k[i, j] s[j, k]
         out += y + y.T
         s2 = sums_by_start((wt[:, f:, None] * t[:, None, f:]).reshape(len(w), -1), self.start, p)  # (P, m * m)
-        out += np.einsum("ijk,ijk->ij", self.mm, s2[self.low])
-        part = np.zeros((p, p), dtype=self.dtype)
-        np.add.at(part, self.elem, w[:, None] * self.cross)
+        out += np.matmul(self.mm_upper, s2[:, :, None])[:, :, 0]  # sum_k X_k[i, j] s2[min(i, j), k]
+        out += np.matmul(self.mm_lower_t, s2[:, :, None])[:, :, 0].T
+        # sum_c w_c (e_j r_c^T + r_c e_j^T): the rows r_c summed by element (a sparse (P, members) product)
+        part = scipy.sparse.csr_matrix((w, (self.elem, np.arange(w.size))), shape=(p, w.size)) @ self.cross
         out += part + part.T
-        np.add.at(out, (self.elem, self.elem), w * self.own)
+        out[np.diag_indices(p)] += np.bincount(self.elem, weights=w * self.own, minlength=p).astype(self.dtype)
         return out
 
     def dot(self, g):
@@ -72,10 +76,11 @@ class _Family:
         zu[self.pairs] = self.uu @ (g[self.tri] * self.off)  # <S_ab, G> = 2 <X_ab, G> (a < b), <X_aa, G>
         zu = (zu + zu.T) / 2.0
         out = np.einsum("ca,ab,cb->c", tu, zu, tu)
-        v = suffix_sums(np.einsum("jik,ij->jk", self.um, g))  # sum over j >= s of column j of X_k (.) G
+        v = suffix_sums(np.matmul(g.T[:, None, :], self.um)[:, 0, :])  # sum over j >= s of column j of X_k (.) G
         out += 2.0 * np.einsum("ca,cab,cb->c", tu, v[self.start].reshape(-1, f, tm.shape[1]), tm)
         # sum over i, j >= s of X_k (.) G: each pair counted once, at the smaller of i and j
-        q = suffix_sums(np.einsum("ijk,ij->ik", self.mm_upper, g) + np.einsum("ijk,ij->jk", self.mm_lower, g))
+        q = suffix_sums(np.matmul(g[:, None, :], self.mm_upper)[:, 0, :]
+                        + np.matmul(g.T[:, None, :], self.mm_lower_t)[:, 0, :])
         n_m = tm.shape[1]
         out += np.einsum("ca,cab,cb->c", tm, q[self.start].reshape(-1, n_m, n_m), tm)
         out += 2.0 * np.einsum("ck,ck->c", g[self.elem], self.cross) + self.own * g[self.elem, self.elem]

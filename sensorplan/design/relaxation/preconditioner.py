@@ -1,0 +1,165 @@
+"""The Newton-CG preconditioner: the criterion's Hessian at an earlier iterate, from low-rank roots of the blocks.
+
+The projected CG of :mod:`.newton_cg` is preconditioned by H~, the exact
+Hessian of the criterion at an earlier iterate on the working set's core.
+Its rows cost what the criterion's Hessian factors cost
+(:meth:`Criterion.hessian_factors`: for D, the whitened block
+L^-1 I_i L^-T, m P^3 on m candidates).  A preconditioner needs a few digits
+only, and a candidate's Fisher block has a fast-decaying spectrum (a
+tiltmeter's block at N = 400: the 30th eigenvalue is about 1e-5 of the
+first), so each block enters by its rank-r root R_i (I_i ~ R_i R_i^T, a
+randomised range finder, :func:`~sensorplan.design.blocks.algebra.low_rank_roots`),
+computed once per candidate and kept for the whole relaxation; the factors
+then cost m P^2 r at each new point (:meth:`Criterion.hessian_factors_of_roots`).
+
+Owns: StaleHessian.  May import: _cache, design.blocks.
+"""
+
+import numpy as np
+
+from ..._cache import Cache
+from ..blocks.algebra import low_rank_roots
+
+__all__ = ["StaleHessian", "ROOT_RANK"]
+
+ROOT_RANK = 32  # rank of the blocks' roots (H~ within about 3e-5 of the exact Hessian at the target, D and A)
+
+
+class StaleHessian:
+    """The Newton-CG preconditioner: the exact Hessian of an earlier iterate on the working set's core.
+
+    The core is the members whose weight was above ``core_weight`` when the
+    rows were computed; a member outside it enters the preconditioner
+    through its diagonal only, estimated by -c g_i^2 (g_i the current
+    gradient; for D exact with c = 1 when the whitened block
+    Q^-1/2 I_i Q^-1/2 has rank one, and the candidates' blocks are dominated
+    by one direction; c is the median ratio H_ii / -g_i^2 over the core).
+    :meth:`refresh` recomputes the rows at a new iterate.  Where the
+    criterion gives its Hessian as factors (:meth:`Criterion.hessian_factors`),
+    the factors are kept with the point they were computed at, and
+    :meth:`extend` adds the rows of members that joined the working set since
+    (a new round of column generation) at that same point: one consistent
+    Hessian, at the cost of the new members' factors only; members that
+    left the working set are forgotten.  The blocks enter by their rank-``rank``
+    roots (module docstring).  ``rows`` counts the block rows computed,
+    ``refreshes`` the recomputations.
+    """
+
+    def __init__(self, problem, *, core_weight=1e-3, rank=ROOT_RANK):
+        self.problem = problem
+        self.core_weight = core_weight
+        self.rank = rank
+        self.members = np.zeros(0, dtype=int)  # in the order of the rows
+        self.matrix = np.zeros((0, 0))
+        self.rows = 0
+        self.refreshes = 0
+        self.scale = 1.0  # H_ii / -g_i^2 on the core (1 for D; the estimate is scaled for any criterion)
+        self._roots = Cache()  # by candidate number, for this problem only (dropped with the preconditioner)
+        self._point = None  # (q, chol) of the rows, and their factors (None: the criterion has none)
+        self._store = None
+
+    def refresh(self, idx, point, x, grad):
+        """Recompute the rows of the members of ``idx`` whose weight ``x`` is above ``core_weight`` at
+        ``point``; the preconditioner's Hessian on ``idx`` (gradient ``grad``)."""
+        keep = x > self.core_weight
+        core = idx[keep]
+        self._point = (point.q, point.chol)
+        factors = self._factors_of(core)
+        if factors is None:
+            self._store = None
+            h = self.problem.criterion.hessian(point.q, point.chol, _row_blocks(self.problem.blocks, core))
+        else:
+            self._store = _RowStore(factors)
+            h = _gram(self._store.factors)
+        self.members, self.matrix = core, 0.5 * (h + h.T)
+        self.rows, self.refreshes = self.rows + core.size, self.refreshes + 1
+        ratio = np.diag(self.matrix) / -np.maximum(grad[keep] ** 2, 1e-300)
+        self.scale = float(np.median(ratio)) if ratio.size else 1.0
+        return self.on(idx, grad)
+
+    def extend(self, idx, x, grad):
+        """Add the rows of the members of ``idx`` above ``core_weight`` that have none, at the point of the
+        others (when the criterion gives factors; members that left ``idx`` are forgotten); the
+        preconditioner's Hessian on ``idx``."""
+        new = np.setdiff1d(idx[x > self.core_weight], self.members)
+        if new.size and self._store is not None:
+            stay = np.isin(self.members, idx)
+            old = int(stay.sum())
+            self._store.replace(stay, self._factors_of(new))
+            cross = _gram(self._store.factors, rows=slice(old, None))  # (new, old + new)
+            matrix = np.empty((old + new.size,) * 2)
+            matrix[:old, :old] = self.matrix[np.ix_(stay, stay)]
+            matrix[old:], matrix[:old, old:] = cross, cross[:, :old].T
+            self.members, self.matrix = np.concatenate([self.members[stay], new]), matrix
+            self.rows += new.size
+        return self.on(idx, grad)
+
+    def _factors_of(self, index):
+        """The criterion's Hessian factors of the candidates ``index`` at the rows' point from the blocks'
+        roots (computed once per candidate, in single precision); None where the criterion has none."""
+        missing = np.array([i for i in index.tolist() if not self._roots.lookup((), key=i)[0]], dtype=int)
+        for s in range(0, missing.size, 64):
+            part = missing[s:s + 64]
+            for i, root in zip(part.tolist(), low_rank_roots(_row_blocks(self.problem.blocks, part), self.rank)):
+                self._roots.put((), root, key=i)
+        p = self.problem.n_params
+        roots = np.stack([self._roots.lookup((), key=i)[1] for i in index.tolist()]) if index.size else \
+            np.zeros((0, p, min(p, self.rank)), dtype=np.float32)
+        q, chol = self._point
+        return self.problem.criterion.hessian_factors_of_roots(q, chol, roots)
+
+    def on(self, idx, grad):
+        """The preconditioner's Hessian on the sorted working set ``idx`` (gradient ``grad``)."""
+        h = np.diag(-self.scale * grad**2)
+        inside = np.isin(idx, self.members)
+        if inside.any():
+            order = np.argsort(self.members)
+            pos = order[np.searchsorted(self.members, idx[inside], sorter=order)]
+            where = np.flatnonzero(inside)
+            h[np.ix_(where, where)] = self.matrix[np.ix_(pos, pos)]
+        return h
+
+
+class _RowStore:
+    """The factors (N, M) (M may be None) of the rows, in buffers with room to grow: rows that stay are moved
+    up in place and new rows appended, without a concatenated copy of the (large) rows per extension."""
+
+    def __init__(self, factors):
+        self.buffers = [None if a is None else np.asarray(a) for a in factors]
+        self.count = factors[0].shape[0]
+
+    @property
+    def factors(self):
+        return tuple(None if b is None else b[:self.count] for b in self.buffers)
+
+    def replace(self, stay, new):
+        """Keep the rows where ``stay`` (in order), then append the rows of ``new`` (same form)."""
+        kept = np.flatnonzero(stay)
+        n = kept.size + new[0].shape[0]
+        for k, (buf, add) in enumerate(zip(self.buffers, new)):
+            if buf is None:
+                continue
+            for dst, src in enumerate(kept.tolist()):  # dst <= src: moving forward in place is safe
+                if dst != src:
+                    buf[dst] = buf[src]
+            if buf.shape[0] < n:
+                grown = np.empty((n + n // 2,) + buf.shape[1:], dtype=buf.dtype)
+                grown[:kept.size] = buf[:kept.size]
+                buf = self.buffers[k] = grown
+            buf[kept.size:n] = add
+        self.count = n
+
+
+def _row_blocks(blocks, index):
+    """The dense blocks at ``index`` in single precision for the preconditioner's rows (structured blocks:
+    formed without the cache or a symmetrised copy)."""
+    if isinstance(blocks, np.ndarray):
+        return blocks[index].astype(np.float32)
+    return blocks.unsymmetrised(index, dtype=np.float32)
+
+
+def _gram(factors, *, rows=slice(None)):
+    """M M^T - N N^T of ``factors`` = (N, M) (M may be None), for the rows ``rows`` only, in double precision."""
+    negative, positive = factors
+    h = -(negative[rows] @ negative.T).astype(float)
+    return h if positive is None else h + (positive[rows] @ positive.T).astype(float)
