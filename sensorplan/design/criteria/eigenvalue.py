@@ -59,16 +59,22 @@ class ECriterion(Criterion):
             if info != 0:
                 out.append(-np.inf)
                 continue
-            value = smallest_eigenvalue(a, factor, threshold - margin, shifted)
-            # within round-off of the threshold the full solver decides (what ``value`` gives): nothing at or
-            # below the threshold is ever reported above it; clearly below it, the value is not needed
-            near = NEAR_THRESHOLD * max(1.0, abs(threshold))
-            if value < threshold - near:
-                value = -np.inf
-            elif value <= threshold + near:
-                value = float(np.linalg.eigvalsh(a)[0])
-            out.append(value)
+            out.append(self._settled(a, smallest_eigenvalue(a, factor, threshold - margin, shifted), threshold))
         return out
+
+    @staticmethod
+    def _settled(a, theta, threshold):
+        """The value of ``a`` for :meth:`utilities_above` from its certified Ritz value ``theta``
+        (lambda_min <= theta, never far below): below the threshold by more than CERTIFY_TOL, any number not
+        above it (-inf; the many swaps that leave lambda_min where it was land there); within
+        ``NEAR_THRESHOLD`` above it, the full solver's (what ``value`` gives: nothing at or below the
+        threshold is ever reported above it); above, theta."""
+        scale = max(1.0, abs(threshold))
+        if theta < threshold - CERTIFY_TOL * scale:
+            return -np.inf
+        if theta <= threshold + NEAR_THRESHOLD * scale:
+            return float(np.linalg.eigvalsh(a)[0])
+        return theta
 
     def gradient_matrix(self, q):
         _, vecs = np.linalg.eigh(symmetrise(q))
