@@ -179,9 +179,11 @@ def test_fast_path_equals_cvxpy_clarabel(criterion, constraints):
     fast = solve_relaxation(problem, "fast")
     ref = solve_relaxation(problem, "cvxpy")
     scale = max(1.0, abs(ref.bound))
-    # same relaxed optimum; the fast path's certificate is at least as tight
+    # same relaxed optimum; the fast path's certificate is as tight, up to the criterion's stopping tolerance
+    # (its default relative gap: 1e-7, E 1e-6)
     assert abs(fast.utility - ref.utility) <= 1e-6 * scale
-    assert ref.utility - 1e-9 * scale <= fast.bound <= ref.bound + 1e-9 * scale
+    tol = problem.criterion.relaxation_tol
+    assert ref.utility - 1e-9 * scale <= fast.bound <= ref.bound + (tol + 1e-9) * scale
     # the generic reference's own certificate at Clarabel's default tolerances: ~1e-5 (1.07e-5 measured on Ds with
     # the prior's common level, whose constant direction is weakly informed)
     assert fast.relative_gap <= 1e-6 and ref.relative_gap <= 2e-5

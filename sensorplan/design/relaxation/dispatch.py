@@ -54,7 +54,9 @@ def solve_relaxation(problem, solver="auto", *, start_layout=None):
 
 
 @register_relaxation_solver("fast")
-def solve_relaxation_fast(problem, *, start_layout=None, tol=1e-7, max_rounds=50):
-    """The fast method registered under the criterion's ``relaxation`` name (interior point if none is)."""
+def solve_relaxation_fast(problem, *, start_layout=None, tol=None, max_rounds=50):
+    """The fast method registered under the criterion's ``relaxation`` name (interior point if none is), to the
+    relative gap ``tol`` (default: the criterion's ``relaxation_tol``)."""
     method = FAST_METHODS.get(problem.criterion.relaxation, FAST_METHODS["interior-point"])
+    tol = problem.criterion.relaxation_tol if tol is None else tol
     return method(problem, tol=tol, start_layout=start_layout, max_rounds=max_rounds)
