@@ -49,67 +49,75 @@ timeout of ``TIMEOUT_S``; a child that times out or fails is reported as such.
 
 Last run
 --------
-2026-11-28 05:00-05:27 UTC, branch s16-int (= main after this session: the
-structured blocks' sums and congruences made cheaper, the whitened split
-bounds and LAPACK factorisations of greedy and exchange, the
-preconditioner's factors extended across rounds, E's spread working set,
-and the children tuned as the command line is, ``keep_freed_memory``), one
-BLAS thread, children one at a time, the clean-clone CI suite or a helper
-on the other core (load average about 2)::
+2026-11-28 08:03-08:36 UTC, branch s17-int (= main after this session:
+the relaxation preconditioner from rank-32 roots of the blocks and D's
+larger entering share, E's working set by the gap with cut rows and its
+1e-6 tolerance, the searches' refine levels for D and A, A's losers by a
+blocked triangular inverse, E's exact values by Lanczos from the screening
+factor, blocks read from the cache without copies), one BLAS thread,
+children one at a time on a quiet machine (load average 0.7-1.0)::
 
     configuration                      build  base greedy  relax   best  curve  total     gap   eff  peak
+    D N=400 C=3000 R=20                  1.3   2.5    5.1   16.3   19.9    1.5   46.6  1.6e-8  0.989  1.53
+    A N=400 C=3000 R=20                  0.7   2.7   10.8   26.9   40.5    2.2   83.8  1.0e-8  0.928  2.04
+    E N=400 C=3000 R=20                  1.3   2.9    4.3   19.3   27.9    3.0   58.8  2.9e-7  0.897  1.47
+    mixed D N=400 C=3000 R=20            0.8   4.8    6.0   12.3   28.3    3.6   55.9  2.2e-8  0.989  1.53
+    growth, D:
+    D N=400 C=200  R=20                  0.4   2.0    2.1    3.5   13.0    1.4   22.3  1.3e-8  0.990  0.86
+    D N=400 C=400  R=20                  0.3   2.2    2.3    5.4   17.8    1.5   29.5  1.4e-8  0.990  1.04
+    D N=400 C=800  R=20                  0.4   2.2    2.7    7.2   14.1    1.4   28.1  5.3e-8  0.990  1.26
+    D N=400 C=1600 R=20                  0.5   2.3    3.6    9.9   17.3    1.6   35.1  3.7e-9  0.989  1.28
+    D N=60  C=800  R=20 (dense)          0.4   0.1    0.1    0.1    0.5    0.1    1.2  1.9e-10 0.972  0.22
+    D N=120 C=800  R=20 (dense)          0.7   0.2    0.3    0.7    4.5    0.3    6.8  7.9e-10 0.980  0.40
+    D N=240 C=800  R=20                  0.2   0.8    1.2    2.2    7.8    0.5   12.7  4.6e-8  0.985  0.45
+    D N=400 C=800  R=20                  0.4   2.2    3.4    7.5   14.5    1.5   29.4  5.3e-8  0.990  1.26
+
+The recommended layouts, methods and utilities are those of the session
+before (D "greedy + exchange" 1971.460873879109, A "relaxation rounding +
+exchange" -5.9090643321625596, E "relaxation rounding + exchange"
+8.805258175010064, mixed 1971.4573988498967); the certified efficiencies
+move in their last digits only, with the gaps (D 0.98936797, was
+0.98936804).  Relaxations: D 7 rounds (was 15), working set 320, 123
+Newton steps (207), 352 CG iterations (625), 2 preconditioner refreshes; A
+13 rounds, 614, 203 steps, 497 CG; E 23 rounds, working set 166 (was 865),
+basis 116, small SDPs 17.9 s of its 19.3 s.  E in three runs of the same
+tree: 60.0, 60.1 and 58.8 s (with the 1e-7 tolerance of the other criteria:
+61.1-61.9 s).
+
+Acceptance (issue 38) at N = 400, C = 3,000, R = 20:
+
+* D: 46.6 s CPU (met: < 60 s; 64.7 s before this session), gap 1.6e-8
+  (met), peak 1.53 GiB (met).
+* A: 83.8 s (not met; 124.2 s before), gap 1.0e-8 (met), peak 2.04 GiB
+  (met).
+* E: 58.8-60.1 s (on the limit: met in one run of three; 254.1 s before),
+  gap 2.9e-7 (met), peak 1.47 GiB (met).
+* Mixed kinds (rotation + deflection, costs 1 and 3, budget 40): 55.9 s
+  (met: < 120 s), gap 2.2e-8, peak 1.53 GiB.
+
+Cost growth (D, least squares on the logs, the rows above with the target
+row): time ~ C^0.24 at N = 400, C = 200 -> 3,000 (22.3 -> 46.6 s); time ~
+N^1.61 at C = 800, N = 60 -> 400 (1.2 -> 29.4 s; N <= 120 on dense
+blocks).  Before this session C^0.31 and N^1.75; before issue 38's work
+(79499f2) C^0.61 and N^2.2.  The up-front estimate
+(:mod:`sensorplan.design.resources`) is now about 3x high for structured
+blocks at the target (154 s) and 2x low for N = 120 on dense blocks.
+
+Where the time goes now: A's best stage (40 s: local moves with split
+bounds whose congruences over all candidates dominate, three coarse-grid
+exchanges) and its relaxation (27 s, mostly the preconditioner's inner
+products: A's rows are P^2 wide); E's best stage (28 s: the congruences
+V^T I_i V of the bounds 7.5 s over 497 calls, about 10,600 screening
+factorisations 6.4 s, the local moves' 41 neighbours per sensor) and its
+small SDPs (18 s, the Schur complement of order m^2 k^2 at m ~ 160).
+
+Session 16 (2026-11-28 05:00-05:27 UTC, branch s16-int), same conditions,
+load about 2::
+
     D N=400 C=3000 R=20                  0.8   2.6    5.6   29.6   24.1    1.9   64.7  1.8e-10 0.989  2.00
     A N=400 C=3000 R=20                  0.7   2.8   14.4   46.2   57.4    2.6  124.2  1.0e-8  0.928  3.17
     E N=400 C=3000 R=20                  0.7   3.0    4.5  201.3   41.3    3.4  254.1  6.6e-8  0.897  1.42
     mixed D N=400 C=3000 R=20            1.6   4.4    7.4   20.0   29.7    4.1   67.1  1.5e-9  0.989  2.21
-    growth, D:
-    D N=400 C=200  R=20                  0.3   2.0    2.4    4.7   15.0    1.9   26.3  1.4e-9  0.990  0.84
-    D N=400 C=400  R=20                  0.3   2.1    3.2    8.8   21.5    2.0   37.9  2.5e-9  0.990  1.28
-    D N=400 C=800  R=20                  0.4   2.4    4.1   15.7   17.6    1.8   42.0  4.1e-10 0.990  1.78
-    D N=400 C=1600 R=20                  0.5   2.4    5.1   21.4   21.4    1.8   52.6  1.6e-8  0.989  2.04
-    D N=60  C=800  R=20 (dense)          0.4   0.1    0.1    0.1    0.5    0.1    1.2  1.9e-10 0.972  0.22
-    D N=120 C=800  R=20 (dense)          0.8   0.2    0.3    0.7    4.5    0.3    6.9  7.9e-10 0.980  0.40
-    D N=240 C=800  R=20                  0.2   0.8    1.5    3.7    7.7    0.5   14.4  1.9e-8  0.985  0.58
-    D N=400 C=800  R=20                  0.4   2.2    4.5   14.7   17.3    1.8   40.8  4.1e-10 0.990  1.78
-
-The recommended layouts keep their methods and certified efficiencies
-(D 0.98937 "greedy + exchange", A 0.92762 "relaxation rounding +
-exchange"); on the search's branch the greedy and recommended layouts and
-utilities were checked equal to the session before's bit for bit (D
-greedy 1971.1630690600293, recommended 1971.460873879109; A recommended
--5.9090643321625596), and the relaxations' optima agree within each
-other's bounds.  Relaxations: D 15 rounds,
-working set 271, 207 Newton steps, 2 full preconditioner refreshes (1,550
-Hessian rows, was 3,781), 625 CG iterations; A 13 rounds, 614, 203 steps;
-E 24 rounds, working set 865, basis 120 directions (the small SDPs are
-nearly all of its time: 10-25 s each at the end).  Kernel CPU (page
-faults of fresh mappings) of the D child: 15.2 s untuned, 2.4 s tuned.
-
-Acceptance (issue 38) at N = 400, C = 3,000, R = 20:
-
-* D: 64.7 s CPU (not met: < 60 s; 107.3 s before this session, 304.6 s at
-  d95c1d0), gap 1.8e-10 (met), peak 2.00 GiB (met).
-* A: 124.2 s (not met; 178.7 s before), gap 1.0e-8 (met), peak 3.17 GiB
-  (met).
-* E: 254.1 s (not met; did not finish before), gap 6.6e-8 (met), peak
-  1.42 GiB (met).
-* Mixed kinds (rotation + deflection, costs 1 and 3, budget 40): 67.1 s
-  (met: < 120 s), gap 1.5e-9, peak 2.21 GiB.
-
-Cost growth (D, least squares on the logs, the rows above with the target
-row): time ~ C^0.31 at N = 400, C = 200 -> 3,000 (26.3 -> 64.7 s); time ~
-N^1.75 at C = 800, N = 60 -> 400 (1.2 -> 40.8 s; N <= 120 on dense
-blocks).  Before this session C^0.37 and N^1.9; before issue 38's work
-(79499f2) C^0.61 and N^2.2.  The up-front estimate
-(:mod:`sensorplan.design.resources`) is now 2-3x high for structured
-blocks (154 s at the target) and 2x low for N = 120 on dense blocks.
-
-Where the time goes now (D at the target, cProfile): the relaxation's
-Hessian products in CG (13 s: structured sum, W S W, inner products; about
-P^3 each) and preconditioner rows (6.5 s); in best the three coarse-grid
-exchanges (about 5 s each: eigen-split bounds k = 16 and ~30 exact
-evaluations per replacement search on the 151-candidate grid) and the
-polish (10 s); the congruences V^T I_i V of the bounds (8 s, 380 calls).
 
 Earlier, 2026-11-28 02:30-02:50 UTC, branch s15-int2 (commits e20b965..fb2a57d:
 the Newton-CG interior point on structured blocks, the screened greedy and
