@@ -49,7 +49,7 @@ timeout of ``TIMEOUT_S``; a child that times out or fails is reported as such.
 
 Last run
 --------
-2026-11-28 08:03-08:36 UTC, branch s17-int (= main after this session:
+2026-11-28 08:03-08:22 UTC, branch s17-int (= main after this session:
 the relaxation preconditioner from rank-32 roots of the blocks and D's
 larger entering share, E's working set by the gap with cut rows and its
 1e-6 tolerance, the searches' refine levels for D and A, A's losers by a
