@@ -2,6 +2,8 @@
 certificate with an inexact or failing small SDP and with a capped (aggregated) basis."""
 
 import itertools
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,9 +13,11 @@ from hypothesis import strategies as st
 import sensorplan as sp
 from sensorplan import CandidateGrid, Case, SolverError
 from sensorplan.design.criteria.eigenvalue import ECriterion
-from sensorplan.design.problem import DesignProblem
 from sensorplan.design.recommend import build_problem
 from sensorplan.design.relaxation import eigen_subspace, lmi, solve_relaxation
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from design_problems import random_e_problem  # noqa: E402
 
 
 def small_case(n_elements):
@@ -113,20 +117,6 @@ def test_upper_bounds_are_valid_and_exact_within_the_split():
             assert problem.n_params <= 16 and np.allclose(ub, exact, rtol=1e-9, atol=0.0)
 
 
-def random_e_problem(seed, *, c, p, rank, count):
-    """Blocks of random rank-``rank`` Jacobians (some candidates near copies of others, so that the relaxed
-    optimum ties many of them, as dense candidate grids do), a random positive definite prior."""
-    rng = np.random.default_rng(seed)
-    jac = rng.standard_normal((c, rank, p)) * rng.uniform(0.2, 3.0, (c, 1, 1))
-    twins = rng.integers(0, c, c // 3)
-    jac[: c // 3] = jac[twins] + 0.01 * rng.standard_normal((c // 3, rank, p))
-    blocks = np.einsum("cri,crj->cij", jac, jac)
-    a = rng.standard_normal((p, p))
-    q0 = a @ a.T / p + 0.1 * np.eye(p)
-    return DesignProblem(np.sort(rng.uniform(0.0, 50.0, c)), np.zeros(c, dtype=int), blocks, q0,
-                         criterion=ECriterion(p), count=count)
-
-
 @settings(max_examples=12, deadline=None)
 @given(seed=st.integers(0, 10_000), c=st.integers(8, 40), p=st.integers(3, 14), rank=st.integers(1, 3),
        count=st.integers(1, 6))
@@ -135,7 +125,7 @@ def test_certified_bound_holds_and_the_gap_closes_on_random_problems(seed, c, p,
     # solver): lambda_min at its weights (numpy's eigvalsh) is <= the optimum, its dual bound >= it.  The fast
     # method's bound is never below the former, its utility (eigvalsh at its weights) never above the
     # latter, and its certified gap reaches the default tolerance.
-    problem = random_e_problem(seed, c=c, p=p, rank=rank, count=min(count, c))
+    problem = random_e_problem(seed, c=c, p=p, rank=rank, count=min(count, c), twins=True)
     reference = solve_relaxation(problem, "cvxpy")
     rel = solve_relaxation(problem, "fast")
     scale = max(1.0, abs(reference.bound))

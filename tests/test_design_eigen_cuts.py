@@ -1,16 +1,20 @@
 """The E relaxation's cut rows: the small LMI with cuts t <= cut_rhs + cuts w against cvxpy + Clarabel, and
 the eigen-subspace method's certificate when the basis sheds directions as cuts."""
 
+import sys
+from pathlib import Path
+
 import cvxpy as cp
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sensorplan.design.criteria.eigenvalue import ECriterion
-from sensorplan.design.problem import DesignProblem
 from sensorplan.design.relaxation import eigen_subspace, solve_relaxation
 from sensorplan.design.relaxation.lmi import lmi_interior_point
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from design_problems import random_e_problem  # noqa: E402
 
 
 def random_lmi(seed, *, k=6, m=25, n_cuts=4):
@@ -52,17 +56,6 @@ def test_small_lmi_with_cuts_matches_clarabel(seed):
     s_w = b0 + (w @ bmat.reshape(m, -1)).reshape(k, k)
     assert np.linalg.eigvalsh(s_w)[0] >= value - 1e-7 * scale
     assert np.all(cut_rhs + cuts @ w >= value - 1e-7 * scale)
-
-
-def random_e_problem(seed, *, c, p, count):
-    """Blocks of random rank-2 Jacobians, a random positive definite prior."""
-    rng = np.random.default_rng(seed)
-    jac = rng.standard_normal((c, 2, p)) * rng.uniform(0.2, 3.0, (c, 1, 1))
-    blocks = np.einsum("cri,crj->cij", jac, jac)
-    a = rng.standard_normal((p, p))
-    q0 = a @ a.T / p + 0.1 * np.eye(p)
-    return DesignProblem(np.sort(rng.uniform(0.0, 50.0, c)), np.zeros(c, dtype=int), blocks, q0,
-                         criterion=ECriterion(p), count=count)
 
 
 @settings(max_examples=8, deadline=None)
