@@ -40,7 +40,7 @@ def test_a_smallest_eigenvector_the_start_misses_is_still_found():
     from sensorplan.design.criteria import eigenvalue
 
     p = 30
-    start = eigenvalue._START.get(p)
+    start = eigenvalue._start(p)
     rng = np.random.default_rng(3)
     basis, _ = np.linalg.qr(np.column_stack([start, rng.standard_normal((p, p - 1))]))
     vals = np.linspace(2.0, 10.0, p)

@@ -110,8 +110,7 @@ def _first_bounds(problem, q):
     method = getattr(problem.criterion, "subset_bounds", None)
     if problem.structured and method is not None:
         # a criterion whose bounds use only the k smallest eigenvectors computes those alone (no eig passed on)
-        smallest = getattr(problem.criterion, "smallest_eigenvectors_only", False)
-        eig = None if smallest else np.linalg.eigh(0.5 * (q + q.T))
+        eig = None if problem.criterion.smallest_eigenvectors_only else np.linalg.eigh(0.5 * (q + q.T))
         ub = method(problem, q, k=_refine_levels(problem)[0][0], eig=eig)
         if ub is not None:
             return ub, eig

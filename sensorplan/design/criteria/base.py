@@ -68,6 +68,7 @@ class Criterion(ABC):
     submodular: ClassVar[bool] = False  # gains only shrink as sensors are added: lazy greedy is exact
     relaxation: ClassVar[str] = "interior-point"  # fast solver: "interior-point", "eigen-subspace", ...
     relaxation_tol: ClassVar[float] = 1e-7  # relative duality gap at which the fast relaxation stops by default
+    smallest_eigenvectors_only: ClassVar[bool] = False  # subset_bounds needs Q's k smallest eigenpairs only
     information: ClassVar[str] = "fisher"  # what a sensor adds: Fisher blocks, or "detection" Gram stacks
     params_label: ClassVar[str] = "parameters"  # what n_effective counts, for summaries
     random_starts: ClassVar[int] = 0  # randomised roundings of the relaxation tried as exchange starts

@@ -4,12 +4,13 @@ Not smooth: its relaxation is the eigen-subspace method
 (:mod:`sensorplan.design.relaxation.eigen_subspace`), certified by trace-one
 dual matrices (:meth:`ECriterion.bound_from_dual`).
 
-Owns: ECriterion.  May import: errors, design.criteria.
+Owns: ECriterion, smallest_eigenvalue.  May import: errors, _cache, design.criteria.
 """
 
 import numpy as np
 import scipy.linalg
 
+from ..._cache import Cache
 from .base import Criterion
 from .linalg import eigen_split, symmetrise
 from .registry import register_criterion
@@ -158,7 +159,7 @@ def smallest_eigenvalue(a, factor, shift, work=None):
     p = a.shape[0]
     solve = scipy.linalg.lapack.dtrtrs
     basis = np.empty((LANCZOS_STEPS, p))
-    v = _START.get(p)
+    v = _start(p)
     alphas, betas, theta = [], [], None
     for j in range(LANCZOS_STEPS):
         basis[j] = v
@@ -184,18 +185,17 @@ def smallest_eigenvalue(a, factor, shift, work=None):
     return float(np.linalg.eigvalsh(a)[0])
 
 
-class _Starts:
-    """Lanczos start vectors by size: fixed, with every component nonzero and no symmetry (a bridge's
+_STARTS = Cache(maxsize=8)  # the Lanczos start vectors by size
+
+
+def _start(p):
+    """The Lanczos start vector of size ``p``: fixed, with every component nonzero and no symmetry (a bridge's
     symmetric layouts have antisymmetric eigenvectors a constant vector would miss)."""
-
-    def __init__(self):
-        self._held = {}
-
-    def get(self, p):
-        if p not in self._held:
-            v = np.cos(np.arange(1, p + 1) * np.sqrt(2.0)) + 1.5
-            self._held[p] = v / np.linalg.norm(v)
-        return self._held[p]
+    return _STARTS.get((int(p),), lambda: _start_vector(int(p)))
 
 
-_START = _Starts()
+def _start_vector(p):
+    v = np.cos(np.arange(1, p + 1) * np.sqrt(2.0)) + 1.5
+    v /= np.linalg.norm(v)
+    v.flags.writeable = False
+    return v
