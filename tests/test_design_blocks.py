@@ -83,7 +83,30 @@ def test_structured_blocks_equal_dense(name):
     pick = [7, 2, 30]
     sub = blocks.subset(pick)
     assert np.abs(sub[np.arange(3)] - dense[pick]).max() <= 1e-10 * scale
+    assert np.abs(sub.congruence(v) - ref[pick]).max() <= 1e-10 * np.abs(ref).max()
     assert np.abs(blocks[4] - dense[4]).max() <= 1e-10 * scale
+
+
+@pytest.mark.parametrize("name", ["plain", "springs"])
+def test_families_keep_only_the_fixed_matrices_they_use(name):
+    # tiltmeters only: the load moment's integral against s never enters (their atoms are steps), and on pinned
+    # supports some redundant's diagram may carry no load moment; what is kept still gives the dense blocks
+    rng = np.random.default_rng(5)
+    case, _, _, springs = _setup(name, rng)
+    x = np.sort(rng.uniform(0.0, 60.0, 40))
+    sensors = SensorLayout(x, ("rotation",) * x.size, tuple(f"t{i}" for i in range(x.size)), (5e-6,) * x.size)
+    noise = case.noise_for(sensors)
+    dense = fisher_blocks(case, sensors=sensors, noise=noise, parameterisation="log_ei", springs=springs).blocks
+    blocks = structured_fisher(case, sensors, noise, springs=springs)
+    (family,) = blocks.families
+    n_a = family.products.shape[0]
+    assert np.all(np.any(family.coef != 0.0, axis=0))
+    assert all(np.any(family.products[a, :, a, :] != 0.0) for a in range(n_a))
+    assert n_a - family.n_free == 1  # the integral against 1 only
+    assert np.abs(blocks[np.arange(x.size)] - dense).max() <= 1e-10 * np.abs(dense).max()
+    v = np.linalg.qr(rng.standard_normal((dense.shape[1], 6)))[0]
+    ref = np.einsum("ip,cij,jq->cpq", v, dense, v)
+    assert np.abs(blocks.congruence(v) - ref).max() <= 1e-10 * np.abs(ref).max()
 
 
 @pytest.mark.parametrize("criterion", ["D", "A", "E"])

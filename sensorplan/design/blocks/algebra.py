@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+import scipy.linalg.blas
 import scipy.sparse
 
 from ..._cache import Cache
@@ -230,16 +231,21 @@ class BlockFamily:
         from the member's ``start`` on; they are accumulated from the last
         element down, one group of members sharing a start at a time (tall
         products over the rows in between), so the memory is O(A^2 m^2), not
-        O(P A^2 m^2), whatever m.
+        O(P A^2 m^2), whatever m.  Each part enters once, unsymmetrised
+        (V^T X V or its transpose: the whole is symmetrised at the end), and
+        is added in place (BLAS gemm with beta = 1 on the rows of a group).
         """
         f, p = self.n_free, self.n_params
         n_m, k, n = self.products.shape[0] - f, v.shape[1], self.coef.shape[0]
-        tu, tm = self.coef[:, :f], self.coef[:, f:]
+        order, groups = self._start_groups
+        coef, elem = (self.coef, self.elem) if order is None else (self.coef[order], self.elem[order])
+        tu, tm = coef[:, :f], coef[:, f:]
         xv = np.matmul(self.products[:, :, :f, :], v)  # (A, P, f, m): X_ab V (b free: the only ones used)
         z = np.tensordot(v, xv[:f], axes=([0], [1])).transpose(1, 2, 0, 3).reshape(f * f, k * k)
-        out = ((tu[:, :, None] * tu[:, None, :]).reshape(n, f * f) @ z).reshape(n, k, k)
+        out = np.empty((n, k, k))
+        flat_out = out.reshape(n, k * k)
         # rows j of triu(X_ab) V (a, b masked), of X_ba V (a free, b masked) and of tril(X_ab, -1)^T V: the
-        # masked parts are V^T(sums from the start on of these rows (x) V[j]), with V^T triu(X) V transposed
+        # masked parts are V^T(sums from the start on of these rows (x) V[j]) (V^T triu(X) V enters transposed)
         upper = np.empty((p, n_m, n_m, k))
         lower = np.empty((p, n_m, n_m, k))
         triangles = self._triangles
@@ -249,30 +255,44 @@ class BlockFamily:
                 lower[:, a, b] = triangles[1, a, b] @ v
         mixed = xv[f:].transpose(1, 2, 0, 3).reshape(p, f * n_m * k)
         rows = np.concatenate([upper.reshape(p, -1), mixed, lower.reshape(p, -1)], axis=1)
+        weights = np.concatenate([(tm[:, :, None] * tm[:, None, :]).reshape(n, -1),
+                                  2.0 * (tu[:, :, None] * tm[:, None, :]).reshape(n, -1),  # X_ab V and X_ba V
+                                  (tm[:, :, None] * tm[:, None, :]).reshape(n, -1)], axis=1)
+        # r_c (x) v_j + v_j (x) r_c + own_c v_j (x) v_j (v_j = V[j_c], the same for a group) is twice the
+        # symmetric part of (r_c + own_c v_j / 2) (x) v_j
+        cross = self.cross if order is None else self.cross[order]
+        own = self.own if order is None else self.own[order]
+        half = 2.0 * (cross @ v) + own[:, None] * v[elem]
         sums = np.zeros((rows.shape[1], k))
-        mm, fm = n_m * n_m, f * n_m
-        by_start = np.argsort(-self.start, kind="stable")
-        starts = self.start[by_start]
-        coef = np.concatenate([(tm[by_start, :, None] * tm[by_start, None, :]).reshape(n, mm),
-                               (tu[by_start, :, None] * tm[by_start, None, :]).reshape(n, fm),
-                               (tm[by_start, :, None] * tm[by_start, None, :]).reshape(n, mm)], axis=1)
-        masked = np.zeros((n, k, k))
-        hi, edges = p, np.flatnonzero(np.diff(np.concatenate([[-1], starts, [-1]])))
-        for g0, g1 in zip(edges[:-1], edges[1:]):
-            lo = int(starts[g0])
-            if lo < hi:  # add the elements lo .. hi - 1 to the suffix sums
+        hi = p
+        for g0, g1, lo in reversed(groups):  # by decreasing start: add the elements lo .. hi - 1 to the sums
+            if lo < hi:
                 sums += rows[lo:hi].T @ v[lo:hi]
                 hi = lo
-            flat = sums.reshape(-1, k * k)
-            left = (coef[g0:g1, :mm + fm] @ flat[:mm + fm]).reshape(-1, k, k)
-            masked[g0:g1] = np.swapaxes(left, 1, 2) + (coef[g0:g1, mm:] @ flat[mm:]).reshape(-1, k, k)
-        out[by_start] += masked
-        # r_c (x) v_j + v_j (x) r_c + own_c v_j (x) v_j, with v_j = V[j_c], is twice the symmetric part of
-        # (r_c + own_c v_j / 2) (x) v_j: added once, then the whole is symmetrised
-        vj = v[self.elem]
-        half = self.cross @ v + 0.5 * self.own[:, None] * vj
-        out += 2.0 * half[:, :, None] * vj[:, None, :]
-        return _symmetrise(out)
+            np.matmul(weights[g0:g1], sums.reshape(-1, k * k), out=flat_out[g0:g1])
+            _add_product(half[g0:g1].reshape(-1, 1), v[lo - 1][None, :], out[g0:g1].reshape(-1, k))
+        _add_product((tu[:, :, None] * tu[:, None, :]).reshape(n, f * f), z, flat_out)  # the free part
+        out = _symmetrise(out)
+        if order is not None:
+            out[order] = out.copy()
+        return out
+
+    @cached_property
+    def _start_groups(self):
+        """(order, groups): the members by increasing start (``order`` None when that is their order already, as
+        for candidates by position), and the (first, stop, start) of each run of members sharing a start."""
+        order = np.argsort(self.start, kind="stable")
+        starts = self.start[order]
+        edges = np.flatnonzero(np.diff(np.concatenate([[-1], starts, [-1]])))
+        groups = [(int(g0), int(g1), int(starts[g0])) for g0, g1 in zip(edges[:-1], edges[1:])]
+        return (None if np.array_equal(order, np.arange(order.size)) else order), groups
+
+
+def _add_product(a, b, c):
+    """C += A B in place (C (n, m) C-contiguous; BLAS gemm with beta = 1 on the transposes, no temporary)."""
+    if c.size == 0:
+        return
+    scipy.linalg.blas.dgemm(1.0, b.T, a.T, beta=1.0, c=c.T, overwrite_c=True)
 
 
 class StructuredBlocks:

@@ -107,6 +107,8 @@ def _noise_groups(noise):
 
 def _family(psi, n_u, coef, elem, partial, members, noise, positions, n_crossings):
     """One :class:`BlockFamily`: the fixed matrices and the partial columns whitened by the group's noise."""
+    keep = _used(psi, coef, n_u)
+    psi, coef, n_u = psi[keep], coef[:, keep], int(np.count_nonzero(keep[:n_u]))
     n_a, n_loads, p = psi.shape
     stack = np.concatenate([psi.transpose(1, 0, 2).reshape(n_loads, n_a * p), partial.T], axis=1)
     white = noise.whiten(stack[None], positions)[0] * np.sqrt(n_crossings)
@@ -116,3 +118,15 @@ def _family(psi, n_u, coef, elem, partial, members, noise, positions, n_crossing
     masked = np.arange(p)[None, :] > elem[:, None]
     cross = np.einsum("ca,apc->cp", coef[:, :n_u], h[:n_u]) + np.einsum("ca,apc->cp", coef[:, n_u:], h[n_u:]) * masked
     return BlockFamily(members, products, n_u, coef, elem, cross, np.einsum("lc,lc->c", g, g))
+
+
+def _used(psi, coef, n_u):
+    """The fixed matrices a family uses (boolean over Psi's first axis): those with a coefficient not zero for
+    some member and not zero themselves (e.g. the integral against s for rotations, or the diagram of a redundant
+    without load moment).  The others add exact zeros to every block, so dropping them changes no sum and saves
+    their share of every product over the structure; one free and one masked matrix are always kept."""
+    keep = np.any(coef != 0.0, axis=0) & np.any(psi != 0.0, axis=(1, 2))
+    for part in (slice(0, n_u), slice(n_u, None)):
+        if not keep[part].any():
+            keep[np.arange(keep.size)[part][0]] = True
+    return keep
