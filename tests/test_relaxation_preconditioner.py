@@ -13,7 +13,7 @@ import sys
 import numpy as np
 import pytest
 
-from sensorplan.design.blocks.algebra import low_rank_roots
+from sensorplan.design.blocks import low_rank_roots
 
 sys.path.insert(0, str(pathlib.Path(__file__).parent))
 from test_relaxation_newton_cg import point, problem_for  # noqa: E402  (the shared small problems)

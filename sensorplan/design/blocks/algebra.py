@@ -29,7 +29,7 @@ import scipy.sparse
 
 from ..._cache import Cache
 
-__all__ = ["BlockFamily", "StructuredBlocks", "DENSE_CACHE_BYTES", "suffix_sums", "sums_by_start", "low_rank_roots"]
+__all__ = ["BlockFamily", "StructuredBlocks", "DENSE_CACHE_BYTES", "suffix_sums", "sums_by_start"]
 
 DENSE_CACHE_BYTES = 2**30  # dense blocks kept (greedy and exchange evaluate the same few candidates many times)
 # derived from the shared products only
@@ -54,22 +54,6 @@ def sums_by_start(values, start, n):
     spread = np.zeros((n + 1,) + values.shape[1:], dtype=values.dtype)
     np.add.at(spread, start, values)
     return np.cumsum(spread, axis=0)[:n]
-
-
-def low_rank_roots(blocks, rank, *, oversample=8, seed=0):
-    """R (k, P, r) with R_i R_i^T close to the positive semidefinite blocks (k, P, P): their ``rank`` largest
-    eigenpairs by a randomised range finder with ``oversample`` extra directions (Halko, Martinsson & Tropp,
-    SIAM Review 53 (2011), algorithms 4.1 and 5.3), one Gaussian sketch drawn from ``seed`` for all blocks;
-    the exact roots (r = P) when the sketch would not be smaller than P.  In the blocks' precision."""
-    k, p, _ = blocks.shape
-    if rank + oversample >= p:
-        lam, vec = np.linalg.eigh(blocks)
-        return (vec * np.sqrt(np.maximum(lam, 0.0))[:, None, :]).astype(blocks.dtype)
-    sketch = np.random.default_rng(seed).standard_normal((p, rank + oversample)).astype(blocks.dtype)
-    basis = np.linalg.qr(np.matmul(blocks, sketch))[0]  # (k, P, rank + oversample), orthonormal columns
-    lam, vec = np.linalg.eigh(np.matmul(np.swapaxes(basis, 1, 2), np.matmul(blocks, basis)))
-    lam, vec = lam[:, oversample:], vec[:, :, oversample:]  # ascending: the largest ``rank``
-    return np.matmul(basis, vec * np.sqrt(np.maximum(lam, 0.0))[:, None, :]).astype(blocks.dtype)
 
 
 @dataclass(frozen=True, eq=False)

@@ -18,7 +18,7 @@ Owns: StaleHessian.  May import: _cache, design.blocks.
 import numpy as np
 
 from ..._cache import Cache
-from ..blocks.algebra import low_rank_roots
+from ..blocks import low_rank_roots
 
 __all__ = ["StaleHessian", "ROOT_RANK"]
 
