@@ -43,7 +43,7 @@ def slack(u):
     return 1e-9 * np.maximum(1.0, np.abs(u))
 
 
-def best_candidate(problem, q, order, bound, evaluate, *, floor=-np.inf, usable=None, batch=8, refine=(),
+def best_candidate(problem, q, order, bound, evaluate, *, floor=-np.inf, usable=None, batch=1, refine=(),
                    local=(), shift=0.0, eig=None):
     """(index, value) of the candidate of ``order`` with the largest exact value above ``floor``, or (None, floor).
 

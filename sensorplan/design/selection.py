@@ -42,7 +42,6 @@ def iter_greedy(problem, *, start=()):
     crit = problem.criterion
     lazy = crit.submodular
     bounds = None
-    batch = STRUCTURED_BATCH if problem.structured else 1
     while len(chosen) < problem.count:
         q = problem.layout_precision(chosen)
         taken = set(chosen)
@@ -60,7 +59,7 @@ def iter_greedy(problem, *, start=()):
                 bounds[group] = np.asarray(out) + slack(u_q)  # gains only shrink: bounds for later steps
                 return out
 
-            best, _ = best_candidate(problem, q, sorted(ok, key=lambda i: -bounds[i]), bounds, gains, batch=batch,
+            best, _ = best_candidate(problem, q, sorted(ok, key=lambda i: -bounds[i]), bounds, gains,
                                      refine=_refinements(problem, _refine_levels(problem)),
                                      local=_local_levels(problem), shift=u_q)
         else:
@@ -69,7 +68,7 @@ def iter_greedy(problem, *, start=()):
             best, _ = best_candidate(problem, q, ok[np.argsort(-ub[ok], kind="stable")],
                                      ub + slack(ub),
                                      lambda group, above, q=q: crit.utilities_above(q, problem.block_list(group), above),
-                                     batch=batch, refine=_after_first(problem), local=_local_levels(problem), eig=eig)
+                                     refine=_after_first(problem), local=_local_levels(problem), eig=eig)
         chosen.append(int(best))
         yield list(chosen), problem.utility_of(chosen)
 
@@ -138,7 +137,6 @@ def _subproblem(problem, index):
 
 
 COARSE_ABOVE = 300  # candidates above which exchange searches a coarse grid first
-STRUCTURED_BATCH = 8  # candidates exchange evaluates together when the blocks are structured
 
 
 def exchange(problem, layout, *, max_sweeps=50, coarse_above=None, polish=True):
@@ -197,19 +195,23 @@ def _local_moves(problem, layout, radius, *, max_sweeps=50):
     rank[order] = np.arange(order.size)
     _hold(problem, layout)
     best = problem.utility_of(layout)
-    for _ in range(max_sweeps):
-        moved = False
-        for pos in range(len(layout)):
-            rest = layout[:pos] + layout[pos + 1:]
-            r0 = rank[layout[pos]]
-            cand_best = _best_replacement(problem, rest, problem.layout_precision(rest), set(layout), best,
-                                          order[max(0, r0 - radius): r0 + radius + 1])
-            if cand_best is not None:
-                layout[pos] = cand_best
-                best = problem.utility_of(layout)
-                moved = True
-        if not moved:
-            break
+    n = len(layout)
+    # sensors in turn until n in a row move none (the sweeps up to a sweep without a move, stopped where the
+    # rest of it could only repeat the searches of an unchanged layout)
+    quiet, pos, visited = 0, 0, 0
+    while quiet < n and visited < max_sweeps * n:
+        rest = layout[:pos] + layout[pos + 1:]
+        r0 = rank[layout[pos]]
+        cand_best = _best_replacement(problem, rest, problem.layout_precision(rest), set(layout), best,
+                                      order[max(0, r0 - radius): r0 + radius + 1])
+        if cand_best is not None:
+            layout[pos] = cand_best
+            best = problem.utility_of(layout)
+            quiet = 0
+        else:
+            quiet += 1
+        pos = (pos + 1) % n
+        visited += 1
     return layout
 
 
@@ -230,9 +232,9 @@ def _best_replacement(problem, rest, q_rest, taken, best, order, ub=None, eig=No
     (:func:`_local_levels`) only if ``split``.
     """
     crit = problem.criterion
-    # evaluated together, crit.batch_size at a time (cheaper per candidate for some criteria); structured
-    # blocks are formed densely a batch at a time: one pass over the shared products per batch
-    batch = max(crit.batch_size, STRUCTURED_BATCH) if problem.structured else crit.batch_size
+    # evaluated together, crit.batch_size at a time (cheaper per candidate for some criteria; one at a time
+    # otherwise, so that each evaluation is against the best value found before it)
+    batch = crit.batch_size
     bound = np.full(problem.n_candidates, np.inf) if ub is None else ub + slack(ub)
     cand, _ = best_candidate(problem, q_rest, [int(i) for i in order], bound,
                              lambda group, above: crit.utilities_above(q_rest, problem.block_list(group), above),
