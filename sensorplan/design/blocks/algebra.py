@@ -33,7 +33,7 @@ __all__ = ["BlockFamily", "StructuredBlocks", "DENSE_CACHE_BYTES", "suffix_sums"
 
 DENSE_CACHE_BYTES = 2**30  # dense blocks kept (greedy and exchange evaluate the same few candidates many times)
 # derived from the shared products only
-_FROM_PRODUCTS = ("_pair_matrices", "_pair_matrices_single", "_free_flat", "_triangles")
+_FROM_PRODUCTS = ("_pair_matrices", "_pair_matrices_single", "_free_flat", "_triangles", "_congruence_matrices")
 
 
 def _symmetrise(a):
@@ -91,6 +91,16 @@ class BlockFamily:
             if name in self.__dict__:
                 out.__dict__[name] = self.__dict__[name]
         return out
+
+    @cached_property
+    def _congruence_matrices(self):
+        """((a, b), X): the free matrices X_ab for a <= b (the others are their transposes), then X_ab for a
+        masked and b free, as one contiguous (pairs + m f, P, P) stack (for congruences)."""
+        f, n_m = self.n_free, self.products.shape[0] - self.n_free
+        x = self.products
+        iu = np.triu_indices(f)
+        mats = [x[a, :, b, :] for a, b in zip(*iu)] + [x[f + a, :, b, :] for a in range(n_m) for b in range(f)]
+        return iu, np.array(mats)
 
     @cached_property
     def _triangles(self):
@@ -224,8 +234,10 @@ class BlockFamily:
         order, groups = self._start_groups
         coef, elem = (self.coef, self.elem) if order is None else (self.coef[order], self.elem[order])
         tu, tm = coef[:, :f], coef[:, f:]
-        xv = np.matmul(self.products[:, :, :f, :], v)  # (A, P, f, m): X_ab V (b free: the only ones used)
-        z = np.tensordot(v, xv[:f], axes=([0], [1])).transpose(1, 2, 0, 3).reshape(f * f, k * k)
+        iu, stack = self._congruence_matrices
+        n_pairs = iu[0].size
+        xv = np.matmul(stack, v)  # X_ab V: free a <= b, then masked a and free b
+        z = np.matmul(v.T, xv[:n_pairs]).reshape(n_pairs, k * k)  # V^T X_ab V, a <= b free (X_ba: transposes)
         out = np.empty((n, k, k))
         flat_out = out.reshape(n, k * k)
         # rows j of triu(X_ab) V (a, b masked), of X_ba V (a free, b masked) and of tril(X_ab, -1)^T V: the
@@ -237,7 +249,7 @@ class BlockFamily:
             for b in range(n_m):
                 upper[:, a, b] = triangles[0, a, b] @ v
                 lower[:, a, b] = triangles[1, a, b] @ v
-        mixed = xv[f:].transpose(1, 2, 0, 3).reshape(p, f * n_m * k)
+        mixed = xv[n_pairs:].reshape(n_m, f, p, k).transpose(2, 1, 0, 3).reshape(p, f * n_m * k)
         rows = np.concatenate([upper.reshape(p, -1), mixed, lower.reshape(p, -1)], axis=1)
         weights = np.concatenate([(tm[:, :, None] * tm[:, None, :]).reshape(n, -1),
                                   2.0 * (tu[:, :, None] * tm[:, None, :]).reshape(n, -1),  # X_ab V and X_ba V
@@ -255,7 +267,8 @@ class BlockFamily:
                 hi = lo
             np.matmul(weights[g0:g1], sums.reshape(-1, k * k), out=flat_out[g0:g1])
             _add_product(half[g0:g1].reshape(-1, 1), v[lo - 1][None, :], out[g0:g1].reshape(-1, k))
-        _add_product((tu[:, :, None] * tu[:, None, :]).reshape(n, f * f), z, flat_out)  # the free part
+        # the free part: t_ca t_cb V^T X_ab V over a <= b, twice for a < b (V^T X_ba V is the transpose)
+        _add_product(tu[:, iu[0]] * tu[:, iu[1]] * np.where(iu[0] == iu[1], 1.0, 2.0), z, flat_out)
         out = _symmetrise(out)
         if order is not None:
             out[order] = out.copy()
