@@ -11,8 +11,8 @@ import scipy.linalg
 
 from ..._errors import ConfigError
 from .base import Criterion
-from .linalg import (cholesky, eigen_split, factor_inverse, inverse_from_cholesky, lower_factor, lower_inverse,
-                     scaled_gram, symmetrise)
+from .linalg import (cholesky, eigen_split, factor_inverse, inverse_from_cholesky, inverse_traces, lower_factor,
+                     lower_inverse, scaled_gram, symmetrise)
 from .registry import register_criterion
 
 __all__ = ["ACriterion"]
@@ -155,7 +155,7 @@ class ACriterion(Criterion):
             return None
         lam, v, w, small = eigen_split(problem, q, k, index=index, eig=eig)
         k = v.shape[1]
-        trace = np.trace(np.linalg.inv(small), axis1=1, axis2=2)
+        trace = inverse_traces(small)
         first = problem.block_dot(scaled_gram(w, lam[k:] ** -2.0), index)
         return -(trace + float(np.sum(1.0 / lam[k:])) - first)
 

@@ -10,7 +10,7 @@ from ..._errors import ConfigError
 
 __all__ = ["symmetrise", "cholesky", "lower_factor", "log_det", "log_dets", "inverse", "whitened_blocks", "packed_upper",
            "inverse_from_cholesky", "congruence", "eigen_split", "lower_inverse",
-           "factor_inverse", "scaled_gram"]
+           "factor_inverse", "scaled_gram", "inverse_traces"]
 
 INVERSE_LEAF = 128  # lower_inverse: triangles up to this size are inverted by LAPACK's dtrtri directly
 
@@ -58,6 +58,22 @@ def lower_inverse(factor):
     out[h:, h:] = lower_inverse(factor[h:, h:])
     half = scipy.linalg.blas.dtrmm(1.0, out[:h, :h], factor[h:, :h], side=1, lower=1)  # L21 L11^-1
     out[h:, :h] = scipy.linalg.blas.dtrmm(-1.0, out[h:, h:], half, lower=1)
+    return out
+
+
+def inverse_traces(mats):
+    """tr(S^-1) of each positive definite matrix of the stack ``mats`` (n, k, k) (only their lower triangles are
+    read), by LAPACK's dpotrf and dpotri one matrix at a time: about half the time of numpy's batched inverse,
+    which solves against the identity by LU.  ConfigError if one is not positive definite."""
+    out = np.empty(mats.shape[0])
+    potrf, potri = scipy.linalg.lapack.dpotrf, scipy.linalg.lapack.dpotri
+    for i, m in enumerate(mats):
+        factor, info = potrf(m, lower=1, clean=0)
+        if info == 0:
+            factor, info = potri(factor, lower=1)
+        if info != 0:
+            raise ConfigError("The posterior precision is not positive definite; the prior must be proper.")
+        out[i] = np.trace(factor)
     return out
 
 
