@@ -189,30 +189,40 @@ def _polish(problem, layout, step, converged, max_sweeps):
 
 def _local_moves(problem, layout, radius, *, max_sweeps=50):
     """Move sensors to better candidates among their ``radius`` neighbours on each side (by position)."""
-    layout = list(layout)
     order = np.argsort(problem.positions, kind="stable")
     rank = np.empty_like(order)
     rank[order] = np.arange(order.size)
+
+    def move(layout, pos, rest, best):
+        r0 = rank[layout[pos]]
+        return _best_replacement(problem, rest, problem.layout_precision(rest), set(layout), best,
+                                 order[max(0, r0 - radius): r0 + radius + 1])
+
+    return _until_quiet(problem, layout, move, max_sweeps)[0]
+
+
+def _until_quiet(problem, layout, replace, max_sweeps):
+    """(layout, utility, converged): the sensors in turn get ``replace(layout, pos, rest, best)`` (a better
+    candidate for the sensor at ``pos``, or None) until n sensors in a row get none (converged) or after
+    ``max_sweeps`` rounds.  Stopping there is where sweeps until one without a change would stop too: the rest
+    of that sweep could only repeat the searches of an unchanged layout."""
+    layout = list(layout)
     _hold(problem, layout)
     best = problem.utility_of(layout)
     n = len(layout)
-    # sensors in turn until n in a row move none (the sweeps up to a sweep without a move, stopped where the
-    # rest of it could only repeat the searches of an unchanged layout)
-    quiet, pos, visited = 0, 0, 0
+    quiet, pos, visited = 0, 0, 0  # positions in a row without an improvement
     while quiet < n and visited < max_sweeps * n:
         rest = layout[:pos] + layout[pos + 1:]
-        r0 = rank[layout[pos]]
-        cand_best = _best_replacement(problem, rest, problem.layout_precision(rest), set(layout), best,
-                                      order[max(0, r0 - radius): r0 + radius + 1])
-        if cand_best is not None:
-            layout[pos] = cand_best
+        cand = replace(layout, pos, rest, best)
+        if cand is not None:
+            layout = rest[:pos] + [int(cand)] + rest[pos:]
             best = problem.utility_of(layout)
             quiet = 0
         else:
             quiet += 1
         pos = (pos + 1) % n
         visited += 1
-    return layout
+    return layout, best, quiet >= n
 
 
 def _hold(problem, layout):
@@ -258,26 +268,13 @@ def _exchange(problem, layout, *, max_sweeps=50, split=True):
     no bound beats the best value found (most candidates are never
     evaluated).
     """
-    layout = list(layout)
-    _hold(problem, layout)
-    best = problem.utility_of(layout)
-    n = len(layout)
-    quiet, pos, visited = 0, 0, 0  # positions in a row without an improving swap
-    while quiet < n and visited < max_sweeps * n:
-        rest = layout[:pos] + layout[pos + 1:]
+    def swap(layout, pos, rest, best):
         q_rest = problem.layout_precision(rest)
         ub, eig = _first_bounds(problem, q_rest)
-        cand_best = _best_replacement(problem, rest, q_rest, set(layout), best, np.argsort(-ub, kind="stable"), ub,
-                                      eig, split=split)
-        if cand_best is not None:
-            layout = rest[:pos] + [cand_best] + rest[pos:]
-            best = problem.utility_of(layout)
-            quiet = 0
-        else:
-            quiet += 1
-        pos = (pos + 1) % n
-        visited += 1
-    return layout, best, quiet >= n
+        return _best_replacement(problem, rest, q_rest, set(layout), best, np.argsort(-ub, kind="stable"), ub, eig,
+                                 split=split)
+
+    return _until_quiet(problem, layout, swap, max_sweeps)
 
 
 def round_weights(problem, weights):
