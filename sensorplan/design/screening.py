@@ -55,7 +55,7 @@ def best_candidate(problem, q, order, bound, evaluate, *, floor=-np.inf, usable=
     ((k, n) pairs, see ``REFINE_K``), in turn while more than n candidates
     survive, their bounds are lowered to the criterion's ``subset_bounds``
     with k eigenvectors (``eig``: Q's eigendecomposition, computed if needed)
-    and the best few survivors are evaluated; then likewise with ``local`` (k
+    and the best ``batch`` survivors are evaluated; then likewise with ``local`` (k
     in turn, see ``LOCAL_K``) to the criterion's ``split_bounds`` along the k
     leading eigenvectors of the survivors' whitened summed blocks, while
     evaluating them would cost more.  ``bound`` is updated in place.
@@ -63,7 +63,7 @@ def best_candidate(problem, q, order, bound, evaluate, *, floor=-np.inf, usable=
     search = _Search(order, bound, evaluate, floor, batch, shift)
     alive = [int(i) for i in order if bound[i] > floor]
     first = []
-    for i in alive:  # the best few by the first bounds set the value to beat
+    for i in alive:  # the best ``batch`` by the first bounds set the value to beat
         if len(first) == batch:
             break
         if usable is None or usable(i):
@@ -108,7 +108,7 @@ class _Search:
         return [i for i in candidates if i not in self.seen and self.bound[i] > self.value]
 
     def tighten(self, alive, tight):
-        """Lower the bounds of ``alive`` to ``tight``, evaluate the best few, return the survivors."""
+        """Lower the bounds of ``alive`` to ``tight``, evaluate the best ``batch``, return the survivors."""
         self.bound[alive] = np.minimum(self.bound[alive], tight - self.shift)
         alive = sorted(self.survivors(alive), key=lambda i: -self.bound[i])
         self.take(alive[:self.batch])
