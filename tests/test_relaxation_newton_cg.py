@@ -136,6 +136,32 @@ def test_newton_cg_relaxation_equals_the_exact_hessian_relaxation(monkeypatch, c
     np.testing.assert_allclose(q_cg, q_exact, rtol=0, atol=1e-3 * np.abs(q_exact).max())
 
 
+def test_newton_cg_relaxation_with_a_truncated_preconditioner_reaches_the_same_certified_optimum(monkeypatch):
+    # A's preconditioner rows with 2 directions of N N^T only (H~ far below H): the Newton-CG steps still use the
+    # exact Hessian products, so the relaxation reaches the optimum of the exact-Hessian relaxation on dense
+    # blocks (reference: direct Newton systems, no preconditioner)
+    from sensorplan.design.relaxation import smooth, solve_relaxation
+    from sensorplan.design.relaxation.preconditioner import StaleHessian
+
+    made = []
+
+    class Narrow(StaleHessian):
+        def __init__(self, problem):
+            super().__init__(problem, weight_rank=2)
+            made.append(self)
+
+    problem, dense = structured_problem(monkeypatch, "A")
+    assert problem.n_params > 2
+    monkeypatch.setattr(smooth, "StaleHessian", Narrow)
+    cg = solve_relaxation(problem, "fast")
+    exact = solve_relaxation(dense, "fast")
+    assert made and made[0].rows > 0
+    assert cg.relative_gap <= 1e-7 and exact.relative_gap <= 1e-7
+    assert cg.bound >= exact.utility - 1e-9 * abs(exact.utility)
+    assert exact.bound >= cg.utility - 1e-9 * abs(cg.utility)
+    assert cg.utility == pytest.approx(exact.utility, rel=2e-7)
+
+
 @pytest.mark.parametrize("criterion", ["D", "A", "Ds"])
 def test_stale_hessian_extended_equals_the_exact_hessian_of_the_union(monkeypatch, criterion):
     # reference: the criterion's exact Hessian (closed form, checked against differences above) of the new working

@@ -104,3 +104,60 @@ def test_unsymmetrised_single_precision_blocks_equal_the_dense_blocks(monkeypatc
         assert got.dtype == dtype
         scale = np.abs(ref).max(axis=(1, 2), keepdims=True)
         assert np.all(np.abs(got - ref) <= tol * scale)
+
+
+@pytest.mark.parametrize("criterion", ["A", "A-region"])
+def test_hessian_factors_at_a_rank_keep_the_leading_directions_of_the_weighting(criterion):
+    # reference: H_ij = -2 tr(M_k I_i Q^-1 I_j) with M_k the k leading eigenpairs of M = N N^T (numpy's symmetric
+    # eigendecomposition of M, not the SVD of N the factors use), contracted over the formed blocks R_i R_i^T
+    options = {"region": (3.0, 9.0)} if criterion == "A-region" else {}
+    problem = problem_for(criterion.split("-")[0], **options)
+    crit = problem.criterion
+    rng, _, q = point(problem, 6)
+    chol = np.linalg.cholesky(q)
+    p = problem.n_params
+    roots = rng.standard_normal((problem.n_candidates, p, 3)) * np.sqrt(np.abs(problem.blocks).max())
+    formed = np.matmul(roots, np.swapaxes(roots, 1, 2))
+    exact = crit.hessian(q, chol, formed)
+    n = np.linalg.solve(q, crit.targets.T)
+    lam, vec = np.linalg.eigh(n @ n.T)
+    q_inv = np.linalg.inv(q)
+    for rank in (1, 2):
+        m_k = (vec[:, -rank:] * lam[-rank:]) @ vec[:, -rank:].T
+        ref = -2.0 * np.einsum("ab,ibc,cd,jda->ij", m_k, formed, q_inv, formed)
+        negative, positive = crit.hessian_factors_at(q, chol, rank=rank)(roots)
+        assert positive is None and negative.shape == (problem.n_candidates, min(rank, n.shape[1]) * p)
+        h = -(negative @ negative.T)
+        np.testing.assert_allclose(h, ref, rtol=0, atol=1e-9 * np.abs(ref).max())
+        # below the exact Hessian's magnitude: H_k - H positive semidefinite (M_k <= M)
+        assert np.linalg.eigvalsh(h - exact).min() >= -1e-9 * np.abs(exact).max()
+    # a rank at least N's: the exact factors
+    full, _ = crit.hessian_factors_at(q, chol, rank=p)(roots)
+    np.testing.assert_allclose(-(full @ full.T), exact, rtol=0, atol=1e-9 * np.abs(exact).max())
+
+
+@pytest.mark.parametrize("criterion", ["D", "Ds", "A", "A-region", "logdiag"])
+def test_point_derivatives_equal_the_criterion_methods(criterion):
+    # reference: utility, gradient_matrix and hessian_operator called one by one (each checked against finite
+    # differences in tests/test_conformance.py and tests/test_relaxation_newton_cg.py)
+    import dataclasses
+
+    from criterion_checks import LogDiagonal
+
+    options = {"region": (3.0, 9.0)} if criterion == "A-region" else {}
+    problem = problem_for("D" if criterion == "logdiag" else criterion.split("-")[0], **options)
+    if criterion == "logdiag":  # the protocol's default
+        problem = dataclasses.replace(problem, criterion=LogDiagonal(problem.n_params))
+    crit = problem.criterion
+    rng, _, q = point(problem, 7)
+    chol = np.linalg.cholesky(q)
+    utility, gradient, product = crit.point_derivatives(q, chol)
+    assert utility == pytest.approx(crit.utility(q), rel=1e-12)
+    ref = crit.gradient_matrix(q)
+    np.testing.assert_allclose(gradient, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+    s = np.einsum("c,cij->ij", rng.standard_normal(problem.n_candidates), problem.blocks)
+    ref = crit.hessian_operator(q, chol)(s)
+    np.testing.assert_allclose(product(s), ref, rtol=0, atol=1e-10 * np.abs(ref).max())
+    single = crit.point_derivatives(q, chol, dtype=np.float32)[2](s)
+    assert single.dtype == (np.float64 if criterion == "logdiag" else np.float32)  # the default: double only
+    np.testing.assert_allclose(single, ref, rtol=0, atol=1e-4 * np.abs(ref).max())

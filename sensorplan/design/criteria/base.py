@@ -8,6 +8,7 @@ Owns: the Criterion base class and its defaults.  May import: errors.
 """
 
 import math
+from functools import partial
 from abc import ABC, abstractmethod
 from typing import ClassVar
 
@@ -140,6 +141,13 @@ class Criterion(ABC):
         blocks formed."""
         return self.hessian_factors(q, chol, np.matmul(roots, np.swapaxes(roots, 1, 2)))
 
+    def hessian_factors_at(self, q, chol, *, rank=None):
+        """The function roots -> :meth:`hessian_factors_of_roots` at ``q``, what it needs of ``q`` computed once
+        (rows added at one point over many calls).  ``rank``: where the Hessian weights the blocks by a matrix
+        (A's N N^T), only its ``rank`` leading directions are kept, an approximation from below (the factors'
+        Gram B_k B_k^T <= B B^T) that a preconditioner can use; default: exact, ``rank`` ignored."""
+        return partial(self.hessian_factors_of_roots, q, chol)
+
     def hessian_product(self, q, chol, s):
         """Symmetric G with (H v)_i = <G, I_i>, where S = sum_j v_j I_j: the Hessian of the utility in the
         weights applied to ``v`` without the per-candidate blocks (``chol`` the lower Cholesky factor of
@@ -158,6 +166,13 @@ class Criterion(ABC):
             return 0.5 * (g + g.T)
 
         return product
+
+    def point_derivatives(self, q, chol, *, dtype=np.float64):
+        """(utility, gradient matrix, Hessian operator) at ``q`` (``chol`` its lower Cholesky factor): what a
+        Newton step of the relaxation needs at one point, the operator's products in ``dtype``; default:
+        :meth:`utility`, :meth:`gradient_matrix` and :meth:`hessian_operator` (overridden where they share
+        their work, e.g. one inverse of Q)."""
+        return self.utility(q), self.gradient_matrix(q), self.hessian_operator(q, chol, dtype=dtype)
 
     # -- bounds and certificates ---------------------------------------------------------
     def upper_bounds(self, problem, q):

@@ -118,28 +118,47 @@ class ACriterion(Criterion):
     def hessian_factors_of_roots(self, q, chol, roots):
         """(sqrt 2 B, None) of :meth:`hessian_factors` for the blocks R_i R_i^T: B_i^T = L^-1 R_i (R_i^T N), laid
         out as there (rows of N^T I_i L^-T), in the roots' precision."""
-        m, p, r = roots.shape
-        dtype = roots.dtype
-        n = scipy.linalg.cho_solve((chol, True), self.targets.T).astype(dtype)
-        li = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True).astype(dtype)
-        z = (li @ np.swapaxes(roots, 0, 1).reshape(p, m * r)).reshape(p, m, r).swapaxes(0, 1)  # L^-1 R_i
-        b = np.matmul(np.matmul(np.swapaxes(n, 0, 1)[None], roots), np.swapaxes(z, 1, 2))  # N^T R_i Z_i^T
-        b *= np.sqrt(2.0).astype(dtype)
-        return b.reshape(m, -1), None
+        return self.hessian_factors_at(q, chol)(roots)
+
+    def hessian_factors_at(self, q, chol, *, rank=None):
+        """:meth:`hessian_factors_of_roots` at ``q`` as a function of the roots; with ``rank``, N replaced by
+        N_k = U_k S_k of its ``rank`` leading singular triplets (N = U S V^T): the rows N_k^T I_i L^-T are
+        ``rank`` P wide instead of P nt, and their Gram is below the exact one (N_k N_k^T <= N N^T)."""
+        p = chol.shape[0]
+        n = scipy.linalg.cho_solve((chol, True), self.targets.T)
+        if rank is not None and rank < min(n.shape):
+            u, s, _ = np.linalg.svd(n, full_matrices=False)
+            n = u[:, :rank] * s[:rank]
+        li = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True)
+
+        def factors(roots):
+            m, _, r = roots.shape
+            dtype = roots.dtype
+            nt, linv = np.ascontiguousarray(n.T, dtype=dtype), li.astype(dtype)
+            z = (linv @ np.swapaxes(roots, 0, 1).reshape(p, m * r)).reshape(p, m, r).swapaxes(0, 1)  # L^-1 R_i
+            b = np.matmul(np.matmul(nt[None], roots), np.swapaxes(z, 1, 2))  # N^T R_i Z_i^T
+            b *= np.sqrt(2.0).astype(dtype)
+            return b.reshape(m, -1), None
+
+        return factors
 
     def hessian_operator(self, q, chol, *, dtype=np.float64):
         # (H v)_i = -2 tr(M I_i Q^-1 S), M = N N^T, N = Q^-1 C^T: G = -(Q^-1 S M + M S Q^-1)
         w = inverse_from_cholesky(chol)
         n = w @ self.targets.T
-        m = (n @ n.T).astype(dtype)
-        w = w.astype(dtype)
+        return _product(w, n @ n.T, dtype)
 
-        def product(s):
-            s = np.asarray(s, dtype=dtype)
-            x = w @ (0.5 * (s + s.T)) @ m
-            return -(x + x.T)
-
-        return product
+    def point_derivatives(self, q, chol, *, dtype=np.float64):
+        """From one inverse W = Q^-1 (LAPACK dpotri on ``chol``): N = W C^T, the utility -tr(C W C^T), the
+        gradient matrix N N^T and the products of :meth:`hessian_operator` with W and M = N N^T."""
+        w = factor_inverse(chol)
+        if self.all_parameters:
+            n, utility = w, -float(np.trace(w))
+        else:
+            n = w @ self.targets.T
+            utility = -float(np.einsum("ij,ji->", self.targets, n))
+        g = n @ n.T
+        return utility, g, _product(w, g, dtype)
 
     def upper_bounds(self, problem, q):
         if not self.all_parameters:
@@ -182,6 +201,18 @@ class ACriterion(Criterion):
 
     def cvxpy_objective(self, cp, q_expr, constraints):
         return cp.Minimize(cp.matrix_frac(self.targets.T, q_expr)), None
+
+
+def _product(w, m, dtype):
+    """S -> -(W S M + M S W) for symmetric S, in ``dtype`` (A's Hessian operator with W = Q^-1, M = N N^T)."""
+    w, m = w.astype(dtype), m.astype(dtype)
+
+    def product(s):
+        s = np.asarray(s, dtype=dtype)
+        x = w @ (0.5 * (s + s.T)) @ m
+        return -(x + x.T)
+
+    return product
 
 
 def region_targets(region, edges, n_params):

@@ -70,6 +70,13 @@ class DCriterion(Criterion):
         w = inverse_from_cholesky(chol).astype(dtype)
         return lambda s: -congruence(w, np.asarray(s, dtype=dtype))
 
+    def point_derivatives(self, q, chol, *, dtype=np.float64):
+        """From one inverse W = Q^-1 (LAPACK dpotri on ``chol``): the utility 2 sum log diag L, the gradient
+        matrix W and the products of :meth:`hessian_operator` with W."""
+        w = factor_inverse(chol)
+        wd = w.astype(dtype)
+        return 2.0 * float(np.sum(np.log(np.diag(chol)))), w, lambda s: -congruence(wd, np.asarray(s, dtype=dtype))
+
     def upper_bounds(self, problem, q):
         eig = np.linalg.eigh(symmetrise(q))
         return float(np.sum(np.log(eig[0]))), self.subset_bounds(problem, q, eig=eig)
@@ -117,6 +124,7 @@ class DsCriterion(DCriterion):
     utilities = Criterion.utilities  # not D's: the value is a difference of two log determinants
     split_bounds = None  # type: ignore[assignment]  # none: D's hold for log det Q, not a difference of two
     hessian_factors_of_roots = Criterion.hessian_factors_of_roots  # D's form is not Ds's Hessian
+    point_derivatives = Criterion.point_derivatives  # nor are D's utility and gradient Ds's
 
     def __init__(self, n_params, *, n_keep=None):
         super().__init__(n_params)

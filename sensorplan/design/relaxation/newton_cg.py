@@ -4,7 +4,11 @@ On a working set of m candidates the criterion's exact Hessian costs m P^3
 (every block whitened); its product with a vector v costs about P^3
 whatever m is: S = sum_j v_j I_j and the inner products <G, I_i> come from
 the structured blocks (:class:`~sensorplan.design.blocks.StructuredBlocks`)
-without dense blocks, and G from :meth:`Criterion.hessian_operator`.  The
+without dense blocks, and G from the criterion's Hessian operator
+(:meth:`Criterion.point_derivatives`, with the utility and gradient from
+one inverse of Q); the products are computed in single precision (the
+directions need a few digits; utility, gradient, residuals and the
+certificate stay in double precision).  The
 Newton systems K dx + dnu 1 = r, 1^T dx = s (K = -H + the barrier's
 Hessian) are therefore solved by conjugate gradients projected on
 1^T dx = s and preconditioned by the constraint preconditioner built on
@@ -19,6 +23,7 @@ Owns: StructuredRestricted, projected_pcg, restricted_newton_cg (the preconditio
 May import: design.relaxation.
 """
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,10 +54,12 @@ NEWTON_CG = NewtonCG()
 
 @dataclass(frozen=True)
 class Point:
-    """A precision Q of the restricted problem and its lower Cholesky factor."""
+    """A precision Q of the restricted problem, its lower Cholesky factor and the criterion's Hessian operator
+    there (S -> G, :meth:`Criterion.hessian_operator`)."""
 
     q: np.ndarray
     chol: np.ndarray
+    product: Callable[[np.ndarray], np.ndarray] | None = None
 
 
 class StructuredRestricted:
@@ -60,12 +67,14 @@ class StructuredRestricted:
     of the working set ``idx``, on structured blocks (no dense block but for the exact Hessian)."""
 
     products = True
+    product_dtype = np.float32  # the Hessian products' precision
 
     def __init__(self, problem, idx):
         self.problem = problem
         self.idx = idx
         blocks = problem.blocks.subset(idx)
         self.sub = WorkingBlocks(blocks)
+        self.sub_products = WorkingBlocks(blocks, dtype=self.product_dtype)
         self._last = Cache(maxsize=2)  # the line search's accepted trial point is the next iterate
 
     def derivatives(self, x, *, hessian=False):
@@ -80,12 +89,12 @@ class StructuredRestricted:
             chol = np.linalg.cholesky(q)
         except np.linalg.LinAlgError:
             return -np.inf, None, None
-        return crit.utility(q), self.sub.dot(crit.gradient_matrix(q)), Point(q, chol)
+        utility, gradient, product = crit.point_derivatives(q, chol, dtype=self.product_dtype)
+        return utility, self.sub.dot(gradient), Point(q, chol, product)
 
     def hessian_operator(self, point):
         """v -> H v at ``point`` (exact, through the criterion's Hessian products)."""
-        product = self.problem.criterion.hessian_operator(point.q, point.chol)
-        return lambda v: self.sub.dot(product(self.sub.weighted(v)))
+        return lambda v: self.sub_products.dot(point.product(self.sub_products.weighted(v)))
 
 
 def projected_pcg(factor, apply_k, rhs, sum_residual, *, rtol, max_iter):

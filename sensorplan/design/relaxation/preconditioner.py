@@ -11,6 +11,11 @@ first), so each block enters by its rank-r root R_i (I_i ~ R_i R_i^T, a
 randomised range finder, :func:`~sensorplan.design.blocks.algebra.low_rank_roots`),
 computed once per candidate and kept for the whole relaxation; the factors
 then cost m P^2 r at each new point (:meth:`Criterion.hessian_factors_of_roots`).
+Where the criterion weights the blocks by a matrix (A: H_ij = -2 tr(M I_i
+Q^-1 I_j), M = N N^T, rows P nt wide), only the leading directions of M
+enter (:meth:`Criterion.hessian_factors_at` with ``rank``): rows
+``WEIGHT_RANK`` P wide, and H~ below the exact Hessian by what the tail of
+M carries, which the CG iterations make up for (the products are exact).
 
 Owns: StaleHessian.  May import: _cache, design.blocks.
 """
@@ -20,9 +25,12 @@ import numpy as np
 from ..._cache import Cache
 from ..blocks import low_rank_roots
 
-__all__ = ["StaleHessian", "ROOT_RANK"]
+__all__ = ["StaleHessian", "ROOT_RANK", "WEIGHT_RANK"]
 
 ROOT_RANK = 32  # rank of the blocks' roots (H~ within about 3e-5 of the exact Hessian at the target, D and A)
+# leading directions of the criterion's weighting kept in the rows (A: N N^T, N = Q^-1 C^T; its rows are then
+# 64 P wide instead of P^2, and H~ is below H by what the weighting's tail carries)
+WEIGHT_RANK = 64
 
 
 class StaleHessian:
@@ -45,25 +53,26 @@ class StaleHessian:
     ``refreshes`` the recomputations.
     """
 
-    def __init__(self, problem, *, core_weight=1e-3, rank=ROOT_RANK):
+    def __init__(self, problem, *, core_weight=1e-3, rank=ROOT_RANK, weight_rank=WEIGHT_RANK):
         self.problem = problem
         self.core_weight = core_weight
         self.rank = rank
+        self.weight_rank = weight_rank
         self.members = np.zeros(0, dtype=int)  # in the order of the rows
         self.matrix = np.zeros((0, 0))
         self.rows = 0
         self.refreshes = 0
         self.scale = 1.0  # H_ii / -g_i^2 on the core (1 for D; the estimate is scaled for any criterion)
         self._roots = Cache()  # by candidate number, for this problem only (dropped with the preconditioner)
-        self._point = None  # (q, chol) of the rows, and their factors (None: the criterion has none)
-        self._store = None
+        self._factors_at = None  # roots -> the criterion's Hessian factors at the rows' point
+        self._store = None  # the rows' factors (None: the criterion has none)
 
     def refresh(self, idx, point, x, grad):
         """Recompute the rows of the members of ``idx`` whose weight ``x`` is above ``core_weight`` at
         ``point``; the preconditioner's Hessian on ``idx`` (gradient ``grad``)."""
         keep = x > self.core_weight
         core = idx[keep]
-        self._point = (point.q, point.chol)
+        self._factors_at = self.problem.criterion.hessian_factors_at(point.q, point.chol, rank=self.weight_rank)
         factors = self._factors_of(core)
         if factors is None:
             self._store = None
@@ -105,8 +114,7 @@ class StaleHessian:
         p = self.problem.n_params
         roots = np.stack([self._roots.lookup((), key=i)[1] for i in index.tolist()]) if index.size else \
             np.zeros((0, p, min(p, self.rank)), dtype=np.float32)
-        q, chol = self._point
-        return self.problem.criterion.hessian_factors_of_roots(q, chol, roots)
+        return self._factors_at(roots)
 
     def on(self, idx, grad):
         """The preconditioner's Hessian on the sorted working set ``idx`` (gradient ``grad``)."""
