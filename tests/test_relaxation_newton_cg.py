@@ -181,7 +181,7 @@ def test_stale_hessian_extended_equals_the_exact_hessian_of_the_union(monkeypatc
     c = problem.n_candidates
     first, second = np.arange(0, c // 2), np.arange(c // 4, 3 * c // 4)
     grad = problem.gradient(w)
-    stale = StaleHessian(problem)
+    stale = StaleHessian(problem, rank=32)  # roots accurate to this test's tolerance (the default is coarser)
     stale.refresh(first, Point(q, chol), np.ones(first.size), grad[first])
     h = stale.extend(second, np.ones(second.size), grad[second])
     ref = problem.criterion.hessian(q, chol, problem.blocks[second])
@@ -205,3 +205,28 @@ def test_working_blocks_sums_and_inner_products_equal_the_dense_blocks(monkeypat
     g = rng.standard_normal((problem.n_params, problem.n_params))
     ref = np.einsum("cij,ij->c", blocks, 0.5 * (g + g.T))
     np.testing.assert_allclose(working.dot(g), ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+
+
+def test_structured_restricted_products_single_then_double_precision(monkeypatch):
+    # reference: the criterion's exact Hessian (closed form) on the dense blocks of the working set times v
+    from sensorplan.design.relaxation.newton_cg import StructuredRestricted
+
+    problem, dense = structured_problem(monkeypatch, "A")
+    rng = np.random.default_rng(8)
+    idx = np.sort(rng.choice(problem.n_candidates, problem.n_candidates // 2, replace=False))
+    smooth = StructuredRestricted(problem, idx)
+    x = rng.uniform(0.1, 0.5, idx.size)
+    u, g, pt = smooth.derivatives(x)
+    q = dense.q0 + np.einsum("c,cij->ij", x, dense.blocks[idx])
+    h = problem.criterion.hessian(q, np.linalg.cholesky(q), dense.blocks[idx])
+    v = rng.standard_normal(idx.size)
+    ref = h @ v
+    assert u == pytest.approx(problem.criterion.utility(q), rel=1e-12)
+    single = smooth.hessian_operator(pt)(v)
+    assert single.dtype == np.float32
+    np.testing.assert_allclose(single, ref, rtol=0, atol=1e-4 * np.abs(ref).max())
+    smooth.use_double_products()
+    u, g, pt = smooth.derivatives(x)
+    double = smooth.hessian_operator(pt)(v)
+    assert double.dtype == np.float64
+    np.testing.assert_allclose(double, ref, rtol=0, atol=1e-10 * np.abs(ref).max())

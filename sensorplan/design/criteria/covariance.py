@@ -32,6 +32,9 @@ class ACriterion(Criterion):
     # the eigen-split levels of the searches (selection; the first, every candidate's first bounds): an exact A
     # evaluation (a factor and a triangular inverse) costs more than D's, so tighter bounds pay sooner
     refine_levels = ((32, 16), (64, 16), (128, 24))
+    # the relaxed A optimum spreads over hundreds of candidates: sets that may double per round take fewer rounds
+    # (each a dozen Newton steps), and the preconditioner rows of the members that enter are narrow (WEIGHT_RANK)
+    enter_share = 1.0
 
     def __init__(self, n_params, *, targets=None):
         super().__init__(n_params)

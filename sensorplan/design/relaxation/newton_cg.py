@@ -92,6 +92,11 @@ class StructuredRestricted:
         utility, gradient, product = crit.point_derivatives(q, chol, dtype=self.product_dtype)
         return utility, self.sub.dot(gradient), Point(q, chol, product)
 
+    def use_double_products(self):
+        """Compute the Hessian products in double precision from now on (for accurate Newton systems)."""
+        self.product_dtype, self.sub_products = np.float64, self.sub
+        self._last.clear()
+
     def hessian_operator(self, point):
         """v -> H v at ``point`` (exact, through the criterion's Hessian products)."""
         return lambda v: self.sub_products.dot(point.product(self.sub_products.weighted(v)))
@@ -174,7 +179,9 @@ def restricted_newton_cg(problem, idx, w_prev, *, tol, stale, max_iter=200, opti
                                       poly.count - x.sum(), rtol=rtol, max_iter=options.max_iter)
         step, after = newton_step(smooth, poly, (x, lam, nu), dx, dnu, slack, t, r_dual)
         if step <= 1e-12 and rtol > options.rtol_final:  # an inexact direction that does not descend: solve
-            rtol, refresh = options.rtol_final, True  # the Newton systems accurately from now on
+            rtol, refresh = options.rtol_final, True  # the Newton systems accurately from now on, with
+            smooth.use_double_products()  # products in double precision
+            u, g, point = smooth.derivatives(x)
             continue
         if step <= 1e-12:
             break

@@ -27,7 +27,7 @@ from ..blocks import low_rank_roots
 
 __all__ = ["StaleHessian", "ROOT_RANK", "WEIGHT_RANK"]
 
-ROOT_RANK = 32  # rank of the blocks' roots (H~ within about 3e-5 of the exact Hessian at the target, D and A)
+ROOT_RANK = 16  # rank of the blocks' roots (at the target, D and A take the CG iterations of rank 32 or 8)
 # leading directions of the criterion's weighting kept in the rows (A: N N^T, N = Q^-1 C^T; its rows are then
 # 64 P wide instead of P^2, and H~ is below H by what the weighting's tail carries)
 WEIGHT_RANK = 64
