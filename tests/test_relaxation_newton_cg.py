@@ -230,3 +230,23 @@ def test_structured_restricted_products_single_then_double_precision(monkeypatch
     double = smooth.hessian_operator(pt)(v)
     assert double.dtype == np.float64
     np.testing.assert_allclose(double, ref, rtol=0, atol=1e-10 * np.abs(ref).max())
+
+
+def test_restricted_newton_cg_resumed_on_the_same_working_set_reaches_the_direct_solution(monkeypatch):
+    # reference: the same restricted problem solved directly to the tight tolerance (from its own start)
+    from sensorplan.design.relaxation.newton_cg import StaleHessian, restricted_newton_cg
+
+    problem, _ = structured_problem(monkeypatch, "A")
+    idx = np.arange(0, problem.n_candidates, 2)
+    direct = restricted_newton_cg(problem, idx, None, tol=1e-9, stale=StaleHessian(problem))
+    stale = StaleHessian(problem)
+    loose = restricted_newton_cg(problem, idx, None, tol=1e-3, stale=stale)
+    resumed = restricted_newton_cg(problem, idx, loose[0], tol=1e-9, stale=stale, resume=loose[4])
+    assert resumed[2] < direct[2]  # fewer Newton steps: continued, not restarted
+    u = problem.criterion.utility
+    full = np.zeros(problem.n_candidates)
+    full[idx] = direct[0]
+    ref = u(problem.precision(full))
+    full[idx] = resumed[0]
+    assert u(problem.precision(full)) == pytest.approx(ref, rel=1e-8)
+    assert resumed[1] == pytest.approx(direct[1], rel=1e-5)  # the multiplier of sum(w) = R

@@ -34,7 +34,8 @@ from .interior_point import RestrictedPolytope, newton_step
 from .preconditioner import StaleHessian
 from .working_blocks import WorkingBlocks
 
-__all__ = ["StructuredRestricted", "StaleHessian", "projected_pcg", "restricted_newton_cg", "NewtonCG", "NEWTON_CG"]
+__all__ = ["StructuredRestricted", "StaleHessian", "Iterate", "projected_pcg", "restricted_newton_cg", "NewtonCG",
+           "NEWTON_CG"]
 
 
 @dataclass(frozen=True)
@@ -145,18 +146,33 @@ def projected_pcg(factor, apply_k, rhs, sum_residual, *, rtol, max_iter):
     return dx, dnu, it
 
 
-def restricted_newton_cg(problem, idx, w_prev, *, tol, stale, max_iter=200, options=NEWTON_CG):
+@dataclass(frozen=True)
+class Iterate:
+    """A primal-dual iterate of the restricted interior point on the working set ``idx``: the weights ``x``
+    (strictly inside), the multipliers ``lam`` of the inequalities and ``nu`` of sum(x) = R."""
+
+    idx: np.ndarray
+    x: np.ndarray
+    lam: np.ndarray
+    nu: float
+
+
+def restricted_newton_cg(problem, idx, w_prev, *, tol, stale, resume=None, max_iter=200, options=NEWTON_CG):
     """The restricted interior point of :func:`~.smooth.restricted_interior_point` (same iterates up to the
     Newton systems' tolerance) with Newton-CG steps on structured blocks, preconditioned by ``stale``
-    (a :class:`StaleHessian`, kept across rounds).
+    (a :class:`StaleHessian`, kept across rounds); continued from ``resume`` (an :class:`Iterate` on the
+    same working set: the same problem to a tighter tolerance) instead of started from ``w_prev``.
 
-    Returns (x, nu, iterations, CG iterations).
+    Returns (x, nu, iterations, CG iterations, the last :class:`Iterate`).
     """
     poly = RestrictedPolytope.for_working_set(problem, idx)
     smooth = StructuredRestricted(problem, idx)
-    x = poly.interior_start(w_prev, idx)
+    if resume is None:
+        x = poly.interior_start(w_prev, idx)
+        lam, nu = 1.0 / poly.slack(x), 0.0
+    else:
+        x, lam, nu = resume.x, resume.lam, resume.nu
     slack = poly.slack(x)
-    lam, nu = 1.0 / slack, 0.0
     ones = poly.sum_row
     u, g, point = smooth.derivatives(x)
     hess = stale.extend(idx, x, g) if stale.refreshes else stale.refresh(idx, point, x, g)
@@ -190,7 +206,7 @@ def restricted_newton_cg(problem, idx, w_prev, *, tol, stale, max_iter=200, opti
         u, g, point = smooth.derivatives(x)
         age, cg_total = age + 1, cg_total + n_cg
         refresh = n_cg > options.refresh_after and age >= options.min_age
-    return np.clip(x, 0.0, 1.0), float(nu), it, cg_total
+    return np.clip(x, 0.0, 1.0), float(nu), it, cg_total, Iterate(idx, x, lam, float(nu))
 
 
 def _factor(kmat):
