@@ -75,6 +75,25 @@ def test_hessian_factors_of_roots_equal_the_factors_of_the_formed_blocks(criteri
     np.testing.assert_allclose(h, ref, rtol=0, atol=1e-9 * np.abs(ref).max())
 
 
+def test_row_store_keeps_product_rows_in_order_and_appends_new_ones():
+    from sensorplan.design.criteria.base import ProductRows
+    from sensorplan.design.relaxation.preconditioner import _RowStore
+
+    rng = np.random.default_rng(5)
+    u, v = rng.standard_normal((6, 2, 4)), rng.standard_normal((6, 2, 3))
+    store = _RowStore((ProductRows(u.copy(), v.copy()), ProductRows(u.copy())))
+    for n_new in (3, 0, 5):
+        stay = rng.uniform(size=store.count) < 0.6
+        nu, nv = rng.standard_normal((n_new, 2, 4)), rng.standard_normal((n_new, 2, 3))
+        store.replace(stay, (ProductRows(nu, nv), ProductRows(nu)))
+        u, v = np.concatenate([u[stay], nu]), np.concatenate([v[stay], nv])  # the plain concatenation
+        first, second = store.factors
+        np.testing.assert_array_equal(first.u, u)
+        np.testing.assert_array_equal(first.v, v)
+        np.testing.assert_array_equal(second.u, u)
+        assert second.v is None
+
+
 def test_row_store_keeps_rows_in_order_and_appends_new_ones():
     from sensorplan.design.relaxation.preconditioner import _RowStore
 
@@ -126,14 +145,48 @@ def test_hessian_factors_at_a_rank_keep_the_leading_directions_of_the_weighting(
         m_k = (vec[:, -rank:] * lam[-rank:]) @ vec[:, -rank:].T
         ref = -2.0 * np.einsum("ab,ibc,cd,jda->ij", m_k, formed, q_inv, formed)
         negative, positive = crit.hessian_factors_at(q, chol, rank=rank)(roots)
-        assert positive is None and negative.shape == (problem.n_candidates, min(rank, n.shape[1]) * p)
-        h = -(negative @ negative.T)
+        assert positive is None and negative.v.shape == (problem.n_candidates, 3, min(rank, n.shape[1]))
+        h = -negative.gram()
         np.testing.assert_allclose(h, ref, rtol=0, atol=1e-9 * np.abs(ref).max())
         # below the exact Hessian's magnitude: H_k - H positive semidefinite (M_k <= M)
         assert np.linalg.eigvalsh(h - exact).min() >= -1e-9 * np.abs(exact).max()
-    # a rank at least N's: the exact factors
-    full, _ = crit.hessian_factors_at(q, chol, rank=p)(roots)
-    np.testing.assert_allclose(-(full @ full.T), exact, rtol=0, atol=1e-9 * np.abs(exact).max())
+    # a rank at least N's, or none: the exact factors
+    for rank in (p, None):
+        full, _ = crit.hessian_factors_at(q, chol, rank=rank)(roots)
+        np.testing.assert_allclose(-full.gram(), exact, rtol=0, atol=1e-9 * np.abs(exact).max())
+
+
+@pytest.mark.parametrize("criterion", ["D", "Ds", "A"])
+def test_hessian_factors_at_give_the_exact_hessian_of_the_formed_blocks(criterion):
+    # reference: the criterion's exact Hessian (closed form) of the blocks R_i R_i^T formed densely
+    from sensorplan.design.relaxation.preconditioner import _gram
+
+    problem = problem_for(criterion)
+    crit = problem.criterion
+    rng, _, q = point(problem, 9)
+    chol = np.linalg.cholesky(q)
+    roots = rng.standard_normal((problem.n_candidates, problem.n_params, 2)) * np.sqrt(np.abs(problem.blocks).max())
+    ref = crit.hessian(q, chol, np.matmul(roots, np.swapaxes(roots, 1, 2)))
+    factors = crit.hessian_factors_at(q, chol)(roots)
+    np.testing.assert_allclose(_gram(factors), ref, rtol=0, atol=1e-9 * np.abs(ref).max())
+    # the rows from the fifth on against all: the same rows of the Hessian
+    np.testing.assert_allclose(_gram(factors, rows=slice(4, None)), ref[4:], rtol=0, atol=1e-9 * np.abs(ref).max())
+
+
+def test_product_rows_gram_equals_the_gram_of_the_formed_rows():
+    # reference: B_i = U_i^T V_i formed and flattened, their plain Gram
+    from sensorplan.design.criteria.base import ProductRows
+
+    rng = np.random.default_rng(4)
+    u, v = rng.standard_normal((150, 3, 7)), rng.standard_normal((150, 3, 5))
+    for rows in (ProductRows(u, v), ProductRows(u)):
+        other = u if rows.v is None else v
+        flat = np.matmul(np.swapaxes(u, 1, 2), other).reshape(150, -1)
+        ref = flat @ flat.T
+        np.testing.assert_allclose(rows.gram(), ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
+        np.testing.assert_allclose(rows.gram(slice(70, None), chunk=16), ref[70:], rtol=1e-12,
+                                   atol=1e-12 * np.abs(ref).max())
+        assert len(rows) == 150
 
 
 @pytest.mark.parametrize("criterion", ["D", "Ds", "A", "A-region", "logdiag"])

@@ -10,7 +10,7 @@ import numpy as np
 import scipy.linalg
 
 from ..._errors import ConfigError
-from .base import Criterion
+from .base import Criterion, ProductRows
 from .linalg import (cholesky, eigen_split, factor_inverse, inverse_from_cholesky, lower_factor, lower_inverse,
                      scaled_gram, symmetrise)
 from .registry import register_criterion
@@ -121,27 +121,34 @@ class ACriterion(Criterion):
     def hessian_factors_of_roots(self, q, chol, roots):
         """(sqrt 2 B, None) of :meth:`hessian_factors` for the blocks R_i R_i^T: B_i^T = L^-1 R_i (R_i^T N), laid
         out as there (rows of N^T I_i L^-T), in the roots' precision."""
-        return self.hessian_factors_at(q, chol)(roots)
+        m, p, r = roots.shape
+        dtype = roots.dtype
+        n = scipy.linalg.cho_solve((chol, True), self.targets.T).astype(dtype)
+        li = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True).astype(dtype)
+        z = (li @ np.swapaxes(roots, 0, 1).reshape(p, m * r)).reshape(p, m, r).swapaxes(0, 1)  # L^-1 R_i
+        b = np.matmul(np.matmul(np.swapaxes(n, 0, 1)[None], roots), np.swapaxes(z, 1, 2))  # N^T R_i Z_i^T
+        b *= np.sqrt(2.0).astype(dtype)
+        return b.reshape(m, -1), None
 
     def hessian_factors_at(self, q, chol, *, rank=None):
-        """:meth:`hessian_factors_of_roots` at ``q`` as a function of the roots; with ``rank``, N replaced by
-        N_k = U_k S_k of its ``rank`` leading singular triplets (N = U S V^T): the rows N_k^T I_i L^-T are
-        ``rank`` P wide instead of P nt, and their Gram is below the exact one (N_k N_k^T <= N N^T)."""
+        """The factors of :meth:`hessian_factors_of_roots` as :class:`ProductRows`: B_i = U_i^T V_i with
+        U_i = sqrt 2 (L^-1 R_i)^T and V_i = R_i^T N, m r (P + nt) numbers; with ``rank``, N replaced by
+        N_k = U_k S_k of its ``rank`` leading singular triplets (N = U S V^T), whose Gram is below the exact
+        one (N_k N_k^T <= N N^T)."""
         p = chol.shape[0]
         n = scipy.linalg.cho_solve((chol, True), self.targets.T)
         if rank is not None and rank < min(n.shape):
             u, s, _ = np.linalg.svd(n, full_matrices=False)
             n = u[:, :rank] * s[:rank]
-        li = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True)
+        li = np.sqrt(2.0) * scipy.linalg.solve_triangular(chol, np.eye(p), lower=True)
 
         def factors(roots):
             m, _, r = roots.shape
             dtype = roots.dtype
-            nt, linv = np.ascontiguousarray(n.T, dtype=dtype), li.astype(dtype)
-            z = (linv @ np.swapaxes(roots, 0, 1).reshape(p, m * r)).reshape(p, m, r).swapaxes(0, 1)  # L^-1 R_i
-            b = np.matmul(np.matmul(nt[None], roots), np.swapaxes(z, 1, 2))  # N^T R_i Z_i^T
-            b *= np.sqrt(2.0).astype(dtype)
-            return b.reshape(m, -1), None
+            flat = np.swapaxes(roots, 0, 1).reshape(p, m * r)
+            z = (li.astype(dtype) @ flat).reshape(p, m, r).transpose(1, 2, 0)  # (L^-1 R_i)^T, scaled
+            y = (n.T.astype(dtype) @ flat).reshape(-1, m, r).transpose(1, 2, 0)  # R_i^T N
+            return ProductRows(np.ascontiguousarray(z), np.ascontiguousarray(y)), None
 
         return factors
 
