@@ -214,3 +214,34 @@ def test_point_derivatives_equal_the_criterion_methods(criterion):
     single = crit.point_derivatives(q, chol, dtype=np.float32)[2](s)
     assert single.dtype == (np.float64 if criterion == "logdiag" else np.float32)  # the default: double only
     np.testing.assert_allclose(single, ref, rtol=0, atol=1e-4 * np.abs(ref).max())
+
+
+@pytest.mark.parametrize("kinds", [("rotation",), ("rotation", "deflection")])
+def test_structured_roots_approach_the_truncated_eigendecomposition_of_the_dense_blocks(monkeypatch, kinds):
+    # reference: the dense blocks (BlockFamily.dense, formed element by element) and numpy's symmetric
+    # eigendecomposition of each (the best rank-r approximation the Nyström roots approach)
+    import sensorplan as sp
+    from sensorplan.design import recommend as module
+    from sensorplan.design.recommend import build_problem
+    from sensorplan.design.relaxation.structured_roots import StructuredRoots
+    from sensorplan.io.config import example_case
+
+    monkeypatch.setattr(module, "DENSE_CACHE_BYTES", 0)
+    noise = {"noise_std": {"rotation": 5e-6, "deflection": 1e-4}} if len(kinds) > 1 else {}
+    problem = build_problem(example_case("three-span"), 4, "D", grid=sp.CandidateGrid(spacing=1.0, kinds=kinds),
+                            **noise)
+    assert problem.structured and len(problem.blocks.families) == len(kinds)
+    dense = problem.blocks[np.arange(problem.n_candidates)]
+    scale = np.abs(dense).max()  # single-precision sketches: absolute round-off against the largest block
+    p = problem.n_params
+    index = np.arange(problem.n_candidates)[::-1]  # any order
+    sketches = StructuredRoots(problem.blocks, 4)
+    ref = np.matmul(dense[index], sketches.omega.astype(float))  # the sketch of the formed blocks
+    np.testing.assert_allclose(sketches.sketch(index), ref, rtol=0, atol=1e-5 * np.abs(ref).max())
+    for rank in (4, 8):
+        roots = StructuredRoots(problem.blocks, rank)(index)
+        assert roots.shape == (index.size, p, rank) and roots.dtype == np.float32
+        approx = np.matmul(roots.astype(float), np.swapaxes(roots, 1, 2).astype(float))
+        for b, a in zip(dense[index], approx):
+            lam = np.linalg.eigvalsh(b)
+            assert np.linalg.norm(b - a, 2) <= 3.0 * lam[-rank - 1] + 1e-4 * scale  # the best rank-r error

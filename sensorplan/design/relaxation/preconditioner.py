@@ -6,9 +6,11 @@ Its rows cost what the criterion's Hessian factors cost
 (:meth:`Criterion.hessian_factors`: for D, the whitened block
 L^-1 I_i L^-T, m P^3 on m candidates).  A preconditioner needs a few digits
 only, and a candidate's Fisher block has a fast-decaying spectrum, so each
-block enters by its rank-r root R_i (I_i ~ R_i R_i^T, a randomised range
-finder, :func:`~sensorplan.design.blocks.low_rank_roots`), computed once
-per candidate and kept for the whole relaxation.  At each new point the
+block enters by its rank-r root R_i (I_i ~ R_i R_i^T; structured blocks:
+a Nyström approximation from their structure, :mod:`.structured_roots`;
+dense blocks: a randomised range finder,
+:func:`~sensorplan.design.blocks.low_rank_roots`), computed once per
+candidate and kept for the whole relaxation.  At each new point the
 criterion turns the roots into factors (:meth:`Criterion.hessian_factors_at`):
 for D and A as :class:`~sensorplan.design.criteria.base.ProductRows`, rows
 B_i = U_i^T V_i held as U_i (r, P) and V_i (r, P or nt), so that a row costs
@@ -28,6 +30,7 @@ import numpy as np
 from ..._cache import Cache
 from ..blocks import low_rank_roots
 from ..criteria.base import ProductRows
+from .structured_roots import StructuredRoots
 
 __all__ = ["StaleHessian", "ROOT_RANK", "WEIGHT_RANK"]
 
@@ -68,6 +71,7 @@ class StaleHessian:
         self.refreshes = 0
         self.scale = 1.0  # H_ii / -g_i^2 on the core (1 for D; the estimate is scaled for any criterion)
         self._roots = Cache()  # by candidate number, for this problem only (dropped with the preconditioner)
+        self._sketch = None  # the structured blocks' sketches (StructuredRoots), made when first needed
         self._factors_at = None  # roots -> the criterion's Hessian factors at the rows' point
         self._store = None  # the rows' factors (None: the criterion has none)
 
@@ -111,9 +115,13 @@ class StaleHessian:
         """The criterion's Hessian factors of the candidates ``index`` at the rows' point from the blocks'
         roots (computed once per candidate, in single precision); None where the criterion has none."""
         missing = np.array([i for i in index.tolist() if not self._roots.lookup((), key=i)[0]], dtype=int)
+        if missing.size and self.problem.structured and self._sketch is None:
+            self._sketch = StructuredRoots(self.problem.blocks, self.rank)
         for s in range(0, missing.size, 64):
             part = missing[s:s + 64]
-            for i, root in zip(part.tolist(), low_rank_roots(_row_blocks(self.problem.blocks, part), self.rank)):
+            roots = self._sketch(part) if self.problem.structured else \
+                low_rank_roots(_row_blocks(self.problem.blocks, part), self.rank)
+            for i, root in zip(part.tolist(), roots):
                 self._roots.put((), root, key=i)
         p = self.problem.n_params
         roots = np.stack([self._roots.lookup((), key=i)[1] for i in index.tolist()]) if index.size else \
