@@ -136,6 +136,32 @@ def test_newton_cg_relaxation_equals_the_exact_hessian_relaxation(monkeypatch, c
     np.testing.assert_allclose(q_cg, q_exact, rtol=0, atol=1e-3 * np.abs(q_exact).max())
 
 
+def test_newton_cg_relaxation_with_a_truncated_preconditioner_reaches_the_same_certified_optimum(monkeypatch):
+    # A's preconditioner rows with 2 directions of N N^T only (H~ far below H): the Newton-CG steps still use the
+    # exact Hessian products, so the relaxation reaches the optimum of the exact-Hessian relaxation on dense
+    # blocks (reference: direct Newton systems, no preconditioner)
+    from sensorplan.design.relaxation import smooth, solve_relaxation
+    from sensorplan.design.relaxation.preconditioner import StaleHessian
+
+    made = []
+
+    class Narrow(StaleHessian):
+        def __init__(self, problem):
+            super().__init__(problem, weight_rank=2)
+            made.append(self)
+
+    problem, dense = structured_problem(monkeypatch, "A")
+    assert problem.n_params > 2
+    monkeypatch.setattr(smooth, "StaleHessian", Narrow)
+    cg = solve_relaxation(problem, "fast")
+    exact = solve_relaxation(dense, "fast")
+    assert made and made[0].rows > 0
+    assert cg.relative_gap <= 1e-7 and exact.relative_gap <= 1e-7
+    assert cg.bound >= exact.utility - 1e-9 * abs(exact.utility)
+    assert exact.bound >= cg.utility - 1e-9 * abs(cg.utility)
+    assert cg.utility == pytest.approx(exact.utility, rel=2e-7)
+
+
 @pytest.mark.parametrize("criterion", ["D", "A", "Ds"])
 def test_stale_hessian_extended_equals_the_exact_hessian_of_the_union(monkeypatch, criterion):
     # reference: the criterion's exact Hessian (closed form, checked against differences above) of the new working
@@ -155,7 +181,7 @@ def test_stale_hessian_extended_equals_the_exact_hessian_of_the_union(monkeypatc
     c = problem.n_candidates
     first, second = np.arange(0, c // 2), np.arange(c // 4, 3 * c // 4)
     grad = problem.gradient(w)
-    stale = StaleHessian(problem)
+    stale = StaleHessian(problem, rank=32)  # roots accurate to this test's tolerance (the default is coarser)
     stale.refresh(first, Point(q, chol), np.ones(first.size), grad[first])
     h = stale.extend(second, np.ones(second.size), grad[second])
     ref = problem.criterion.hessian(q, chol, problem.blocks[second])
@@ -179,3 +205,48 @@ def test_working_blocks_sums_and_inner_products_equal_the_dense_blocks(monkeypat
     g = rng.standard_normal((problem.n_params, problem.n_params))
     ref = np.einsum("cij,ij->c", blocks, 0.5 * (g + g.T))
     np.testing.assert_allclose(working.dot(g), ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+
+
+def test_structured_restricted_products_single_then_double_precision(monkeypatch):
+    # reference: the criterion's exact Hessian (closed form) on the dense blocks of the working set times v
+    from sensorplan.design.relaxation.newton_cg import StructuredRestricted
+
+    problem, dense = structured_problem(monkeypatch, "A")
+    rng = np.random.default_rng(8)
+    idx = np.sort(rng.choice(problem.n_candidates, problem.n_candidates // 2, replace=False))
+    smooth = StructuredRestricted(problem, idx)
+    x = rng.uniform(0.1, 0.5, idx.size)
+    u, g, pt = smooth.derivatives(x)
+    q = dense.q0 + np.einsum("c,cij->ij", x, dense.blocks[idx])
+    h = problem.criterion.hessian(q, np.linalg.cholesky(q), dense.blocks[idx])
+    v = rng.standard_normal(idx.size)
+    ref = h @ v
+    assert u == pytest.approx(problem.criterion.utility(q), rel=1e-12)
+    single = smooth.hessian_operator(pt)(v)
+    assert single.dtype == np.float32
+    np.testing.assert_allclose(single, ref, rtol=0, atol=1e-4 * np.abs(ref).max())
+    smooth.use_double_products()
+    u, g, pt = smooth.derivatives(x)
+    double = smooth.hessian_operator(pt)(v)
+    assert double.dtype == np.float64
+    np.testing.assert_allclose(double, ref, rtol=0, atol=1e-10 * np.abs(ref).max())
+
+
+def test_restricted_newton_cg_resumed_on_the_same_working_set_reaches_the_direct_solution(monkeypatch):
+    # reference: the same restricted problem solved directly to the tight tolerance (from its own start)
+    from sensorplan.design.relaxation.newton_cg import StaleHessian, restricted_newton_cg
+
+    problem, _ = structured_problem(monkeypatch, "A")
+    idx = np.arange(0, problem.n_candidates, 2)
+    direct = restricted_newton_cg(problem, idx, None, tol=1e-9, stale=StaleHessian(problem))
+    stale = StaleHessian(problem)
+    loose = restricted_newton_cg(problem, idx, None, tol=1e-3, stale=stale)
+    resumed = restricted_newton_cg(problem, idx, loose[0], tol=1e-9, stale=stale, resume=loose[4])
+    assert resumed[2] < direct[2]  # fewer Newton steps: continued, not restarted
+    u = problem.criterion.utility
+    full = np.zeros(problem.n_candidates)
+    full[idx] = direct[0]
+    ref = u(problem.precision(full))
+    full[idx] = resumed[0]
+    assert u(problem.precision(full)) == pytest.approx(ref, rel=1e-8)
+    assert resumed[1] == pytest.approx(direct[1], rel=1e-5)  # the multiplier of sum(w) = R

@@ -4,18 +4,47 @@ A criterion is a concave utility of the relaxed weights w (C,) of the
 candidates, evaluated on the "precision" Q(w) = Q_0 + sum_i w_i I_i of a
 placement problem (:class:`~sensorplan.design.problem.DesignProblem`).
 
-Owns: the Criterion base class and its defaults.  May import: errors.
+Owns: the Criterion base class and its defaults, ProductRows.  May import: errors.
 """
 
 import math
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from functools import partial
 from typing import ClassVar
 
 import numpy as np
 
 from ..._errors import ConfigError
 
-__all__ = ["Criterion"]
+__all__ = ["Criterion", "ProductRows"]
+
+
+@dataclass(frozen=True)
+class ProductRows:
+    """Rows B_i = U_i^T V_i of a Hessian factor given by their factors ``u`` (m, r, a) and ``v`` (m, r, b) (None:
+    ``v`` is ``u``): <B_i, B_j> = <U_i U_j^T, V_i V_j^T>_F, from m r (a + b) numbers instead of m a b (the
+    Gram of blocks' low-rank roots, r small)."""
+
+    u: np.ndarray
+    v: np.ndarray | None = None
+
+    def __len__(self):
+        return self.u.shape[0]
+
+    def gram(self, rows=slice(None), *, chunk=64):
+        """<B_i, B_j> for the rows ``rows`` (a slice) against all, (len(rows), m) in double precision."""
+        m, r, a = self.u.shape
+        every = self.u.reshape(m * r, a)
+        other = None if self.v is None else self.v.reshape(m * r, -1)
+        picked = np.arange(m)[rows]
+        out = np.empty((picked.size, m))
+        for s in range(0, picked.size, chunk):  # (chunk r, m r) products at a time
+            part = picked[s:s + chunk]
+            g = self.u[part].reshape(-1, a) @ every.T
+            g *= g if other is None else self.v[part].reshape(part.size * r, -1) @ other.T
+            out[s:s + part.size] = g.reshape(part.size, r, m, r).sum(axis=(1, 3))
+        return out
 
 
 class Criterion(ABC):
@@ -140,6 +169,15 @@ class Criterion(ABC):
         blocks formed."""
         return self.hessian_factors(q, chol, np.matmul(roots, np.swapaxes(roots, 1, 2)))
 
+    def hessian_factors_at(self, q, chol, *, rank=None):
+        """The function roots -> (N, M) of :meth:`hessian_factors_of_roots` at ``q`` (what it needs of ``q``
+        computed once: rows added at one point over many calls), each factor None, rows (m, w) or
+        :class:`ProductRows` (cheaper where the roots are narrow).  ``rank``: where the Hessian weights the
+        blocks by a matrix (A's N N^T), only its ``rank`` leading directions are kept, an approximation from
+        below (the factors' Gram B_k B_k^T <= B B^T) that a preconditioner can use; default: exact rows,
+        ``rank`` ignored."""
+        return partial(self.hessian_factors_of_roots, q, chol)
+
     def hessian_product(self, q, chol, s):
         """Symmetric G with (H v)_i = <G, I_i>, where S = sum_j v_j I_j: the Hessian of the utility in the
         weights applied to ``v`` without the per-candidate blocks (``chol`` the lower Cholesky factor of
@@ -158,6 +196,13 @@ class Criterion(ABC):
             return 0.5 * (g + g.T)
 
         return product
+
+    def point_derivatives(self, q, chol, *, dtype=np.float64):
+        """(utility, gradient matrix, Hessian operator) at ``q`` (``chol`` its lower Cholesky factor): what a
+        Newton step of the relaxation needs at one point, the operator's products in ``dtype``; default:
+        :meth:`utility`, :meth:`gradient_matrix` and :meth:`hessian_operator` (overridden where they share
+        their work, e.g. one inverse of Q)."""
+        return self.utility(q), self.gradient_matrix(q), self.hessian_operator(q, chol, dtype=dtype)
 
     # -- bounds and certificates ---------------------------------------------------------
     def upper_bounds(self, problem, q):

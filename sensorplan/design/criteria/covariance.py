@@ -10,7 +10,7 @@ import numpy as np
 import scipy.linalg
 
 from ..._errors import ConfigError
-from .base import Criterion
+from .base import Criterion, ProductRows
 from .linalg import (cholesky, eigen_split, factor_inverse, inverse_from_cholesky, inverse_traces, lower_factor,
                      lower_inverse, scaled_gram, symmetrise)
 from .registry import register_criterion
@@ -32,6 +32,9 @@ class ACriterion(Criterion):
     # the eigen-split levels of the searches (selection; the first, every candidate's first bounds): an exact A
     # evaluation (a factor and a triangular inverse) costs more than D's, so tighter bounds pay sooner
     refine_levels = ((32, 16), (64, 16), (128, 24))
+    # the relaxed A optimum spreads over hundreds of candidates: sets that may double per round take fewer rounds
+    # (each a dozen Newton steps), and the preconditioner rows of the members that enter are narrow (WEIGHT_RANK)
+    enter_share = 1.0
 
     def __init__(self, n_params, *, targets=None):
         super().__init__(n_params)
@@ -127,19 +130,45 @@ class ACriterion(Criterion):
         b *= np.sqrt(2.0).astype(dtype)
         return b.reshape(m, -1), None
 
+    def hessian_factors_at(self, q, chol, *, rank=None):
+        """The factors of :meth:`hessian_factors_of_roots` as :class:`ProductRows`: B_i = U_i^T V_i with
+        U_i = sqrt 2 (L^-1 R_i)^T and V_i = R_i^T N, m r (P + nt) numbers; with ``rank``, N replaced by
+        N_k = U_k S_k of its ``rank`` leading singular triplets (N = U S V^T), whose Gram is below the exact
+        one (N_k N_k^T <= N N^T)."""
+        p = chol.shape[0]
+        n = scipy.linalg.cho_solve((chol, True), self.targets.T)
+        if rank is not None and rank < min(n.shape):
+            u, s, _ = np.linalg.svd(n, full_matrices=False)
+            n = u[:, :rank] * s[:rank]
+        li = np.sqrt(2.0) * scipy.linalg.solve_triangular(chol, np.eye(p), lower=True)
+
+        def factors(roots):
+            m, _, r = roots.shape
+            dtype = roots.dtype
+            flat = np.swapaxes(roots, 0, 1).reshape(p, m * r)
+            z = (li.astype(dtype) @ flat).reshape(p, m, r).transpose(1, 2, 0)  # (L^-1 R_i)^T, scaled
+            y = (n.T.astype(dtype) @ flat).reshape(-1, m, r).transpose(1, 2, 0)  # R_i^T N
+            return ProductRows(np.ascontiguousarray(z), np.ascontiguousarray(y)), None
+
+        return factors
+
     def hessian_operator(self, q, chol, *, dtype=np.float64):
         # (H v)_i = -2 tr(M I_i Q^-1 S), M = N N^T, N = Q^-1 C^T: G = -(Q^-1 S M + M S Q^-1)
         w = inverse_from_cholesky(chol)
         n = w @ self.targets.T
-        m = (n @ n.T).astype(dtype)
-        w = w.astype(dtype)
+        return _product(w, n @ n.T, dtype)
 
-        def product(s):
-            s = np.asarray(s, dtype=dtype)
-            x = w @ (0.5 * (s + s.T)) @ m
-            return -(x + x.T)
-
-        return product
+    def point_derivatives(self, q, chol, *, dtype=np.float64):
+        """From one inverse W = Q^-1 (LAPACK dpotri on ``chol``): N = W C^T, the utility -tr(C W C^T), the
+        gradient matrix N N^T and the products of :meth:`hessian_operator` with W and M = N N^T."""
+        w = factor_inverse(chol)
+        if self.all_parameters:
+            n, utility = w, -float(np.trace(w))
+        else:
+            n = w @ self.targets.T
+            utility = -float(np.einsum("ij,ji->", self.targets, n))
+        g = n @ n.T
+        return utility, g, _product(w, g, dtype)
 
     def upper_bounds(self, problem, q):
         if not self.all_parameters:
@@ -182,6 +211,18 @@ class ACriterion(Criterion):
 
     def cvxpy_objective(self, cp, q_expr, constraints):
         return cp.Minimize(cp.matrix_frac(self.targets.T, q_expr)), None
+
+
+def _product(w, m, dtype):
+    """S -> -(W S M + M S W) for symmetric S, in ``dtype`` (A's Hessian operator with W = Q^-1, M = N N^T)."""
+    w, m = w.astype(dtype), m.astype(dtype)
+
+    def product(s):
+        s = np.asarray(s, dtype=dtype)
+        x = w @ (0.5 * (s + s.T)) @ m
+        return -(x + x.T)
+
+    return product
 
 
 def region_targets(region, edges, n_params):

@@ -13,7 +13,7 @@ import numpy as np
 import scipy.linalg
 
 from ..._errors import ConfigError
-from .base import Criterion
+from .base import Criterion, ProductRows
 from .linalg import (congruence, eigen_split, factor_inverse, inverse, inverse_from_cholesky, log_det, log_dets,
                      lower_factor, packed_upper, scaled_gram, symmetrise, whitened_blocks)
 from .registry import register_criterion
@@ -65,10 +65,31 @@ class DCriterion(Criterion):
             out[s:s + 32] = packed_upper(np.matmul(z[s:s + 32], np.swapaxes(z[s:s + 32], 1, 2)))
         return out, None
 
+    def hessian_factors_at(self, q, chol, *, rank=None):
+        """The factor of :meth:`hessian_factors_of_roots` as :class:`ProductRows`: Z_i Z_i^T with U_i = V_i =
+        Z_i^T = (L^-1 R_i)^T, m r P numbers (<Z_i Z_i^T, Z_j Z_j^T> = ||Z_i^T Z_j||_F^2); ``rank`` ignored."""
+        p = chol.shape[0]
+        linv = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True)
+
+        def factors(roots):
+            m, _, r = roots.shape
+            flat = np.swapaxes(roots, 0, 1).reshape(p, m * r)
+            z = (linv.astype(roots.dtype) @ flat).reshape(p, m, r).transpose(1, 2, 0)
+            return ProductRows(np.ascontiguousarray(z)), None
+
+        return factors
+
     def hessian_operator(self, q, chol, *, dtype=np.float64):
         # (H v)_i = -tr(Q^-1 I_i Q^-1 S): G = -Q^-1 S Q^-1
         w = inverse_from_cholesky(chol).astype(dtype)
         return lambda s: -congruence(w, np.asarray(s, dtype=dtype))
+
+    def point_derivatives(self, q, chol, *, dtype=np.float64):
+        """From one inverse W = Q^-1 (LAPACK dpotri on ``chol``): the utility 2 sum log diag L, the gradient
+        matrix W and the products of :meth:`hessian_operator` with W."""
+        w = factor_inverse(chol)
+        wd = w.astype(dtype)
+        return 2.0 * float(np.sum(np.log(np.diag(chol)))), w, lambda s: -congruence(wd, np.asarray(s, dtype=dtype))
 
     def upper_bounds(self, problem, q):
         eig = np.linalg.eigh(symmetrise(q))
@@ -117,6 +138,8 @@ class DsCriterion(DCriterion):
     utilities = Criterion.utilities  # not D's: the value is a difference of two log determinants
     split_bounds = None  # type: ignore[assignment]  # none: D's hold for log det Q, not a difference of two
     hessian_factors_of_roots = Criterion.hessian_factors_of_roots  # D's form is not Ds's Hessian
+    point_derivatives = Criterion.point_derivatives  # nor are D's utility and gradient Ds's
+    hessian_factors_at = Criterion.hessian_factors_at
 
     def __init__(self, n_params, *, n_keep=None):
         super().__init__(n_params)

@@ -4,7 +4,11 @@ On a working set of m candidates the criterion's exact Hessian costs m P^3
 (every block whitened); its product with a vector v costs about P^3
 whatever m is: S = sum_j v_j I_j and the inner products <G, I_i> come from
 the structured blocks (:class:`~sensorplan.design.blocks.StructuredBlocks`)
-without dense blocks, and G from :meth:`Criterion.hessian_operator`.  The
+without dense blocks, and G from the criterion's Hessian operator
+(:meth:`Criterion.point_derivatives`, with the utility and gradient from
+one inverse of Q); the products are computed in single precision (the
+directions need a few digits; utility, gradient, residuals and the
+certificate stay in double precision).  The
 Newton systems K dx + dnu 1 = r, 1^T dx = s (K = -H + the barrier's
 Hessian) are therefore solved by conjugate gradients projected on
 1^T dx = s and preconditioned by the constraint preconditioner built on
@@ -19,6 +23,7 @@ Owns: StructuredRestricted, projected_pcg, restricted_newton_cg (the preconditio
 May import: design.relaxation.
 """
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,7 +34,8 @@ from .interior_point import RestrictedPolytope, newton_step
 from .preconditioner import StaleHessian
 from .working_blocks import WorkingBlocks
 
-__all__ = ["StructuredRestricted", "StaleHessian", "projected_pcg", "restricted_newton_cg", "NewtonCG", "NEWTON_CG"]
+__all__ = ["StructuredRestricted", "StaleHessian", "Iterate", "projected_pcg", "restricted_newton_cg", "NewtonCG",
+           "NEWTON_CG"]
 
 
 @dataclass(frozen=True)
@@ -49,10 +55,12 @@ NEWTON_CG = NewtonCG()
 
 @dataclass(frozen=True)
 class Point:
-    """A precision Q of the restricted problem and its lower Cholesky factor."""
+    """A precision Q of the restricted problem, its lower Cholesky factor and the criterion's Hessian operator
+    there (S -> G, :meth:`Criterion.hessian_operator`)."""
 
     q: np.ndarray
     chol: np.ndarray
+    product: Callable[[np.ndarray], np.ndarray] | None = None
 
 
 class StructuredRestricted:
@@ -60,12 +68,14 @@ class StructuredRestricted:
     of the working set ``idx``, on structured blocks (no dense block but for the exact Hessian)."""
 
     products = True
+    product_dtype = np.float32  # the Hessian products' precision
 
     def __init__(self, problem, idx):
         self.problem = problem
         self.idx = idx
         blocks = problem.blocks.subset(idx)
         self.sub = WorkingBlocks(blocks)
+        self.sub_products = WorkingBlocks(blocks, dtype=self.product_dtype)
         self._last = Cache(maxsize=2)  # the line search's accepted trial point is the next iterate
 
     def derivatives(self, x, *, hessian=False):
@@ -80,12 +90,17 @@ class StructuredRestricted:
             chol = np.linalg.cholesky(q)
         except np.linalg.LinAlgError:
             return -np.inf, None, None
-        return crit.utility(q), self.sub.dot(crit.gradient_matrix(q)), Point(q, chol)
+        utility, gradient, product = crit.point_derivatives(q, chol, dtype=self.product_dtype)
+        return utility, self.sub.dot(gradient), Point(q, chol, product)
+
+    def use_double_products(self):
+        """Compute the Hessian products in double precision from now on (for accurate Newton systems)."""
+        self.product_dtype, self.sub_products = np.float64, self.sub
+        self._last.clear()
 
     def hessian_operator(self, point):
         """v -> H v at ``point`` (exact, through the criterion's Hessian products)."""
-        product = self.problem.criterion.hessian_operator(point.q, point.chol)
-        return lambda v: self.sub.dot(product(self.sub.weighted(v)))
+        return lambda v: self.sub_products.dot(point.product(self.sub_products.weighted(v)))
 
 
 def projected_pcg(factor, apply_k, rhs, sum_residual, *, rtol, max_iter):
@@ -131,18 +146,33 @@ def projected_pcg(factor, apply_k, rhs, sum_residual, *, rtol, max_iter):
     return dx, dnu, it
 
 
-def restricted_newton_cg(problem, idx, w_prev, *, tol, stale, max_iter=200, options=NEWTON_CG):
+@dataclass(frozen=True)
+class Iterate:
+    """A primal-dual iterate of the restricted interior point on the working set ``idx``: the weights ``x``
+    (strictly inside), the multipliers ``lam`` of the inequalities and ``nu`` of sum(x) = R."""
+
+    idx: np.ndarray
+    x: np.ndarray
+    lam: np.ndarray
+    nu: float
+
+
+def restricted_newton_cg(problem, idx, w_prev, *, tol, stale, resume=None, max_iter=200, options=NEWTON_CG):
     """The restricted interior point of :func:`~.smooth.restricted_interior_point` (same iterates up to the
     Newton systems' tolerance) with Newton-CG steps on structured blocks, preconditioned by ``stale``
-    (a :class:`StaleHessian`, kept across rounds).
+    (a :class:`StaleHessian`, kept across rounds); continued from ``resume`` (an :class:`Iterate` on the
+    same working set: the same problem to a tighter tolerance) instead of started from ``w_prev``.
 
-    Returns (x, nu, iterations, CG iterations).
+    Returns (x, nu, iterations, CG iterations, the last :class:`Iterate`).
     """
     poly = RestrictedPolytope.for_working_set(problem, idx)
     smooth = StructuredRestricted(problem, idx)
-    x = poly.interior_start(w_prev, idx)
+    if resume is None:
+        x = poly.interior_start(w_prev, idx)
+        lam, nu = 1.0 / poly.slack(x), 0.0
+    else:
+        x, lam, nu = resume.x, resume.lam, resume.nu
     slack = poly.slack(x)
-    lam, nu = 1.0 / slack, 0.0
     ones = poly.sum_row
     u, g, point = smooth.derivatives(x)
     hess = stale.extend(idx, x, g) if stale.refreshes else stale.refresh(idx, point, x, g)
@@ -165,7 +195,9 @@ def restricted_newton_cg(problem, idx, w_prev, *, tol, stale, max_iter=200, opti
                                       poly.count - x.sum(), rtol=rtol, max_iter=options.max_iter)
         step, after = newton_step(smooth, poly, (x, lam, nu), dx, dnu, slack, t, r_dual)
         if step <= 1e-12 and rtol > options.rtol_final:  # an inexact direction that does not descend: solve
-            rtol, refresh = options.rtol_final, True  # the Newton systems accurately from now on
+            rtol, refresh = options.rtol_final, True  # the Newton systems accurately from now on, with
+            smooth.use_double_products()  # products in double precision
+            u, g, point = smooth.derivatives(x)
             continue
         if step <= 1e-12:
             break
@@ -174,7 +206,7 @@ def restricted_newton_cg(problem, idx, w_prev, *, tol, stale, max_iter=200, opti
         u, g, point = smooth.derivatives(x)
         age, cg_total = age + 1, cg_total + n_cg
         refresh = n_cg > options.refresh_after and age >= options.min_age
-    return np.clip(x, 0.0, 1.0), float(nu), it, cg_total
+    return np.clip(x, 0.0, 1.0), float(nu), it, cg_total, Iterate(idx, x, lam, float(nu))
 
 
 def _factor(kmat):

@@ -78,7 +78,7 @@ def solve_column_generation(problem, *, tol=1e-7, start_layout=None, max_rounds=
     stats = {"solver": "column-generation+interior-point" + ("+newton-cg" if problem.structured else ""),
              "status": "optimal" if last.gap <= tol else "gap above tolerance",
              "rounds": rounds, "working_set": len(working), "newton_iterations": newton_iters,
-             **{k: v for k, v in tally.items() if k != "stale"}, "time_s": time.perf_counter() - t0}
+             **{k: v for k, v in tally.items() if k not in ("stale", "iterate")}, "time_s": time.perf_counter() - t0}
     return Relaxation(last.weights, last.utility, max(last.bound, last.utility), "fast", stats)
 
 
@@ -86,7 +86,7 @@ def _solve_round(problem, tally, working, idx, w_prev, inner):
     """The restricted interior point on ``idx`` (all candidates if the constraints need more) and the
     Frank-Wolfe certificate over all candidates; ``tally`` counts the exact Hessians (the CG iterations on
     structured blocks, whose preconditioner it holds)."""
-    solve = partial(restricted_newton_cg, stale=tally["stale"]) if problem.structured else restricted_interior_point
+    solve = partial(_newton_cg_round, tally) if problem.structured else restricted_interior_point
     try:
         x, nu, it, count = solve(problem, idx, w_prev, tol=inner)
     except SolverError:
@@ -107,6 +107,16 @@ def _solve_round(problem, tally, working, idx, w_prev, inner):
     gap = (bound - utility) / max(1.0, abs(bound))
     return Round(idx=idx, x=x, weights=weights, utility=utility, bound=bound, gap=gap, threshold=nu, maximiser=s,
                  iterations=it, entry_gradient=lambda: grad)
+
+
+def _newton_cg_round(tally, problem, idx, w_prev, *, tol):
+    """:func:`restricted_newton_cg` with the preconditioner of ``tally``, continued from the last round's iterate
+    when the working set is the same (nothing entered or left: only the tolerance is tighter)."""
+    last = tally.get("iterate")
+    resume = last if last is not None and np.array_equal(last.idx, idx) else None
+    x, nu, it, count, tally["iterate"] = restricted_newton_cg(problem, idx, w_prev, tol=tol, stale=tally["stale"],
+                                                              resume=resume)
+    return x, nu, it, count
 
 
 @dataclass(frozen=True)

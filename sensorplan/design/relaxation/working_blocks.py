@@ -32,13 +32,12 @@ class _Family:
         self.coef, self.cross, self.own = fam.coef.astype(dtype), fam.cross.astype(dtype), fam.own.astype(dtype)
         self.elem, self.dtype = fam.elem, dtype
         self.start = fam.elem + 1
-        # the free-free pairs enter as the packed upper triangles of S_ab = X_ab + X_ba (a < b) and S_aa = X_aa:
-        # the sums and inner products are symmetric in (a, b), so half the pairs and half of each matrix
-        self.pairs, self.tri = np.triu_indices(f), np.triu_indices(p)
+        # the free-free pairs enter as the symmetric S_ab = X_ab + X_ba (a < b) and S_aa = X_aa, flattened (the
+        # sums and inner products are symmetric in (a, b): half the pairs; whole matrices: no triangle gathered)
+        self.pairs = np.triu_indices(f)
         a, b = self.pairs
         sym = x[a, :, b, :] + np.where((a < b)[:, None, None], np.swapaxes(x[a, :, b, :], 1, 2), 0.0)
-        self.uu = np.ascontiguousarray(sym[:, self.tri[0], self.tri[1]])
-        self.off = np.where(self.tri[0] == self.tri[1], 1.0, 2.0).astype(dtype)  # <S, G> on the triangle
+        self.uu = np.ascontiguousarray(sym.reshape(len(a), p * p))
         # um[j, i, (a, b)] = X_ab[i, j] (a free, b masked); mm[i, j, (a, b)] = X_ab[i, j] (both masked)
         self.um = np.ascontiguousarray(x[:f, :, f:, :].transpose(3, 1, 0, 2).reshape(p, p, f * n_m))
         mm = x[f:, :, f:, :].transpose(1, 3, 0, 2).reshape(p, p, n_m * n_m)
@@ -52,16 +51,13 @@ class _Family:
         """sum_c w_c F_c over the members (not yet symmetrised)."""
         f, p, t = self.f, self.p, self.coef
         wt = t * w[:, None]
-        packed = (wt[:, :f].T @ t[:, :f])[self.pairs] @ self.uu
-        out = np.zeros((p, p), dtype=self.dtype)
-        out[self.tri] = packed
-        out += np.triu(out, 1).T
+        out = ((wt[:, :f].T @ t[:, :f])[self.pairs] @ self.uu).reshape(p, p)
         s = sums_by_start((wt[:, :f, None] * t[:, None, f:]).reshape(len(w), -1), self.start, p)  # (P, f * m)
         y = np.matmul(self.um, s[:, :, None])[:, :, 0]  # y[j, i] = sum_k X_k[i, j] s[j, k]
         out += y + y.T
         s2 = sums_by_start((wt[:, f:, None] * t[:, None, f:]).reshape(len(w), -1), self.start, p)  # (P, m * m)
-        out += np.matmul(self.mm_upper, s2[:, :, None])[:, :, 0]  # sum_k X_k[i, j] s2[min(i, j), k]
-        out += np.matmul(self.mm_lower_t, s2[:, :, None])[:, :, 0].T
+        out += np.einsum("ijk,ik->ij", self.mm_upper, s2)  # sum_k X_k[i, j] s2[min(i, j), k]
+        out += np.einsum("ijk,ik->ij", self.mm_lower_t, s2).T
         # sum_c w_c (e_j r_c^T + r_c e_j^T): the rows r_c summed by element (a sparse (P, members) product)
         part = scipy.sparse.csr_matrix((w, (self.elem, np.arange(w.size))), shape=(p, w.size)) @ self.cross
         out += part + part.T
@@ -73,7 +69,7 @@ class _Family:
         f, p, t = self.f, self.p, self.coef
         tu, tm = t[:, :f], t[:, f:]
         zu = np.zeros((f, f), dtype=self.dtype)
-        zu[self.pairs] = self.uu @ (g[self.tri] * self.off)  # <S_ab, G> = 2 <X_ab, G> (a < b), <X_aa, G>
+        zu[self.pairs] = self.uu @ g.ravel()  # <S_ab, G> = 2 <X_ab, G> (a < b), <X_aa, G>
         zu = (zu + zu.T) / 2.0
         out = np.einsum("ca,ab,cb->c", tu, zu, tu)
         v = suffix_sums(np.matmul(g.T[:, None, :], self.um)[:, 0, :])  # sum over j >= s of column j of X_k (.) G
