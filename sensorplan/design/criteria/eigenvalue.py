@@ -25,9 +25,6 @@ class ECriterion(Criterion):
     name = "E"
     description = "smallest eigenvalue of the posterior precision"
     relaxation = "eigen-subspace"
-    # E's dual is flat (on a dense grid hundreds of candidates tie within 1e-3 of the count threshold): its
-    # last decade of gap costs about a sixth of the relaxation, and 1e-6 is far below any efficiency reported
-    relaxation_tol = 1e-6
 
     def value(self, q):
         return float(np.linalg.eigvalsh(symmetrise(q))[0])
