@@ -250,3 +250,20 @@ def test_restricted_newton_cg_resumed_on_the_same_working_set_reaches_the_direct
     full[idx] = resumed[0]
     assert u(problem.precision(full)) == pytest.approx(ref, rel=1e-8)
     assert resumed[1] == pytest.approx(direct[1], rel=1e-5)  # the multiplier of sum(w) = R
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("criterion", ["D", "A"])
+def test_structured_newton_cg_relaxation_equals_cvxpy_clarabel(monkeypatch, criterion):
+    # reference: cvxpy + Clarabel on the same problem's dense blocks (a generic conic solver, no code shared with
+    # the Newton-CG path: structured products, product-row preconditioner from structured roots, resumed rounds)
+    from sensorplan.design.relaxation import solve_relaxation
+
+    problem, dense = structured_problem(monkeypatch, criterion)
+    fast = solve_relaxation(problem, "fast")
+    ref = solve_relaxation(dense, "cvxpy")
+    assert "newton-cg" in fast.stats["solver"]
+    scale = max(1.0, abs(ref.bound))
+    assert abs(fast.utility - ref.utility) <= 1e-6 * scale
+    assert ref.utility - 1e-9 * scale <= fast.bound <= ref.bound + (problem.criterion.relaxation_tol + 1e-9) * scale
+    assert fast.relative_gap <= 1e-7 and ref.relative_gap <= 2e-5

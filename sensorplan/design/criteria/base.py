@@ -67,8 +67,9 @@ class Criterion(ABC):
     ``-value``, and it must be concave in the weights: every certificate
     (:meth:`bound`, :meth:`upper_bounds`) relies on that.  Everything else
     has a correct default for any concave utility (central-difference
-    Hessian, first-order upper bounds, the Frank-Wolfe bound), which the
-    built-in criteria override with exact, faster forms.  Class attributes
+    Hessian, first-order upper bounds, the Frank-Wolfe bound, a Newton
+    step's derivatives and the preconditioner's factors one by one), which
+    the built-in criteria override with exact, faster forms.  Class attributes
     that tune the search: ``submodular`` (lazy greedy is exact),
     ``relaxation`` (the fast relaxation method registered under that name,
     :mod:`sensorplan.design.relaxation`), ``information`` (what a sensor adds:
