@@ -16,10 +16,11 @@ The model counts what dominates at scale (dense linear algebra, one core):
   never the 8 C P^2 bytes of dense blocks, but a cache of dense blocks of
   the candidates greedy and exchange evaluate (at most
   :data:`~sensorplan.design.blocks.algebra.DENSE_CACHE_BYTES`); plus the relaxation's working
-  set of m candidates (its dense blocks in double and single precision and
-  the whitened copies of a Newton step, about 16 m P^2 bytes at the peak);
+  set of m candidates (its structured blocks, low-rank roots, the
+  preconditioner and a Newton step's temporaries, about 8 m P^2 bytes at the
+  peak);
   CPU: building the blocks (2 n_loads (A P)^2 + 2 n_loads A P C flops),
-  the relaxation's Newton steps (~ 40 x 2 m P^3 / 3), the bound passes of
+  the relaxation's Newton steps (~ 12 x 2 m P^3 / 3), the bound passes of
   greedy and exchange (~ 3 R passes of 2 A^2 P^2 k + 2 C A^2 k^2, k = 16)
   and their exact evaluations (~ 50 R Cholesky factorisations of P^3 / 3
   and dense blocks of 2 A^2 P^2);
@@ -28,7 +29,10 @@ The model counts what dominates at scale (dense linear algebra, one core):
 
 The constants are checked against the five-span benchmark
 (studies/benchmarks/bench_network.py: N = 400, C = 200 to 3,000, R = 20);
-the estimate is meant to be right within a factor of about two, erring high.
+the estimate is meant to be right within a factor of about two, erring high,
+where the limits matter (N = 400: 1.2-2x high in CPU, 2-3x high in memory);
+on dense blocks (N <= 120) it can be up to 3x low, where a design takes
+seconds and far less than the limits.
 
 Owns: ResourceEstimate, estimate_resources, check_resources.  May import: errors.
 """
@@ -51,7 +55,7 @@ class ResourcePolicy:
     base_bytes: float = 3e8  # interpreter, numpy, the case and the forward model's chunk
     working_set_factor: float = 3.0  # working set ~ this x the first one (smooth.py), at most C
     eigen_split: int = 16  # directions of the eigen-split of the upper bounds (criteria.linalg.eigen_split)
-    newton_steps: int = 40  # Hessians of the relaxation's Newton steps (lazy: about half the steps)
+    newton_steps: int = 12  # Newton steps' worth of 2 m P^3 / 3 flops in the relaxation (structured products)
     bound_passes_per_sensor: int = 3  # bound passes of greedy and exchange per sensor
     evaluations_per_sensor: int = 50  # exact evaluations (Cholesky factorisations) per sensor
     dense_cache_bytes: float = 2**30  # dense blocks kept by the structured blocks (blocks.algebra.DENSE_CACHE_BYTES)
@@ -111,7 +115,7 @@ def estimate_resources(n_candidates, n_params, count, *, n_loads, detection=Fals
     m = min(c, policy.working_set_factor * max(4 * r + 20, min(c / 8, 8 * r + 40)))
     a = float(policy.fixed_matrices)
     cache = min(float(policy.dense_cache_bytes), 8 * c * p * p)
-    memory = policy.base_bytes + 8 * n_kinds * (a * p) ** 2 + 8 * (a + 2) * c * p + 16 * m * p * p + cache
+    memory = policy.base_bytes + 8 * n_kinds * (a * p) ** 2 + 8 * (a + 2) * c * p + 8 * m * p * p + cache
     flops = (n_kinds * 2 * n_loads * (a * p) ** 2 + 2 * n_loads * a * p * c + policy.newton_steps * 2 * m * p**3 / 3
              + policy.bound_passes_per_sensor * r * 2 * (a * a * p * p * k + c * a * a * k * k)
              + policy.evaluations_per_sensor * r * (p**3 / 3 + 2 * a * a * p * p))
