@@ -49,67 +49,83 @@ timeout of ``TIMEOUT_S``; a child that times out or fails is reported as such.
 
 Last run
 --------
-2026-11-28 08:03-08:22 UTC, branch s17-int (= main after this session:
-the relaxation preconditioner from rank-32 roots of the blocks and D's
-larger entering share, E's working set by the gap with cut rows and its
-1e-6 tolerance, the searches' refine levels for D and A, A's losers by a
-blocked triangular inverse, E's exact values by Lanczos from the screening
-factor, blocks read from the cache without copies), one BLAS thread,
-children one at a time on a quiet machine (load average 0.7-1.0)::
+2026-11-28 10:23-10:32 UTC, main 3eb96f4 (this session: structured
+families without the fixed matrices they do not use and congruences in
+place; the searches one candidate at a time and local moves stopped after
+n quiet sensors; A's inverse traces by LAPACK; the relaxation's
+preconditioner from rank-4 Nystrom roots of the structure held as product
+rows, A's 64 leading weighting directions, single-precision Hessian
+products, resumed rounds, A's entering share 1.0; E at the default
+tolerance 1e-7), one BLAS thread, children one at a time on a quiet
+machine (load average 0.9-1.2)::
 
-    configuration                      build  base greedy  relax   best  curve  total     gap   eff  peak
+    configuration                      build  base greedy  relax   best  curve  total     gap   eff  peak   est  est_s
+    D N=400 C=3000 R=20                  0.6   2.0    3.9    6.3   15.8    1.4   30.1  1.6e-8  0.989  0.78  2.22    59
+    A N=400 C=3000 R=20                  0.5   2.1    7.1    7.4   26.6    2.2   45.9  1.9e-10 0.928  0.90  2.22    59
+    E N=400 C=3000 R=20                  0.5   2.5    3.7   23.6   19.4    3.0   52.6  6.0e-8  0.909  1.29  2.22    59
+    mixed D N=400 C=3000 R=20            0.7   3.6    5.3    5.5   21.4    3.7   40.3  2.2e-8  0.989  0.84  2.34    62
+    growth, D:
+    D N=400 C=200  R=20                  0.2   1.3    1.6    1.5    9.9    1.3   15.7  1.5e-8  0.990  0.53  0.88    28
+    D N=400 C=400  R=20                  0.3   1.4    2.0    2.2   13.2    1.2   20.2  1.6e-8  0.990  0.68  1.25    35
+    D N=400 C=800  R=20                  0.3   1.6    2.6    3.2   11.6    1.2   20.5  5.3e-8  0.990  0.75  1.74    36
+    D N=400 C=1600 R=20                  0.4   1.7    2.8    3.8   13.3    1.2   23.2  3.8e-9  0.989  0.98  2.17    57
+    D N=60  C=800  R=20 (dense)          0.4   0.1    0.1    0.1    0.5    0.1    1.2  1.9e-10 0.972  0.22  0.32     1
+    D N=120 C=800  R=20 (dense)          0.7   0.2    0.3    0.6    4.5    0.3    6.7  7.9e-10 0.980  0.40  0.42     2
+    D N=240 C=800  R=20                  0.2   0.5    1.0    1.0    5.2    0.5    8.4  2.3e-8  0.985  0.34  0.81    10
+    D N=400 C=800  R=20                  0.4   1.4    2.6    3.0   11.7    1.3   20.5  5.3e-8  0.990  0.75  1.74    36
+
+A run of the same tree twenty minutes before (load 1.5-2, the helper's
+last test commits not yet merged): D 28.7, A 44.6, E 49.6, mixed 39.0 s.
+
+Recommended layouts, methods and utilities (checked by a script that runs
+the child's stages and prints them): D "greedy + exchange"
+1971.460873879109, A "relaxation rounding + exchange" -5.909064332162562
+(the same 20 candidates as before; the utility moves by 2e-15 with the
+order of the blocks' sums), mixed "greedy + exchange" 1971.4573988498967,
+all as in the session before; E "relaxation rounding + exchange"
+8.91781239014641, better than before (8.805258175010064, efficiency 0.909
+instead of 0.897): the tighter relaxation (1e-7 instead of E's former
+1e-6) rounds to a better start.  Relaxations: D 7 rounds, working set 321,
+122 Newton steps, 350 CG iterations; A 8 rounds (was 13), 610, 128 steps
+(203), 251 CG (497); mixed 6 rounds, 225, 95 steps, 245 CG.
+
+Acceptance (issue 38) at N = 400, C = 3,000, R = 20:
+
+* D: 30.1 s CPU (met: < 60 s; 46.6 s before this session), gap 1.6e-8
+  (met), peak 0.78 GiB (met).
+* A: 45.9 s (met; 83.8 s before), gap 1.9e-10 (met), peak 0.90 GiB (met).
+* E: 52.6 s (met; 58.8-60.1 s before), gap 6.0e-8 (met), peak 1.29 GiB
+  (met).
+* Mixed kinds (rotation + deflection, costs 1 and 3, budget 40): 40.3 s
+  (met: < 120 s), gap 2.2e-8, peak 0.84 GiB.
+
+Cost growth (D, least squares on the logs, the rows above with the target
+row): time ~ C^0.21 at N = 400, C = 200 -> 3,000 (15.7 -> 30.1 s); time ~
+N^1.36 at C = 800, N = 60 -> 400 (1.2 -> 20.5 s; N <= 120 on dense
+blocks).  Before this session C^0.24 and N^1.61; before issue 38's work
+(79499f2) C^0.61 and N^2.2.  The up-front estimate
+(:mod:`sensorplan.design.resources`, recalibrated this session) is 1.2-2x
+high for structured blocks (59 s at the target), about right at N = 240
+and up to 3x low for N = 120 on dense blocks, where a design takes seconds.
+
+Where the time goes now: the integer searches' best stage (A 27 s: three
+coarse-grid exchanges about 13 s, each visit's first bounds an
+eigendecomposition of Q and congruences over the coarse candidates; the
+polish's local moves about 8 s, split bounds over 41 neighbours; the
+final exchange over all candidates about 5 s, which certifies the local
+optimum) and E's relaxation (24 s; at its former tolerance 1e-6 the small
+SDPs took 17.9 s of 19.3 s).  An exact A
+evaluation (a factorisation and a triangular inverse of 400 x 400, about
+2.3 ms) settles most of a search; the candidates that reach it lie within
+about 0.1 % of the value to beat, far closer than any cheaper bound.
+
+Session 17 (2026-11-28 08:03-08:22 UTC, branch s17-int), same
+conditions::
+
     D N=400 C=3000 R=20                  1.3   2.5    5.1   16.3   19.9    1.5   46.6  1.6e-8  0.989  1.53
     A N=400 C=3000 R=20                  0.7   2.7   10.8   26.9   40.5    2.2   83.8  1.0e-8  0.928  2.04
     E N=400 C=3000 R=20                  1.3   2.9    4.3   19.3   27.9    3.0   58.8  2.9e-7  0.897  1.47
     mixed D N=400 C=3000 R=20            0.8   4.8    6.0   12.3   28.3    3.6   55.9  2.2e-8  0.989  1.53
-    growth, D:
-    D N=400 C=200  R=20                  0.4   2.0    2.1    3.5   13.0    1.4   22.3  1.3e-8  0.990  0.86
-    D N=400 C=400  R=20                  0.3   2.2    2.3    5.4   17.8    1.5   29.5  1.4e-8  0.990  1.04
-    D N=400 C=800  R=20                  0.4   2.2    2.7    7.2   14.1    1.4   28.1  5.3e-8  0.990  1.26
-    D N=400 C=1600 R=20                  0.5   2.3    3.6    9.9   17.3    1.6   35.1  3.7e-9  0.989  1.28
-    D N=60  C=800  R=20 (dense)          0.4   0.1    0.1    0.1    0.5    0.1    1.2  1.9e-10 0.972  0.22
-    D N=120 C=800  R=20 (dense)          0.7   0.2    0.3    0.7    4.5    0.3    6.8  7.9e-10 0.980  0.40
-    D N=240 C=800  R=20                  0.2   0.8    1.2    2.2    7.8    0.5   12.7  4.6e-8  0.985  0.45
-    D N=400 C=800  R=20                  0.4   2.2    3.4    7.5   14.5    1.5   29.4  5.3e-8  0.990  1.26
-
-The recommended layouts, methods and utilities are those of the session
-before (D "greedy + exchange" 1971.460873879109, A "relaxation rounding +
-exchange" -5.9090643321625596, E "relaxation rounding + exchange"
-8.805258175010064, mixed 1971.4573988498967); the certified efficiencies
-move in their last digits only, with the gaps (D 0.98936797, was
-0.98936804).  Relaxations: D 7 rounds (was 15), working set 320, 123
-Newton steps (207), 352 CG iterations (625), 2 preconditioner refreshes; A
-13 rounds, 614, 203 steps, 497 CG; E 23 rounds, working set 166 (was 865),
-basis 116, small SDPs 17.9 s of its 19.3 s.  E in three runs of the same
-tree: 60.0, 60.1 and 58.8 s (with the 1e-7 tolerance of the other criteria:
-61.1-61.9 s).
-
-Acceptance (issue 38) at N = 400, C = 3,000, R = 20:
-
-* D: 46.6 s CPU (met: < 60 s; 64.7 s before this session), gap 1.6e-8
-  (met), peak 1.53 GiB (met).
-* A: 83.8 s (not met; 124.2 s before), gap 1.0e-8 (met), peak 2.04 GiB
-  (met).
-* E: 58.8-60.1 s (on the limit: met in one run of three; 254.1 s before),
-  gap 2.9e-7 (met), peak 1.47 GiB (met).
-* Mixed kinds (rotation + deflection, costs 1 and 3, budget 40): 55.9 s
-  (met: < 120 s), gap 2.2e-8, peak 1.53 GiB.
-
-Cost growth (D, least squares on the logs, the rows above with the target
-row): time ~ C^0.24 at N = 400, C = 200 -> 3,000 (22.3 -> 46.6 s); time ~
-N^1.61 at C = 800, N = 60 -> 400 (1.2 -> 29.4 s; N <= 120 on dense
-blocks).  Before this session C^0.31 and N^1.75; before issue 38's work
-(79499f2) C^0.61 and N^2.2.  The up-front estimate
-(:mod:`sensorplan.design.resources`) is now about 3x high for structured
-blocks at the target (154 s) and 2x low for N = 120 on dense blocks.
-
-Where the time goes now: A's best stage (40 s: local moves with split
-bounds whose congruences over all candidates dominate, three coarse-grid
-exchanges) and its relaxation (27 s, mostly the preconditioner's inner
-products: A's rows are P^2 wide); E's best stage (28 s: the congruences
-V^T I_i V of the bounds 7.5 s over 497 calls, about 10,600 screening
-factorisations 6.4 s, the local moves' 41 neighbours per sensor) and its
-small SDPs (18 s, the Schur complement of order m^2 k^2 at m ~ 160).
 
 Session 16 (2026-11-28 05:00-05:27 UTC, branch s16-int), same conditions,
 load about 2::
