@@ -109,6 +109,30 @@ def test_families_keep_only_the_fixed_matrices_they_use(name):
     assert np.abs(blocks.congruence(v) - ref).max() <= 1e-10 * np.abs(ref).max()
 
 
+def test_congruences_from_the_readings_equal_the_dense_ones():
+    # eight spans with end springs: nine redundant diagrams and few load positions, so that the free part of the
+    # congruences is formed from the whitened readings Psi_a V (not from the pair products); reference: the dense
+    # blocks of fisher_blocks
+    case = case_from_toml(CASE.replace("spans = [20.0, 25.0, 15.0]", "spans = [15.0, 20.0, 20.0, 20.0, 20.0, 20.0, 20.0, 15.0]")
+                          .replace("elements = 37", "elements = 120").replace("stop = 66.0", "stop = 156.0")
+                          .replace("step = 0.5", "step = 1.0")
+                          .format(springs="rotational_springs = [4.0e8, 0, 0, 0, 0, 0, 0, 0, 4.0e8]", noise=""),
+                          name="eight")
+    rng = np.random.default_rng(11)
+    x = rng.uniform(0.0, 150.0, 30)
+    sensors = SensorLayout(x, ("rotation",) * x.size, tuple(f"t{i}" for i in range(x.size)), (5e-6,) * x.size)
+    noise = case.noise_for(sensors)
+    dense = fisher_blocks(case, sensors=sensors, noise=noise, parameterisation="log_ei", springs=True).blocks
+    blocks = structured_fisher(case, sensors, noise, springs=True)
+    (family,) = blocks.families
+    f, (_, n_loads, p) = family.n_free, family.readings.shape
+    for k in (3, 8):
+        assert f * (f + 1) // 2 * p * p > 1.2 * f * n_loads * (p + f * k)  # the readings' route is the cheaper
+        v = np.linalg.qr(rng.standard_normal((dense.shape[1], k)))[0]
+        ref = np.einsum("ip,cij,jq->cpq", v, dense, v)
+        assert np.abs(blocks.congruence(v) - ref).max() <= 1e-10 * np.abs(ref).max()
+
+
 @pytest.mark.parametrize("criterion", ["D", "A", "E"])
 def test_search_on_structured_blocks_equals_the_search_on_dense_ones(monkeypatch, criterion):
     # reference: the same problem with its blocks stored densely (one block at a time, no batches, no cache)

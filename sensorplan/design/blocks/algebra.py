@@ -17,7 +17,7 @@ coefficients t_c, r_c = (J_c - g_c e_j^T)^T g_c and g_c^T g_c: sums over
 candidates become cumulative sums over the mask's first element, and
 <G, F_c> for all c costs O(A^2 P^2 + C (A^2 + P)) instead of C P^2.
 
-Owns: BlockFamily, StructuredBlocks, suffix_sums, sums_by_start.  May import: nothing of the package.
+Owns: BlockFamily, StructuredBlocks.  May import: _cache, design.blocks.sums.
 """
 
 from dataclasses import dataclass
@@ -28,32 +28,18 @@ import scipy.linalg.blas
 import scipy.sparse
 
 from ..._cache import Cache
+from .sums import sums_by_start, suffix_sums
 
-__all__ = ["BlockFamily", "StructuredBlocks", "DENSE_CACHE_BYTES", "suffix_sums", "sums_by_start"]
+__all__ = ["BlockFamily", "StructuredBlocks", "DENSE_CACHE_BYTES"]
 
 DENSE_CACHE_BYTES = 2**30  # dense blocks kept (greedy and exchange evaluate the same few candidates many times)
 # derived from the shared products only
-_FROM_PRODUCTS = ("_pair_matrices", "_pair_matrices_single", "_free_flat", "_triangles", "_congruence_matrices")
+_FROM_PRODUCTS = ("_pair_matrices", "_pair_matrices_single", "_free_flat", "_triangles", "_pair_stack",
+                  "_mixed_stack")
 
 
 def _symmetrise(a):
     return 0.5 * (a + np.swapaxes(a, -1, -2))
-
-
-def suffix_sums(values):
-    """Suffix sums over the first axis with a trailing zero (a mask that starts past the last element):
-    out[s] = sum_{j >= s} values[j], shape (n + 1, ...) for n rows, in ``values``' precision."""
-    out = np.zeros((values.shape[0] + 1,) + values.shape[1:], dtype=values.dtype)
-    out[:-1] = np.cumsum(values[::-1], axis=0)[::-1]
-    return out
-
-
-def sums_by_start(values, start, n):
-    """S[j] = sum of the rows of ``values`` whose mask ``start`` is at or before j, shape (n, ...), in
-    ``values``' precision (n the number of parameters)."""
-    spread = np.zeros((n + 1,) + values.shape[1:], dtype=values.dtype)
-    np.add.at(spread, start, values)
-    return np.cumsum(spread, axis=0)[:n]
 
 
 @dataclass(frozen=True, eq=False)
@@ -64,7 +50,8 @@ class BlockFamily:
     ``n_free`` matrices act on all parameters, the others on the elements
     from ``start`` on; ``coef`` (k, A) the t_ca; ``elem`` (k,) j_c;
     ``cross`` (k, P) r_c; ``own`` (k,) g_c^T g_c; ``index`` (k,) the
-    candidates' numbers in the problem.
+    candidates' numbers in the problem; ``readings`` (n_free, L, P) the free
+    Psi_a themselves (L whitened readings), if given (cheaper congruences).
     """
 
     index: np.ndarray
@@ -74,6 +61,7 @@ class BlockFamily:
     elem: np.ndarray
     cross: np.ndarray
     own: np.ndarray
+    readings: np.ndarray | None = None
 
     @property
     def start(self):
@@ -86,21 +74,35 @@ class BlockFamily:
     def subset(self, local, index):
         """The members at positions ``local`` renumbered as ``index`` (sharing what is derived from the products)."""
         out = BlockFamily(np.asarray(index), self.products, self.n_free, self.coef[local], self.elem[local],
-                          self.cross[local], self.own[local])
+                          self.cross[local], self.own[local], self.readings)
         for name in _FROM_PRODUCTS:
             if name in self.__dict__:
                 out.__dict__[name] = self.__dict__[name]
         return out
 
     @cached_property
-    def _congruence_matrices(self):
-        """((a, b), X): the free matrices X_ab for a <= b (the others are their transposes), then X_ab for a
-        masked and b free, as one contiguous (pairs + m f, P, P) stack (for congruences)."""
-        f, n_m = self.n_free, self.products.shape[0] - self.n_free
-        x = self.products
+    def _pair_stack(self):
+        """The free matrices X_ab for a <= b (the others are their transposes), contiguous (pairs, P, P)."""
+        iu = np.triu_indices(self.n_free)
+        return np.array([self.products[a, :, b, :] for a, b in zip(*iu)])
+
+    @cached_property
+    def _mixed_stack(self):
+        """X_ab for a masked and b free, contiguous (m f, P, P)."""
+        f = self.n_free
+        return np.array([self.products[a, :, b, :] for a in range(f, self.products.shape[0]) for b in range(f)])
+
+    def _free_congruences(self, v):
+        """V^T X_ab V for the free a <= b (``np.triu_indices(n_free)`` order), (pairs, m m): from the pairs'
+        products (pairs P^2 m flops) or, where that costs less, from Psi_a V (n_free L P m) and their Gram."""
+        f, p, k = self.n_free, self.n_params, v.shape[1]
         iu = np.triu_indices(f)
-        mats = [x[a, :, b, :] for a, b in zip(*iu)] + [x[f + a, :, b, :] for a in range(n_m) for b in range(f)]
-        return iu, np.array(mats)
+        if self.readings is None or iu[0].size * p * p <= 1.2 * f * self.readings.shape[1] * (p + f * k):
+            return np.matmul(v.T, np.matmul(self._pair_stack, v)).reshape(iu[0].size, k * k)
+        y = np.matmul(self.readings, v)  # Psi_a V (f, L, m)
+        flat = np.ascontiguousarray(y.transpose(1, 0, 2)).reshape(y.shape[1], f * k)
+        gram = (flat.T @ flat).reshape(f, k, f, k)
+        return gram[iu[0], :, iu[1], :].reshape(iu[0].size, k * k)
 
     @cached_property
     def _triangles(self):
@@ -234,10 +236,8 @@ class BlockFamily:
         order, groups = self._start_groups
         coef, elem = (self.coef, self.elem) if order is None else (self.coef[order], self.elem[order])
         tu, tm = coef[:, :f], coef[:, f:]
-        iu, stack = self._congruence_matrices
-        n_pairs = iu[0].size
-        xv = np.matmul(stack, v)  # X_ab V: free a <= b, then masked a and free b
-        z = np.matmul(v.T, xv[:n_pairs]).reshape(n_pairs, k * k)  # V^T X_ab V, a <= b free (X_ba: transposes)
+        iu = np.triu_indices(f)
+        z = self._free_congruences(v)  # V^T X_ab V, a <= b free (X_ba: the transposes)
         out = np.empty((n, k, k))
         flat_out = out.reshape(n, k * k)
         # rows j of triu(X_ab) V (a, b masked), of X_ba V (a free, b masked) and of tril(X_ab, -1)^T V: the
@@ -249,7 +249,7 @@ class BlockFamily:
             for b in range(n_m):
                 upper[:, a, b] = triangles[0, a, b] @ v
                 lower[:, a, b] = triangles[1, a, b] @ v
-        mixed = xv[n_pairs:].reshape(n_m, f, p, k).transpose(2, 1, 0, 3).reshape(p, f * n_m * k)
+        mixed = np.matmul(self._mixed_stack, v).reshape(n_m, f, p, k).transpose(2, 1, 0, 3).reshape(p, f * n_m * k)
         rows = np.concatenate([upper.reshape(p, -1), mixed, lower.reshape(p, -1)], axis=1)
         weights = np.concatenate([(tm[:, :, None] * tm[:, None, :]).reshape(n, -1),
                                   2.0 * (tu[:, :, None] * tm[:, None, :]).reshape(n, -1),  # X_ab V and X_ba V

@@ -117,7 +117,8 @@ def _family(psi, n_u, coef, elem, partial, members, noise, positions, n_crossing
     h = (fixed.T @ g).reshape(n_a, p, members.size)  # Psi_a^T g_c
     masked = np.arange(p)[None, :] > elem[:, None]
     cross = np.einsum("ca,apc->cp", coef[:, :n_u], h[:n_u]) + np.einsum("ca,apc->cp", coef[:, n_u:], h[n_u:]) * masked
-    return BlockFamily(members, products, n_u, coef, elem, cross, np.einsum("lc,lc->c", g, g))
+    readings = np.ascontiguousarray(fixed.reshape(-1, n_a, p)[:, :n_u].transpose(1, 0, 2))  # the free Psi_a
+    return BlockFamily(members, products, n_u, coef, elem, cross, np.einsum("lc,lc->c", g, g), readings)
 
 
 def _used(psi, coef, n_u):

@@ -16,7 +16,7 @@ Owns: WorkingBlocks.  May import: design.blocks.
 import numpy as np
 import scipy.sparse
 
-from ..blocks.algebra import suffix_sums, sums_by_start
+from ..blocks.sums import suffix_sums, sums_by_start
 
 __all__ = ["WorkingBlocks"]
 
