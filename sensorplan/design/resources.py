@@ -15,7 +15,7 @@ The model counts what dominates at scale (dense linear algebra, one core):
   candidate set (coefficients, cross terms, the build's temporaries),
   never the 8 C P^2 bytes of dense blocks, but a cache of dense blocks of
   the candidates greedy and exchange evaluate (at most
-  :data:`~sensorplan.design.blocks.algebra.DENSE_CACHE_BYTES`); plus the relaxation's working
+  :data:`~sensorplan.design.blocks.DENSE_CACHE_BYTES`); plus the relaxation's working
   set of m candidates (its structured blocks, low-rank roots, the
   preconditioner and a Newton step's temporaries, about 8 m P^2 bytes at the
   peak);
@@ -58,7 +58,7 @@ class ResourcePolicy:
     newton_steps: int = 12  # Newton steps' worth of 2 m P^3 / 3 flops in the relaxation (structured products)
     bound_passes_per_sensor: int = 3  # bound passes of greedy and exchange per sensor
     evaluations_per_sensor: int = 50  # exact evaluations (Cholesky factorisations) per sensor
-    dense_cache_bytes: float = 2**30  # dense blocks kept by the structured blocks (blocks.algebra.DENSE_CACHE_BYTES)
+    dense_cache_bytes: float = 2**30  # dense blocks kept by the structured blocks (blocks.DENSE_CACHE_BYTES)
     fixed_matrices: int = 10  # A: the structured blocks' fixed matrices (support reactions + 2; a 7-support bridge)
     detection_bytes_per_candidate: float = 4 * 2**20  # the detect problem's Gram stacks (issue 38: ~4 MB)
     memory_fraction: float = 0.75  # of the physical memory: the rest for the system and other processes

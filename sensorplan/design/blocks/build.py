@@ -9,7 +9,7 @@ exact integral over the part of the sensor's own element after it.  Every
 step is linear in the readings, so the whitening of a group of candidates
 with the same noise parameters is applied once to the fixed matrices.
 
-Owns: structured_fisher.  May import: model, design.blocks.algebra.
+Owns: structured_fisher.  May import: model, design.blocks.
 """
 
 import numpy as np
@@ -18,7 +18,8 @@ from ...model.fisher import fisher_blocks
 from ...model.diagrams import STEP, Diagrams, element_products, point_actions
 from ...model.force_method import shared_force_method
 from ...model.forward import expand_ei, load_actions, sensor_actions
-from .algebra import BlockFamily, StructuredBlocks
+from .algebra import BlockFamily
+from .structured import StructuredBlocks
 
 __all__ = ["structured_fisher", "candidate_information"]
 
