@@ -63,7 +63,9 @@ def best_candidate(problem, q, order, bound, evaluate, *, floor=-np.inf, usable=
     leading eigenvectors of the survivors' whitened summed blocks, while
     evaluating them would cost more.  ``bound`` is updated in place.
     """
-    search = _Search(order, bound, evaluate, floor, batch, shift, problem.blocks.hold if problem.structured else None)
+    # blocks formed ahead only where no split bounds follow (those settle most candidates without their blocks)
+    hold = problem.blocks.hold if problem.structured and not local else None
+    search = _Search(order, bound, evaluate, floor, batch, shift, hold)
     alive = [int(i) for i in order if bound[i] > floor]
     first = []
     for i in alive:  # the best ``batch`` by the first bounds set the value to beat
