@@ -76,6 +76,22 @@ machine (load average 0.9-1.2)::
 
 A run of the same tree twenty minutes before (load 1.5-2, the helper's
 last test commits not yet merged): D 28.7, A 44.6, E 49.6, mixed 39.0 s.
+After the last changes of the session (11:06-11:10 UTC, commits 63e117e
+and cea2e55: congruences from the whitened readings where many redundants
+make the pair products dearer, and blocks formed ahead in searches
+without split bounds), quiet machine: D 30.5, A 47.3-48.4, E 50.2-52.1,
+mixed 40.0 s, the same layouts; the spread of A's best stage between runs
+of the same tree is about +-1.5 s.
+
+On a bridge the benchmark was not tuned on (a seven-span viaduct 25 + 5 x
+32 + 25 m with rotational end springs of 2e9 N m/rad, EI 3e11 N m^2, 400
+elements, a four-axle vehicle, 741 load positions, 3,000 candidates,
+R = 20; the child's stages through the same public steps), last run: D
+37.7 s, A 55.9 s (54.2-56.7 over three runs), E 51.7 s (51.7-56.2), gaps
+<= 5.8e-8, peaks <= 1.5 GiB.  Its families have eight
+redundant diagrams (the five-span's five), so the bound passes cost more;
+through the command line with R = 24 (figures and report included) D 48,
+A 71 and E 68 s of user CPU.
 
 Recommended layouts, methods and utilities (checked by a script that runs
 the child's stages and prints them): D "greedy + exchange"
