@@ -17,7 +17,7 @@ concavity bound at the best candidate evaluated, utility(Q + I_b) +
 <G_b, I_i - I_b>, is not used: on a multi-span bridge it is looser than
 the eigen-split even for the neighbours of b.)
 
-Owns: best_candidate, slack, REFINE_K, LOCAL_K, BOUND_BYTES.  May import: nothing of the package.
+Owns: best_candidate, slack, REFINE_K, LOCAL_K, BOUND_BYTES, PREFETCH.  May import: nothing of the package.
 """
 
 import numpy as np
