@@ -30,6 +30,9 @@ def small_case():
 
 
 def problem_for(criterion, **options):
+    """The small problem for ``criterion`` ("A-region": A on the elements of 3 to 9 m)."""
+    if criterion == "A-region":
+        criterion, options = "A", {"region": (3.0, 9.0), **options}
     return build_problem(small_case(), 3, criterion, grid=sp.CandidateGrid(spacing=2.0),
                          springs=criterion == "Ds", **options)
 
@@ -44,8 +47,7 @@ def point(problem, seed):
 
 @pytest.mark.parametrize("criterion", ["D", "Ds", "A", "A-region"])
 def test_hessian_product_equals_the_exact_hessian_times_v(criterion):
-    options = {"region": (3.0, 9.0)} if criterion == "A-region" else {}
-    problem = problem_for(criterion.split("-")[0], **options)
+    problem = problem_for(criterion)
     crit = problem.criterion
     rng, w, q = point(problem, 0)
     chol = np.linalg.cholesky(q)

@@ -19,6 +19,12 @@ sys.path.insert(0, str(pathlib.Path(__file__).parent))
 from test_relaxation_newton_cg import point, problem_for  # noqa: E402  (the shared small problems)
 
 
+def random_roots(problem, rng, rank=3):
+    """Random roots R_i (C, P, rank) on the scale of the problem's blocks, and the blocks R_i R_i^T they form."""
+    roots = rng.standard_normal((problem.n_candidates, problem.n_params, rank)) * np.sqrt(np.abs(problem.blocks).max())
+    return roots, np.matmul(roots, np.swapaxes(roots, 1, 2))
+
+
 def decaying_blocks(rng, k, p, decay):
     """k random positive semidefinite (p, p) blocks with eigenvalues decay**j."""
     out = np.empty((k, p, p))
@@ -57,14 +63,11 @@ def test_low_rank_roots_are_exact_when_the_sketch_covers_the_space():
 
 @pytest.mark.parametrize("criterion", ["D", "Ds", "A", "A-region"])
 def test_hessian_factors_of_roots_equal_the_factors_of_the_formed_blocks(criterion):
-    options = {"region": (3.0, 9.0)} if criterion == "A-region" else {}
-    problem = problem_for(criterion.split("-")[0], **options)
+    problem = problem_for(criterion)
     crit = problem.criterion
     rng, _, q = point(problem, 2)
     chol = np.linalg.cholesky(q)
-    p = problem.n_params
-    roots = rng.standard_normal((problem.n_candidates, p, 3)) * np.sqrt(np.abs(problem.blocks).max())
-    formed = np.matmul(roots, np.swapaxes(roots, 1, 2))
+    roots, formed = random_roots(problem, rng)
     ref = crit.hessian(q, chol, formed)  # the criterion's exact Hessian of the formed blocks
     factors = crit.hessian_factors_of_roots(q, chol, roots)
     if factors is None:
@@ -129,14 +132,11 @@ def test_unsymmetrised_single_precision_blocks_equal_the_dense_blocks(monkeypatc
 def test_hessian_factors_at_a_rank_keep_the_leading_directions_of_the_weighting(criterion):
     # reference: H_ij = -2 tr(M_k I_i Q^-1 I_j) with M_k the k leading eigenpairs of M = N N^T (numpy's symmetric
     # eigendecomposition of M, not the SVD of N the factors use), contracted over the formed blocks R_i R_i^T
-    options = {"region": (3.0, 9.0)} if criterion == "A-region" else {}
-    problem = problem_for(criterion.split("-")[0], **options)
+    problem = problem_for(criterion)
     crit = problem.criterion
     rng, _, q = point(problem, 6)
     chol = np.linalg.cholesky(q)
-    p = problem.n_params
-    roots = rng.standard_normal((problem.n_candidates, p, 3)) * np.sqrt(np.abs(problem.blocks).max())
-    formed = np.matmul(roots, np.swapaxes(roots, 1, 2))
+    roots, formed = random_roots(problem, rng)
     exact = crit.hessian(q, chol, formed)
     n = np.linalg.solve(q, crit.targets.T)
     lam, vec = np.linalg.eigh(n @ n.T)
@@ -151,7 +151,7 @@ def test_hessian_factors_at_a_rank_keep_the_leading_directions_of_the_weighting(
         # below the exact Hessian's magnitude: H_k - H positive semidefinite (M_k <= M)
         assert np.linalg.eigvalsh(h - exact).min() >= -1e-9 * np.abs(exact).max()
     # a rank at least N's, or none: the exact factors
-    for rank in (p, None):
+    for rank in (problem.n_params, None):
         full, _ = crit.hessian_factors_at(q, chol, rank=rank)(roots)
         np.testing.assert_allclose(-full.gram(), exact, rtol=0, atol=1e-9 * np.abs(exact).max())
 
@@ -197,8 +197,7 @@ def test_point_derivatives_equal_the_criterion_methods(criterion):
 
     from criterion_checks import LogDiagonal
 
-    options = {"region": (3.0, 9.0)} if criterion == "A-region" else {}
-    problem = problem_for("D" if criterion == "logdiag" else criterion.split("-")[0], **options)
+    problem = problem_for("D" if criterion == "logdiag" else criterion)
     if criterion == "logdiag":  # the protocol's default
         problem = dataclasses.replace(problem, criterion=LogDiagonal(problem.n_params))
     crit = problem.criterion

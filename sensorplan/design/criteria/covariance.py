@@ -118,18 +118,6 @@ class ACriterion(Criterion):
         b = (y @ (np.sqrt(2.0) * li.T).astype(dtype)).reshape(m, -1)
         return b, None
 
-    def hessian_factors_of_roots(self, q, chol, roots):
-        """(sqrt 2 B, None) of :meth:`hessian_factors` for the blocks R_i R_i^T: B_i^T = L^-1 R_i (R_i^T N), laid
-        out as there (rows of N^T I_i L^-T), in the roots' precision."""
-        m, p, r = roots.shape
-        dtype = roots.dtype
-        n = scipy.linalg.cho_solve((chol, True), self.targets.T).astype(dtype)
-        li = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True).astype(dtype)
-        z = (li @ np.swapaxes(roots, 0, 1).reshape(p, m * r)).reshape(p, m, r).swapaxes(0, 1)  # L^-1 R_i
-        b = np.matmul(np.matmul(np.swapaxes(n, 0, 1)[None], roots), np.swapaxes(z, 1, 2))  # N^T R_i Z_i^T
-        b *= np.sqrt(2.0).astype(dtype)
-        return b.reshape(m, -1), None
-
     def hessian_factors_at(self, q, chol, *, rank=None):
         """The factors of :meth:`hessian_factors_of_roots` as :class:`ProductRows`: B_i = U_i^T V_i with
         U_i = sqrt 2 (L^-1 R_i)^T and V_i = R_i^T N, m r (P + nt) numbers; with ``rank``, N replaced by

@@ -31,7 +31,7 @@ class DCriterion(Criterion):
     # the eigen-split levels of the searches (selection; the first, every candidate's first bounds): with k = 32
     # first, fewer candidates reach the split bounds, whose cost grows with their number
     refine_levels = ((32, 40), (64, 64), (128, 96))
-    enter_share = 1.0  # its preconditioner rows are packed triangles (half of A's): fewer rounds pay
+    enter_share = 1.0  # its preconditioner rows are narrow product rows: fewer rounds pay
 
     def value(self, q):
         return log_det(q)
@@ -53,17 +53,6 @@ class DCriterion(Criterion):
         """(N, None): H = -N N^T, row i of N the packed upper triangle of L^-1 I_i L^-T (in the blocks'
         precision), so that rows computed at one ``q`` for different blocks combine into one Hessian."""
         return packed_upper(whitened_blocks(chol, blocks)), None
-
-    def hessian_factors_of_roots(self, q, chol, roots):
-        """(N, None) of :meth:`hessian_factors` for the blocks R_i R_i^T: L^-1 R_i R_i^T L^-T = Z_i Z_i^T with
-        Z_i = L^-1 R_i, in the roots' precision."""
-        m, p, r = roots.shape
-        linv = scipy.linalg.solve_triangular(chol, np.eye(p), lower=True).astype(roots.dtype)
-        z = (linv @ np.swapaxes(roots, 0, 1).reshape(p, m * r)).reshape(p, m, r).swapaxes(0, 1)
-        out = np.empty((m, p * (p + 1) // 2), dtype=roots.dtype)
-        for s in range(0, m, 32):  # a few blocks at a time: no (m, P, P) temporary
-            out[s:s + 32] = packed_upper(np.matmul(z[s:s + 32], np.swapaxes(z[s:s + 32], 1, 2)))
-        return out, None
 
     def hessian_factors_at(self, q, chol, *, rank=None):
         """The factor of :meth:`hessian_factors_of_roots` as :class:`ProductRows`: Z_i Z_i^T with U_i = V_i =
@@ -137,9 +126,8 @@ class DsCriterion(DCriterion):
     submodular = False
     utilities = Criterion.utilities  # not D's: the value is a difference of two log determinants
     split_bounds = None  # type: ignore[assignment]  # none: D's hold for log det Q, not a difference of two
-    hessian_factors_of_roots = Criterion.hessian_factors_of_roots  # D's form is not Ds's Hessian
-    point_derivatives = Criterion.point_derivatives  # nor are D's utility and gradient Ds's
-    hessian_factors_at = Criterion.hessian_factors_at
+    point_derivatives = Criterion.point_derivatives  # D's utility and gradient are not Ds's
+    hessian_factors_at = Criterion.hessian_factors_at  # nor are D's product rows Ds's Hessian factors
 
     def __init__(self, n_params, *, n_keep=None):
         super().__init__(n_params)
