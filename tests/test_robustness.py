@@ -18,6 +18,7 @@ import argparse
 import contextlib
 import csv
 import io
+import json
 import math
 import re
 import tomllib
@@ -335,6 +336,30 @@ def test_huge_element_counts_are_refused_before_an_analysis(tmp_path, capsys):
     path.write_text(_replace("elements = 30", "elements = 5000")(_example_text()), encoding="utf-8")
     rc, _, err = run(["informativeness", "--config", path, "--out", tmp_path / "o"], capsys)
     assert_one_line_error(rc, err, "informativeness", ["5000 elements", "400"])
+    assert files_under(tmp_path) == ["case.toml"]
+
+
+def test_a_design_alone_is_limited_by_its_estimate_not_by_the_element_count(tmp_path, capsys):
+    # 450 elements, above the analyses' 400: a design without --verify runs (its memory and CPU estimate is
+    # the limit; a few seconds at 17 candidates), the same design with --verify is refused, naming the fix
+    path = tmp_path / "case.toml"
+    path.write_text(_replace("elements = 30", "elements = 450")(_example_text()), encoding="utf-8")
+    design = ["recommend", "--config", path, "--count", "2", "--spacing", "2", "--quiet"]
+    rc, _, err = run([*design, "--out", tmp_path / "o"], capsys)
+    assert (rc, err) == (0, "")
+    assert json.loads((tmp_path / "o" / "design.json").read_text())["n_params"] == 450
+    rc, _, err = run([*design, "--verify", "--out", tmp_path / "v"], capsys)
+    assert_one_line_error(rc, err, "recommend", ["450 elements", "400", "--verify"])
+    assert not (tmp_path / "v").exists()
+
+
+def test_a_design_beyond_its_estimate_is_refused_with_the_estimate(tmp_path, capsys):
+    # 20,000 elements: the CPU estimate alone (the relaxation's m P^3 Newton steps) is far beyond the 6 h
+    # limit on any machine, so the refusal does not depend on this machine's memory
+    path = tmp_path / "case.toml"
+    path.write_text(_replace("elements = 30", "elements = 20000")(_example_text()), encoding="utf-8")
+    rc, _, err = run(["recommend", "--config", path, "--out", tmp_path / "o"], capsys)
+    assert_one_line_error(rc, err, "recommend", ["20000 parameters", "h of CPU", "fewer elements"])
     assert files_under(tmp_path) == ["case.toml"]
 
 

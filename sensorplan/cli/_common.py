@@ -85,7 +85,7 @@ def load_case(args):
     from ..io.config import load_case as load
 
     case = load(args.config) if args.config is not None else example_case(args.example)
-    if args.command != "simulate" and getattr(args, "elements", None) is None:
+    if _dense_analysis(args) and getattr(args, "elements", None) is None:
         check_elements(case, args.command)
     speed = getattr(args, "crossing_speed", None)
     if speed is not None:
@@ -111,13 +111,26 @@ def read_data(path, case, command):
     return data
 
 
+def _dense_analysis(args):
+    """Whether the command analyses on dense n_elements x n_elements algebra (inversions, posteriors).
+
+    ``simulate`` only solves the forward model; a ``recommend`` without --verify or --target-power only
+    designs, and its limit is the design's own memory and CPU estimate (:func:`check_design_resources`).
+    """
+    if args.command == "simulate":
+        return False
+    return args.command != "recommend" or bool(args.verify) or args.target_power is not None
+
+
 def check_elements(case, command):
     """Analyses use dense n_elements x n_elements algebra: at most MAX_INVERSION_ELEMENTS elements."""
     if case.n_elements > MAX_INVERSION_ELEMENTS:
+        advice = {"invert": ", or give --elements.",
+                  "recommend": ", or drop --verify and --target-power (a design alone is limited by its memory "
+                               "and CPU estimate, not by the element count)."}.get(command, ".")
         raise ConfigError(f"the case has {case.n_elements} elements; {command} handles at most "
                           f"{MAX_INVERSION_ELEMENTS} (dense algebra on n_elements^2 matrices): lower 'elements' or "
-                          "raise 'element_length' in [bridge]"
-                          + (", or give --elements." if command == "invert" else "."))
+                          "raise 'element_length' in [bridge]" + advice)
 
 
 def number(text, what, error=argparse.ArgumentTypeError):
