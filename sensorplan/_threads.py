@@ -7,18 +7,34 @@ measured the same inversion 13x slower with the default threads than with
 one.  Public entry points are wrapped so that BLAS uses one thread for the
 duration of the call (nested calls share one limit); the previous setting
 is restored afterwards.
+
+Finding the loaded BLAS libraries costs about a millisecond (threadpoolctl
+walks the process's shared objects), a few per cent of a verification
+scenario; the controller that found them is kept and found again only when
+a module has been imported since (a BLAS is loaded by importing an extension
+module).
 """
 
 import functools
+import sys
 import threading
 
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 
 __all__ = ["single_threaded"]
 
 _lock = threading.Lock()
 _depth = 0
 _limiter = None
+_controller = None  # (ThreadpoolController, len(sys.modules) when it looked)
+
+
+def _blas_controller():
+    """The ThreadpoolController of the loaded libraries, found again after new imports."""
+    global _controller
+    if _controller is None or _controller[1] != len(sys.modules):
+        _controller = (ThreadpoolController(), len(sys.modules))
+    return _controller[0]
 
 
 def single_threaded(func):
@@ -29,7 +45,7 @@ def single_threaded(func):
         global _depth, _limiter
         with _lock:
             if _depth == 0:
-                _limiter = threadpool_limits(limits=1, user_api="blas")
+                _limiter = _blas_controller().limit(limits=1, user_api="blas")
             _depth += 1
         try:
             return func(*args, **kwargs)

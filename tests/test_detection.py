@@ -103,3 +103,40 @@ def test_pruned_zones_carry_negligible_weight():
     assert weights[~keep].max() < math.exp(-40.0) * weights.max()
     sub, _, _ = _zone_posteriors(proj[keep], norms[keep], 1.3, zones[keep], 1.0, log_prior[keep])
     np.testing.assert_allclose(sub, weights[keep] / weights[keep].sum(), rtol=1e-12, atol=1e-300)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_screened_threshold_is_that_of_all_draws_in_double_precision(seed):
+    # Reference: the null maxima of every draw in double precision, written out here as the scan's module
+    # docstring defines them (a factor of the projected Gram matrix, r normals, the estimated scale with its
+    # chi^2 part), then numpy's quantile and the p-value's count.  The screened calibration computes single-
+    # precision maxima with an error bound and only the unsettled draws in double precision.
+    from sensorplan.detection import scan
+
+    gen = np.random.default_rng(100 + seed)
+    n_el, n_zones, n = int(gen.integers(5, 30)), int(gen.integers(1, 200)), int(gen.choice([1, 2, 7, 500, 20000]))
+    basis = gen.standard_normal((n_el, int(gen.integers(1, n_el + 1))))
+    gram = basis @ basis.T  # rank-deficient like a projected Gram matrix
+    weights = np.abs(gen.standard_normal((n_zones, n_el))) * (gen.random((n_zones, n_el)) < 0.3)
+    weights /= np.sqrt(np.clip(np.einsum("he,ef,hf->h", weights, gram, weights), 1e-300, None))[:, None]
+    dof = int(gen.integers(1, 3000))
+    vals, vecs = np.linalg.eigh(gram)
+    keep = vals > 1e-12 * vals.max()
+    factor = weights @ (vecs[:, keep] * np.sqrt(vals[keep]))
+    draws = np.random.default_rng(seed)
+    maxima, square = np.empty(n), np.empty(n)
+    for start in range(0, n, 2000):
+        g = draws.standard_normal((min(2000, n - start), factor.shape[1]))
+        maxima[start:start + g.shape[0]] = (g @ factor.T).max(axis=1)
+        square[start:start + g.shape[0]] = np.sum(g * g, axis=1)
+    if dof > factor.shape[1]:
+        square += draws.chisquare(dof - factor.shape[1], size=n)
+    maxima /= np.maximum(np.sqrt(square / dof), 0.5)
+
+    null = scan._NullMaxima(weights, gram, n, np.random.default_rng(seed), dof=dof)
+    assert np.all(null.low <= maxima) and np.all(maxima <= null.high)
+    for level in (0.5, 0.95, 0.999):
+        for statistic in (float(np.quantile(maxima, level)) + 1e-9, 3.0, float(maxima.max()) + 1.0):
+            threshold, p_value = scan._calibration(null, level, statistic)
+            assert threshold == pytest.approx(float(np.quantile(maxima, level)), rel=1e-13, abs=1e-13)
+            assert p_value == (1 + np.sum(maxima >= statistic)) / (1 + n)
