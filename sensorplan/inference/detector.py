@@ -45,11 +45,12 @@ class NullProblem(WhitenedProblem):
             bridge = bridge.with_spring_stiffness(bridge.spring_stiffness() * np.exp(eta[n:]))
         return ei, bridge
 
-    def group_terms(self, eta):
+    def group_terms(self, eta, *, compliance=True):
         """Per group of crossings: whitened predictions, nuisance Jacobian (rows, P) and compliance columns.
 
         The compliance columns are d y / d r_e for a relative compliance
-        increase of element e (v_e dy/dv_e), whitened, (rows, n_elements).
+        increase of element e (v_e dy/dv_e), whitened, (rows, n_elements);
+        None without ``compliance`` (the fit's steps do not use them).
         """
         ei, bridge = self.state(eta)
         lines = [self.case.influence_lines(ei, sensors=self.sensors, positions=x, bridge=bridge)
@@ -63,23 +64,25 @@ class NullProblem(WhitenedProblem):
             if self.n_springs:
                 cols.append(ln.spring_log_jacobian * lf[..., None])
             jac = self.noise.whiten(np.concatenate(cols, axis=2), group.positions, times=t).reshape(-1, self.n_params)
-            comp = self.noise.whiten(ln.kernel * (lf[..., None] / ei), group.positions, times=t).reshape(-1, ei.size)
+            comp = (self.noise.whiten(ln.kernel * (lf[..., None] / ei), group.positions, times=t).reshape(-1, ei.size)
+                    if compliance else None)
             out.append((pred, jac, comp))
         return out
 
     def whitened_model(self, theta, *, jacobian):
-        return [(pred, jac if jacobian else None) for pred, jac, _ in self.group_terms(theta)]
+        return [(pred, jac if jacobian else None) for pred, jac, _ in self.group_terms(theta, compliance=False)]
 
-    def stacked(self, eta):
-        """The whitened residual, nuisance Jacobian and (``extra``) compliance columns, stacked over the crossings."""
-        terms = self.group_terms(eta)
+    def stacked(self, eta, *, compliance=False):
+        """The whitened residual, nuisance Jacobian and (``extra``, with ``compliance``) compliance columns,
+        stacked over the crossings."""
+        terms = self.group_terms(eta, compliance=compliance)
         res, jac, comp = [], [], []
         for white, g in zip(self.white_data, self.group_of):
             pred, j, c = terms[g]
             res.append((white - pred).ravel())
             jac.append(j)
             comp.append(c)
-        return Stacked(np.concatenate(res), np.concatenate(jac), np.concatenate(comp))
+        return Stacked(np.concatenate(res), np.concatenate(jac), np.concatenate(comp) if compliance else None)
 
     def fit(self, *, max_iter=30, prior_std=(1.0, 3.0)):
         """The null fit (:func:`~.engine.ridge_gauss_newton` from the nominal model); returns (eta, Stacked).
@@ -91,7 +94,8 @@ class NullProblem(WhitenedProblem):
         """
         n_ei = self.p_ei.shape[1]
         ridge = np.concatenate([np.full(n_ei, 1.0 / prior_std[0]), np.full(self.n_springs, 1.0 / prior_std[1])])
-        return ridge_gauss_newton(self, np.zeros(self.n_params), ridge, max_iter=max_iter)
+        eta, _ = ridge_gauss_newton(self, np.zeros(self.n_params), ridge, max_iter=max_iter)
+        return eta, self.stacked(eta, compliance=True)  # the compliance columns at the fit only
 
 
 def detect_damage(case, crossings, *, false_alarm=0.05, nuisance="smooth", lengths=None, n_null=20000,
