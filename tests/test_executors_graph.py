@@ -112,11 +112,16 @@ def test_verification_on_a_pool_equals_one_process_for_several_layouts():
     assert json.dumps(threads, sort_keys=True) == json.dumps(one, sort_keys=True)
 
 
-def test_chunks_hold_about_an_eighth_of_a_workers_share():
-    from sensorplan.verification.dispatch import chunk_size
+def test_chunks_are_about_eight_per_worker_and_even():
+    from sensorplan.verification.dispatch import chunk_count, split
 
-    assert chunk_size(None, 92) == 1  # in process: progress after every scenario
+    assert chunk_count(None, 92) == 92  # in process: progress after every scenario
     with ThreadPoolExecutor(2) as pool:
-        assert chunk_size(pool, 92) == 92 // 16  # 8 tasks per worker
-        assert chunk_size(pool, 3) == 1
-        assert chunk_size(pool, 10, n_layouts=40) == 10  # never more than a layout's scenarios
+        assert chunk_count(pool, 92) == 16  # 8 tasks per worker: 8 each on two workers
+        assert chunk_count(pool, 92, n_layouts=3) == 6  # 18 over the three layouts
+        assert chunk_count(pool, 3) == 3
+        assert chunk_count(pool, 10, n_layouts=40) == 1  # at least one task per layout
+    runs = split(92, 16)
+    assert [i for run in runs for i in run] == list(range(92))
+    assert {len(run) for run in runs} == {5, 6}  # 92 = 12 x 6 + 4 x 5: no short tail task
+    assert split(3, 16) == [(0,), (1,), (2,)] and split(0, 4) == [] and split(7, 1) == [tuple(range(7))]

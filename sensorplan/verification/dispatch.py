@@ -15,14 +15,23 @@ Owns: the tasks of a verification and their chunking.  May import: the foundatio
 
 from .._executors import TaskGraph, worker_count
 
-__all__ = ["run_plans", "add_plan", "chunk_size", "pilot_start", "scenario_chunk", "plan_records"]
+__all__ = ["run_plans", "add_plan", "chunk_count", "split", "pilot_start", "scenario_chunk", "plan_records"]
 
 
-def chunk_size(executor, n_scenarios, n_layouts=1):
-    """Scenarios per task: one without an executor (progress per scenario), else about eight tasks per worker."""
+def chunk_count(executor, n_scenarios, n_layouts=1):
+    """Tasks per layout: one per scenario without an executor (progress per scenario), else about eight per
+    worker over all the layouts (the tail, the last tasks that run alone, is then a small share of the work)."""
     if executor is None:
-        return 1
-    return max(1, min(n_scenarios, (n_layouts * n_scenarios) // (8 * worker_count(executor))))
+        return n_scenarios
+    return max(1, min(n_scenarios, -(-8 * worker_count(executor) // max(1, n_layouts))))
+
+
+def split(n_scenarios, n_chunks):
+    """``range(n_scenarios)`` in ``n_chunks`` runs whose sizes differ by at most one (tuples of indices)."""
+    n_chunks = max(1, min(n_chunks, n_scenarios))
+    size, extra = divmod(n_scenarios, n_chunks)
+    bounds = [k * size + min(k, extra) for k in range(n_chunks + 1)]
+    return [tuple(range(a, b)) for a, b in zip(bounds, bounds[1:]) if b > a]
 
 
 def pilot_start(plan, k):
@@ -35,13 +44,14 @@ def scenario_chunk(plan, k, indices, start):
     return [] if plan is None else plan.run_scenarios(k, start, indices)
 
 
-def add_plan(graph, plan, *, n_layouts, n_scenarios, chunk):
-    """Add a plan's pilots and scenario chunks to ``graph``; ``plan`` is a node (or value). Returns the chunks' nodes."""
+def add_plan(graph, plan, *, n_layouts, n_scenarios, chunks):
+    """Add a plan's pilots and ``chunks`` scenario chunks per layout to ``graph``; ``plan`` is a node (or value).
+    Returns the chunks' nodes."""
     nodes = []
     for k in range(n_layouts):
         start = graph.task(pilot_start, plan, k)
-        nodes += [graph.task(scenario_chunk, plan, k, tuple(range(i, min(i + chunk, n_scenarios))), start,
-                             weight=min(chunk, n_scenarios - i)) for i in range(0, n_scenarios, chunk)]
+        nodes += [graph.task(scenario_chunk, plan, k, run, start, weight=len(run))
+                  for run in split(n_scenarios, chunks)]
     return nodes
 
 
@@ -54,6 +64,6 @@ def run_plans(executor, plans, *, progress=None):
     """The records of every plan (a list per plan), all plans' work in one graph on ``executor``."""
     graph = TaskGraph(executor)
     nodes = [add_plan(graph, graph.constant(p), n_layouts=len(p.layouts), n_scenarios=len(p.scenarios),
-                      chunk=chunk_size(executor, len(p.scenarios), len(p.layouts))) for p in plans]
+                      chunks=chunk_count(executor, len(p.scenarios), len(p.layouts))) for p in plans]
     graph.run(progress)
     return [plan_records(graph, n) for n in nodes]

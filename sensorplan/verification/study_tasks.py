@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from .._executors import TaskGraph
-from .dispatch import add_plan, chunk_size, plan_records
+from .dispatch import add_plan, chunk_count, plan_records
 from .scenarios import make_scenarios
 from .verify import plan_verification
 
@@ -108,10 +108,10 @@ def run_study(executor, cases, jobs, *, baselines, options, progress=None):
         n_scen = len(make_scenarios(case, options["n_locations"], severity=options["severity"],
                                     length=options["length"], n_controls=options["n_controls"]))
         n_slots = _slots(len(mine), baselines)
-        chunk = chunk_size(executor, n_scen, n_slots)
+        chunks = chunk_count(executor, n_scen, n_slots)
         case_node = graph.constant(case)
         per_case.append([add_plan(graph, graph.task(slot_plan, case_node, s, mine, baselines, options),
-                                  n_layouts=1, n_scenarios=n_scen, chunk=chunk) for s in range(n_slots)])
+                                  n_layouts=1, n_scenarios=n_scen, chunks=chunks) for s in range(n_slots)])
     graph.run(progress)
     designs = [graph.result(node) for node in design_nodes]
     return designs, [[plan_records(graph, slot) for slot in slots] for slots in per_case]
