@@ -191,9 +191,11 @@ def test_fast_path_equals_cvxpy_clarabel(criterion, constraints):
 
 @pytest.mark.parametrize("seed", range(4))
 @pytest.mark.parametrize("side", [False, True])
-def test_small_lmi_interior_point_matches_clarabel(seed, side):
+@pytest.mark.parametrize("warm", [False, True])
+def test_small_lmi_interior_point_matches_clarabel(seed, side, warm):
     # The E subspace SDP solver (lmi_interior_point) against cvxpy + Clarabel on random
-    # problems: same optimum, a trace-one PSD multiplier, feasible weights.
+    # problems: same optimum, a trace-one PSD multiplier, feasible weights; also from a warm start
+    # (the E relaxation's rounds start from the last round's weights: here random ones, off the sum)
     import cvxpy as cp
 
     from sensorplan.design.relaxation.lmi import lmi_interior_point
@@ -208,7 +210,8 @@ def test_small_lmi_interior_point_matches_clarabel(seed, side):
     if side:  # a budget, at most 2 of the first 12, at least 1 of the last 6
         rows = np.vstack([rng.uniform(0.5, 2.0, m), (np.arange(m) < 12) * 1.0, -1.0 * (np.arange(m) >= 24)])
         rhs = np.array([1.3 * count, 2.0, -1.0])
-    value, w, x, nu, status, _ = lmi_interior_point(b0, bmat, rows, rhs, count, tol=1e-9)
+    start = (rng.uniform(0.0, 1.0, m), 0.1) if warm else None
+    value, w, x, nu, status, _ = lmi_interior_point(b0, bmat, rows, rhs, count, tol=1e-9, start=start)
     wv, t = cp.Variable(m), cp.Variable()
     mat = b0 + cp.reshape(bmat.reshape(m, -1).T @ wv, (k, k), order="C")
     cons = [wv >= 0, wv <= 1, cp.sum(wv) == count, 0.5 * (mat + mat.T) - t * np.eye(k) >> 0]

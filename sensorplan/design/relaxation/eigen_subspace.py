@@ -34,6 +34,8 @@ ENTER_MAX = 2  # and at most this many times R (and 20) of them per round: the r
 DROP_WEIGHT = 1e-4  # candidates leave when their weight is below this and their gradient below the threshold
 DROP_SHARE = 1.0  # by more than this share of the gap over R (ten times the entering margin: no cycling) ...
 DROP_FLOOR = 1e-4  # ... and than this share of the threshold (near-ties that leave return the next round)
+WARM_GAP = 1e-3  # the small SDPs start from the last round's solution while the relative gap exceeds this
+WARM_SHIFT_FLOOR = 1e-3  # a warm-started SDP's t starts at least this share of the bound below lambda_min
 
 
 @register_fast_method("eigen-subspace")
@@ -66,10 +68,12 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
     working, spread = _first_working_set(problem, basis, start_layout)
     best = (-np.inf, None)
     bound, gap, sdp_time, counts = np.inf, np.inf, 0.0, {"clarabel": 0, "inexact": 0}
+    warm = None  # (weights over all candidates, shift): the last round's solution, where the next SDP starts
     for rounds in range(1, max_rounds + 1):
         idx = np.array(sorted(working))
         inner = max(INNER_TOL_SHARE * tol, min(INNER_TOL_MAX, 0.1 * gap))
-        small_value, wr, x, nu, dt, used = _small_e_sdp(problem, idx, basis, agg, cuts, tol=inner)
+        small_value, wr, x, nu, dt, used = _small_e_sdp(problem, idx, basis, agg, cuts, tol=inner,
+                                                        warm=None if warm is None else (warm[0][idx], warm[1]))
         sdp_time += dt
         if used != "interior-point":
             counts[used] += 1
@@ -88,6 +92,10 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
         # the margins scale with the small SDP's distance to the best weights (not the certified gap, which
         # stays large while outside candidates are violated, and would keep them out)
         model_gap = max(small_value - best[0], 0.1 * tol * max(1.0, abs(bound)))
+        # while the gap is large the next SDP starts at these weights, t that far below their lambda_min
+        # (floored: a start on the boundary would stall); the last rounds start cold, so that the weights
+        # rounding starts from are those of the cold path (the centre of the small SDP's optimal face)
+        warm = (w, max(small_value - best[0], WARM_SHIFT_FLOOR * max(1.0, abs(bound)))) if gap > WARM_GAP else None
         _grow_working_set(problem, working, idx, (wr, z, nu), model_gap)
         if gap > SPREAD_GAP:
             working |= spread
@@ -216,11 +224,12 @@ def _grow_working_set(problem, working, idx, sdp, gap):
     working -= set(idx[(wr < DROP_WEIGHT) & (gz[idx] < threshold - drop)].tolist())
 
 
-def _small_e_sdp(problem, idx, basis, agg, cuts, *, tol):
+def _small_e_sdp(problem, idx, basis, agg, cuts, *, tol, warm=None):
     """max t s.t. V^T Q(w) V - t I >= 0, <W, Q(w)> >= t and u_j^T Q(w) u_j >= t (the cuts) over candidates
     ``idx``.
 
-    Solved by :func:`~.lmi.lmi_interior_point`; an iterate it could not
+    Solved by :func:`~.lmi.lmi_interior_point`, from ``warm`` (weights over ``idx``, shift) when given and
+    again from its own start if that does not reach the tolerance; an iterate it could not
     take to the tolerance is still used (the bound is certified from any
     multiplier); if it has none, small SDPs go to cvxpy + Clarabel, large
     ones raise SolverError.  Returns (value, w, X, nu, time, solver).
@@ -237,9 +246,12 @@ def _small_e_sdp(problem, idx, basis, agg, cuts, *, tol):
         b0[k, k], bmat[:, k, k] = agg.q0_dot, agg.dots[idx]
     bmat = 0.5 * (bmat + bmat.transpose(0, 2, 1))
     rows, rhs = _side_rows(problem, idx)
-    value, w, x, nu, status, _ = lmi.lmi_interior_point(0.5 * (b0 + b0.T), bmat, rows, rhs, problem.count,
-                                                         cuts=cuts.dots[:, idx], cut_rhs=cuts.q0_dots, tol=tol,
-                                                         max_iter=SDP_MAX_ITER)
+    for begin in ((warm, None) if warm is not None else (None,)):
+        value, w, x, nu, status, _ = lmi.lmi_interior_point(0.5 * (b0 + b0.T), bmat, rows, rhs, problem.count,
+                                                             cuts=cuts.dots[:, idx], cut_rhs=cuts.q0_dots, tol=tol,
+                                                             max_iter=SDP_MAX_ITER, start=begin)
+        if status == "optimal":
+            break
     if status == "optimal":
         return value, np.clip(w, 0.0, 1.0), x, abs(nu), time.perf_counter() - start, "interior-point"
     if w is not None and np.all(np.isfinite(w)) and np.all(np.isfinite(x)):
