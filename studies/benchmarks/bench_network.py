@@ -49,7 +49,26 @@ timeout of ``TIMEOUT_S``; a child that times out or fails is reported as such.
 
 Last run
 --------
-2026-11-28 10:23-10:32 UTC, main 3eb96f4 (this session: structured
+Target rows, 2026-11-28 13:15-13:18 UTC, main 51b562d (session 19: E's
+small SDPs warm-started from the last round's weights while the relative
+gap exceeds 1e-3; D, A and mixed unchanged), one BLAS thread, quiet
+machine (load average 1.0)::
+
+    configuration                      build  base greedy  relax   best  curve  total     gap   eff  peak   est  est_s
+    D N=400 C=3000 R=20                  0.5   1.8    3.7    6.0   14.6    1.4   27.9  1.6e-8  0.989  0.79  2.22    59
+    A N=400 C=3000 R=20                  0.5   2.0    6.5    7.4   25.4    2.1   44.0  1.9e-10 0.928  0.91  2.22    59
+    E N=400 C=3000 R=20                  0.5   2.2    3.5   19.6   16.7    2.8   45.3  3.9e-8  0.909  1.34  2.22    59
+    mixed D N=400 C=3000 R=20            0.7   3.3    5.0    5.3   20.5    3.5   38.3  2.2e-8  0.989  0.86  2.34    62
+
+E's relaxation went from 23.6 to 19.6 s (the rounds' small SDPs take about
+a third fewer interior-point steps from the warm start) and its best stage
+from 19.4 to 16.7 s, with the same certified efficiency.  Through the
+command line (``recommend --config five-span.toml --criterion X --count 20
+--spacing 0.06``: 3,001 candidates, figures and JSON included, user + sys
+CPU): D 36.6 s, A 48.9 s, E 55.0 s (56.9 s before the warm start).  The
+seven-span viaduct below: E 43.9 s (53.3 s cold), efficiency 0.927.
+
+Growth rows and the table below: 2026-11-28 10:23-10:32 UTC, main 3eb96f4 (this session: structured
 families without the fixed matrices they do not use and congruences in
 place; the searches one candidate at a time and local moves stopped after
 n quiet sensors; A's inverse traces by LAPACK; the relaxation's
@@ -105,15 +124,17 @@ instead of 0.897): the tighter relaxation (1e-7 instead of E's former
 122 Newton steps, 350 CG iterations; A 8 rounds (was 13), 610, 128 steps
 (203), 251 CG (497); mixed 6 rounds, 225, 95 steps, 245 CG.
 
-Acceptance (issue 38) at N = 400, C = 3,000, R = 20:
+Acceptance (issue 38) at N = 400, C = 3,000, R = 20 (the 13:15 run; the
+10:23 run of session 18 in brackets):
 
-* D: 30.1 s CPU (met: < 60 s; 46.6 s before this session), gap 1.6e-8
-  (met), peak 0.78 GiB (met).
-* A: 45.9 s (met; 83.8 s before), gap 1.9e-10 (met), peak 0.90 GiB (met).
-* E: 52.6 s (met; 58.8-60.1 s before), gap 6.0e-8 (met), peak 1.29 GiB
+* D: 27.9 s CPU (30.1; met: < 60 s; 46.6 s before session 18), gap 1.6e-8
+  (met), peak 0.79 GiB (met).
+* A: 44.0 s (45.9; met; 83.8 s before), gap 1.9e-10 (met), peak 0.91 GiB
   (met).
-* Mixed kinds (rotation + deflection, costs 1 and 3, budget 40): 40.3 s
-  (met: < 120 s), gap 2.2e-8, peak 0.84 GiB.
+* E: 45.3 s (52.6; met; 58.8-60.1 s before), gap 3.9e-8 (met), peak
+  1.34 GiB (met).
+* Mixed kinds (rotation + deflection, costs 1 and 3, budget 40): 38.3 s
+  (40.3; met: < 120 s), gap 2.2e-8, peak 0.86 GiB.
 
 Cost growth (D, least squares on the logs, the rows above with the target
 row): time ~ C^0.21 at N = 400, C = 200 -> 3,000 (15.7 -> 30.1 s); time ~
