@@ -64,9 +64,26 @@ def test_split_bounds_are_exact_when_the_basis_spans_the_whitened_block():
 def test_ds_has_no_split_bounds_and_searches_keep_the_eigen_split_levels():
     from sensorplan.design import selection
 
-    problem = replace(_random_problem(1), criterion=make_criterion("Ds", 10))
+    problem = replace(_random_problem(1), criterion=make_criterion("Ds", 10, n_elements=8))  # 2 marginalised
     assert getattr(problem.criterion, "split_bounds", None) is None
     assert selection._local_levels(problem) == ()
+
+
+def test_ds_without_parameters_to_marginalise_is_d():
+    # log det Q - log det Q_22 with nothing in Q_22 is log det Q: D's values, bounds and paths, under Ds's name
+    from sensorplan.design import selection
+
+    problem = _random_problem(1)
+    d, ds = make_criterion("D", 10), make_criterion("Ds", 10, n_elements=10)
+    assert ds.name == "Ds" and ds.n_keep == 10 and ds.submodular
+    q = problem.layout_precision([1, 4])
+    reference = make_criterion("Ds", 10, n_elements=8)  # the general difference of log determinants ...
+    reference.n_keep = 10  # ... with nothing marginalised (the value written out, not D's code)
+    assert ds.value(q) == pytest.approx(reference.value(q), rel=1e-14) == d.value(q)
+    blocks = [problem.blocks[i] for i in range(problem.n_candidates)]
+    assert ds.utilities(q, blocks) == pytest.approx(d.utilities(q, blocks), rel=1e-14)
+    assert selection._local_levels(replace(problem, criterion=ds)) == selection._local_levels(
+        replace(problem, criterion=d))
 
 
 @pytest.fixture(scope="module")
