@@ -61,12 +61,24 @@ def test_split_bounds_are_exact_when_the_basis_spans_the_whitened_block():
     assert b[1] > exact[8] + 1e-6  # another candidate's block is not spanned: a bound, not the value
 
 
-def test_ds_has_no_split_bounds_and_searches_keep_the_eigen_split_levels():
-    from sensorplan.design import selection
-
-    problem = replace(_random_problem(1), criterion=make_criterion("Ds", 10, n_elements=8))  # 2 marginalised
-    assert getattr(problem.criterion, "split_bounds", None) is None
-    assert selection._local_levels(problem) == ()
+@pytest.mark.parametrize("seed", range(3))
+def test_ds_bounds_hold_with_springs_marginalised(seed):
+    # Reference: Ds(Q + I_i) = log det(Q + I_i) - log det((Q + I_i)_22) by numpy's slogdet of dense matrices,
+    # for every candidate; the bounds (first-order, eigen-split, whitened split) must lie above it, and the
+    # split bound with every direction is the value
+    problem = replace(_random_problem(seed), criterion=make_criterion("Ds", 10, n_elements=8))  # 2 marginalised
+    crit = problem.criterion
+    q = problem.layout_precision([1, 4])
+    exact = np.array([np.linalg.slogdet(q + b)[1] - np.linalg.slogdet((q + b)[8:, 8:])[1] for b in problem.blocks])
+    value, upper = crit.upper_bounds(problem, q)
+    assert value == pytest.approx(np.linalg.slogdet(q)[1] - np.linalg.slogdet(q[8:, 8:])[1], rel=1e-12)
+    assert np.all(upper >= exact - 1e-9)
+    assert np.all(crit.subset_bounds(problem, q, k=4) >= exact - 1e-9)
+    chol = np.linalg.cholesky(q)
+    index = np.arange(problem.n_candidates)
+    assert np.all(crit.split_bounds(problem, q, index, basis=np.eye(10)[:, :3], chol=chol) >= exact - 1e-9)
+    np.testing.assert_allclose(crit.split_bounds(problem, q, index, basis=np.eye(10), chol=chol), exact,
+                               rtol=1e-10, atol=1e-10)
 
 
 def test_ds_without_parameters_to_marginalise_is_d():

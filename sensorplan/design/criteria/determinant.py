@@ -125,7 +125,6 @@ class DsCriterion(DCriterion):
     description = "log det of the posterior precision of log EI, springs marginalised"
     submodular = False
     utilities = Criterion.utilities  # not D's: the value is a difference of two log determinants
-    split_bounds = None  # type: ignore[assignment]  # none: D's hold for log det Q, not a difference of two
     point_derivatives = Criterion.point_derivatives  # D's utility and gradient are not Ds's
     hessian_factors_at = Criterion.hessian_factors_at  # nor are D's product rows Ds's Hessian factors
 
@@ -189,12 +188,32 @@ class DsCriterion(DCriterion):
 
         return product
 
+    # Ds(Q + I_i) = log det(Q + I_i) - log det(Q_22 + I_i,22): D's bounds on the first term less the second,
+    # exact and cheap (Q_22 is the s x s block of the s marginalised parameters; I_i,22 from a congruence)
+
     def upper_bounds(self, problem, q):
-        return Criterion.upper_bounds(self, problem, q)
+        """(utility(Q), b): the smaller of the first-order (concavity) bounds and D's eigen-split bounds on
+        log det(Q + I_i) less log det(Q_22 + I_i,22)."""
+        value, first = Criterion.upper_bounds(self, problem, q)
+        return value, np.minimum(first, self.subset_bounds(problem, q, eig=np.linalg.eigh(symmetrise(q))))
 
     def subset_bounds(self, problem, q, index=None, *, k=16, eig=None):
-        """None: Ds has no eigen-split bounds (its first-order bounds do not tighten with k)."""
-        return None
+        """b_i >= utility(Q + I_i): D's eigen-split bound on log det(Q + I_i) less log det(Q_22 + I_i,22)."""
+        return super().subset_bounds(problem, q, index, k=k, eig=eig) - self._marginalised(problem, q, index)
+
+    def split_bounds(self, problem, q, index, *, basis, chol):
+        """b_i >= utility(Q + I_i): D's whitened split bound on log det(Q + I_i) less log det(Q_22 + I_i,22)."""
+        return super().split_bounds(problem, q, index, basis=basis, chol=chol) - self._marginalised(problem, q, index)
+
+    def _marginalised(self, problem, q, index):
+        """log det(Q_22 + I_i,22) for the candidates at ``index`` (all if None)."""
+        k = self.n_keep
+        p = q.shape[0]
+        corner = np.zeros((p, p - k))
+        corner[k:] = np.eye(p - k)
+        small = problem.congruence(corner, index)
+        small += symmetrise(q)[k:, k:]
+        return log_dets(small)
 
     def cvxpy_objective(self, cp, q_expr, constraints):
         k = self.n_keep
