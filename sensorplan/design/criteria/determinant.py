@@ -126,7 +126,6 @@ class DsCriterion(DCriterion):
     submodular = False
     utilities = Criterion.utilities  # not D's: the value is a difference of two log determinants
     point_derivatives = Criterion.point_derivatives  # D's utility and gradient are not Ds's
-    hessian_factors_at = Criterion.hessian_factors_at  # nor are D's product rows Ds's Hessian factors
 
     def __init__(self, n_params, *, n_keep=None):
         super().__init__(n_params)
@@ -172,6 +171,24 @@ class DsCriterion(DCriterion):
             return negative, None
         ls = np.linalg.inv(np.linalg.cholesky(symmetrise(q)[k:, k:])).astype(blocks.dtype)
         return negative, packed_upper(np.matmul(ls, np.matmul(blocks[:, k:, k:], ls.T)))
+
+    def hessian_factors_at(self, q, chol, *, rank=None):
+        """D's product rows (L^-1 R_i, the -N N^T part) and, for the +M M^T part (the Hessian of
+        -log det Q_22), product rows of L_22^-1 R_i,22 (s x r per candidate) from the roots' marginalised
+        rows, without forming the blocks; ``rank`` ignored."""
+        negative_at = super().hessian_factors_at(q, chol, rank=rank)
+        k = self.n_keep
+        if k == q.shape[0]:
+            return negative_at
+        l22 = scipy.linalg.solve_triangular(np.linalg.cholesky(symmetrise(q)[k:, k:]), np.eye(q.shape[0] - k),
+                                            lower=True)
+
+        def factors(roots):
+            negative, _ = negative_at(roots)
+            z = np.matmul(l22.astype(roots.dtype), roots[:, k:, :])  # (m, s, r)
+            return negative, ProductRows(np.ascontiguousarray(np.swapaxes(z, 1, 2)))
+
+        return factors
 
     def hessian_operator(self, q, chol, *, dtype=np.float64):
         # D's product plus Q22^-1 S22 Q22^-1 on the nuisance block (the Hessian of -log det Q22)
