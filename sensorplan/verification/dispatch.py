@@ -13,6 +13,10 @@ scenario's seed, so the records do not depend on where they ran.
 Owns: the tasks of a verification and their chunking.  May import: the foundations.
 """
 
+import math
+
+import numpy as np
+
 from .._executors import TaskGraph, worker_count
 
 __all__ = ["run_plans", "add_plan", "chunk_count", "split", "pilot_start", "scenario_chunk", "plan_records"]
@@ -23,15 +27,13 @@ def chunk_count(executor, n_scenarios, n_layouts=1):
     worker over all the layouts (the tail, the last tasks that run alone, is then a small share of the work)."""
     if executor is None:
         return n_scenarios
-    return max(1, min(n_scenarios, -(-8 * worker_count(executor) // max(1, n_layouts))))
+    return max(1, min(n_scenarios, math.ceil(8 * worker_count(executor) / max(1, n_layouts))))
 
 
 def split(n_scenarios, n_chunks):
     """``range(n_scenarios)`` in ``n_chunks`` runs whose sizes differ by at most one (tuples of indices)."""
-    n_chunks = max(1, min(n_chunks, n_scenarios))
-    size, extra = divmod(n_scenarios, n_chunks)
-    bounds = [k * size + min(k, extra) for k in range(n_chunks + 1)]
-    return [tuple(range(a, b)) for a, b in zip(bounds, bounds[1:]) if b > a]
+    runs = np.array_split(np.arange(n_scenarios), max(1, min(n_chunks, n_scenarios)))
+    return [tuple(run.tolist()) for run in runs if run.size]
 
 
 def pilot_start(plan, k):
