@@ -12,6 +12,7 @@ from scipy import integrate
 
 import sensorplan as sp
 from fe_reference import fe_response
+from sensorplan.model.forward import readings
 
 P = 1.0e5
 EI = 1.0e10
@@ -337,6 +338,8 @@ def test_kernel_matches_independent_fe_solve(geometry, seed):
     # Relative to the response scale of the case (rotation ~ P L^2 / EI).
     scale = max(np.abs(ref).max(), veh.total_load * length**2 / ei.max())
     np.testing.assert_allclose(lines.predictions, ref, rtol=0, atol=1e-9 * scale)
+    # the readings alone (element sums as matrix products, no kernel) against the same reference
+    np.testing.assert_allclose(readings(bridge, mesh, ei, sensors, veh, z), ref, rtol=0, atol=1e-9 * scale)
 
 
 @settings(max_examples=40, deadline=None)

@@ -331,13 +331,15 @@ def check_signal(case, noise, n_crossings):
     """
     import numpy as np
 
+    from ..model.forward import readings
     from ..model.sensors import SensorLayout
 
     grid = np.linspace(0.0, case.bridge.length, 201)
     snrs = {}
     for kind, noise_std in noise.items():  # noise: kind -> noise std of new sensors of that kind
-        lines = case.influence_lines(sensors=SensorLayout.candidates(grid, kind))
-        snrs[kind] = float(np.max(np.sqrt(np.sum(lines.predictions**2, axis=1) * n_crossings)) / noise_std)
+        y = readings(case.bridge, case.mesh, case.ei, SensorLayout.candidates(grid, kind), case.vehicle,
+                     case.sweep.positions)
+        snrs[kind] = float(np.max(np.sqrt(np.sum(y**2, axis=1) * n_crossings)) / noise_std)
     kind = max(snrs, key=snrs.__getitem__)
     snr, noise_std = snrs[kind], noise[kind]
     if snr < MIN_SNR:

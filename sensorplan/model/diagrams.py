@@ -186,10 +186,7 @@ def weighted_products(edges, first, second, weights):
     out = (2.0 * fl + fr) @ (second.left * (h / 6.0)).T + (fl + 2.0 * fr) @ (second.right * (h / 6.0)).T
     _add_weighted_atoms(out, edges, first, second, weights, transpose=False)
     _add_weighted_atoms(out, edges, second, first, weights, transpose=True)
-    if first.atom_func.size and second.atom_func.size:
-        pairs = np.zeros((first.n_funcs, second.n_funcs, a.size))
-        _add_atom_pairs(pairs, edges, first, second)
-        out += pairs @ weights
+    _add_atom_pairs(out, edges, first, second, weights)
     return out
 
 
@@ -223,7 +220,9 @@ def _atoms_times_linear(edges, atoms, linear):
                                          + c_right[:, None] * linear.right[:, e].T)
 
 
-def _add_atom_pairs(out, edges, first, second):
+def _add_atom_pairs(out, edges, first, second, weights=None):
+    """Add the products of atoms sharing an element: to ``out`` (F, S, E), or weighted and summed over the
+    elements to ``out`` (F, S) when ``weights`` (E,) is given."""
     if first.atom_func.size == 0 or second.atom_func.size == 0:
         return
     order = np.argsort(second.atom_elem, kind="stable")
@@ -239,4 +238,7 @@ def _add_atom_pairs(out, edges, first, second):
     vals = (first.atom_weight[i1] * second.atom_weight[i2]
             * _atom_atom(edges[e + 1], first.atom_pos[i1], first.atom_kind[i1],
                          second.atom_pos[i2], second.atom_kind[i2]))
-    np.add.at(out, (first.atom_func[i1], second.atom_func[i2], e), vals)
+    if weights is None:
+        np.add.at(out, (first.atom_func[i1], second.atom_func[i2], e), vals)
+    else:
+        np.add.at(out, (first.atom_func[i1], second.atom_func[i2]), vals * weights[e])

@@ -50,7 +50,7 @@ from .loads import LoadSweep, Vehicle
 from .sensors import SensorLayout
 from .structure import Bridge, Mesh
 
-__all__ = ["InfluenceLines", "influence_lines", "response_change", "ZoneChanges", "bending_moments",
+__all__ = ["InfluenceLines", "influence_lines", "readings", "response_change", "ZoneChanges", "bending_moments",
            "support_reactions", "expand_ei", "sensor_actions", "load_actions"]
 
 PARAMETERISATIONS = ("compliance", "ei", "log_ei")
@@ -212,19 +212,45 @@ def influence_lines(bridge: Bridge, mesh: Mesh, ei: "ArrayLike", sensors: Sensor
     """
     positions = _check_inputs(bridge, mesh, sensors, positions)
     ei = expand_ei(bridge, mesh, ei)
-    method = shared_force_method(bridge, mesh, ei)
-    load_diagrams, load_reactions = method.solve(*load_actions(bridge, vehicle, positions))
-    sensor_diagrams, sensor_reactions = method.solve(*sensor_actions(sensors))
+    method, (sensor_diagrams, sensor_reactions), (load_diagrams, load_reactions) = _solved(
+        bridge, mesh, ei, sensors, vehicle, positions)
     kernel = element_products(mesh.edges, sensor_diagrams, load_diagrams)
-    c = method.compliance
     springs = method.spring_unknown
     spring_kernel = sensor_reactions[springs].T[:, None, :] * load_reactions[springs].T[None, :, :]
-    predictions = kernel @ method.v + np.einsum(
-        "ur,u,uk->rk", sensor_reactions, c, load_reactions)
+    predictions = kernel @ method.v + _spring_readings(method, sensor_reactions, load_reactions)
     for arr in (kernel, spring_kernel, predictions):
         arr.setflags(write=False)
     return InfluenceLines(bridge, mesh, sensors, vehicle, np.asarray(positions), np.asarray(ei),
                           bridge.spring_stiffness(), predictions, kernel, spring_kernel)
+
+
+def _solved(bridge, mesh, ei, sensors, vehicle, positions):
+    """The force method at ``ei``, then (diagrams, reactions) of the sensors' unit actions and of the loads."""
+    method = shared_force_method(bridge, mesh, ei)
+    return (method, method.solve(*sensor_actions(sensors)),
+            method.solve(*load_actions(bridge, vehicle, positions)))
+
+
+def _spring_readings(method, sensor_reactions, load_reactions):
+    """The springs' part sum_u c_u X_u^r X_u^z of the readings (S, K)."""
+    return np.einsum("ur,u,uk->rk", sensor_reactions, method.compliance, load_reactions)
+
+
+@single_threaded
+def readings(bridge: Bridge, mesh: Mesh, ei: "ArrayLike", sensors: SensorLayout, vehicle: Vehicle,
+             positions: "ArrayLike") -> np.ndarray:
+    """Noise-free readings (n_sensors, n_loads): :func:`influence_lines`' predictions without the Jacobians.
+
+    The element sums are matrix products (:func:`~.diagrams.weighted_products`),
+    so many sensors and load positions on a fine mesh cost neither the time
+    nor the memory of the (n_sensors, n_loads, n_elements) kernel.
+    """
+    positions = _check_inputs(bridge, mesh, sensors, positions)
+    ei = expand_ei(bridge, mesh, ei)
+    method, (sensor_diagrams, sensor_reactions), (load_diagrams, load_reactions) = _solved(
+        bridge, mesh, ei, sensors, vehicle, positions)
+    return (weighted_products(mesh.edges, sensor_diagrams, load_diagrams, method.v)
+            + _spring_readings(method, sensor_reactions, load_reactions))
 
 
 @single_threaded
