@@ -31,7 +31,7 @@ from test_detectability import _case, _fe_difference, _FEReference, _whiten, _wh
 import sensorplan as sp
 from sensorplan.cli import main
 from sensorplan.design.criteria.detect import RIDGE
-from sensorplan.design.criteria.detect_algebra import gradients, hessian_roots, hessian_rows, ridged_parts
+from sensorplan.design.criteria.detect_algebra import HessianFactors, gradients, ridged_parts
 from sensorplan.design.recommend import DetectionTarget, build_problem
 from sensorplan.design.relaxation import solve_relaxation
 from sensorplan.design.selection import exchange, greedy
@@ -181,8 +181,8 @@ def test_ridged_gradient_and_hessian_match_finite_differences(fe):
     packing = problem.criterion.packing
     _, x, chol = ridged_parts(packing, problem.precision(w), ridge)
     grad = gradients(packing, problem.blocks, x)
-    roots = hessian_roots(hessian_rows(packing, problem.blocks, x), chol)
-    hess = -2.0 * np.einsum("cni,cnj->cij", roots, roots)
+    roots = HessianFactors.of(packing, problem.blocks).roots(x, chol)
+    hess = -2.0 * np.einsum("nci,ncj->cij", roots, roots)
     for i in rng.choice(problem.n_candidates, 4, replace=False):
         h = 1e-5
         up, down = w.copy(), w.copy()

@@ -34,6 +34,21 @@ benchmarks, load average 10-15 throughout, i.e. 5-7 runnable processes per
 core: CPU seconds are inflated by cache and memory-bandwidth contention;
 wall times are meaningless):
 
+* 2026-11-28, session 20 (load 0.7-1.8, the main tree's run alongside):
+  the barrier's line search keeps every centre's slack above 0.1 / tau
+  (the central path's is >= 1 / tau): a damped step that took one slack
+  far below it left Newton's method creeping back over 150-250 full steps
+  per centring (seen on an unseen four-span bridge with vertical springs,
+  load positions every 0.25 m, 2,991 candidates: relaxation 490 s CPU,
+  4,275 Newton steps, working set 843); the gradients and Hessian roots
+  only at accepted points, the roots from the blocks laid out once
+  (HessianFactors).  Five-span target: recommend() 81.4 s (main 6677313)
+  -> 67.6 s CPU, bound 485.36 both, d^2 265.03 -> 266.09.  Four-span:
+  relaxation 490 -> 137 s CPU (3,724 steps, working set 300, the same
+  bound 5.7261293); its whole ``recommend --criterion detect`` through
+  the CLI was 520 s under cProfile before, and is still above 120 s
+  after (build 20 s, relaxation 137 s): NOT within the target on that
+  bridge.
 * commit 61fea26 (zone signatures by ZoneChanges: the undamaged diagrams
   once on a mesh holding every zone edge, each zone's exact change by a
   Woodbury update of the force method, no forward solve per centre; the

@@ -37,8 +37,8 @@ import scipy.linalg
 
 from ...detection.signatures import schur_d_squared
 
-__all__ = ["PackedLayout", "NuisanceFactors", "exact_d_squared", "exact_solution", "ridged_parts", "gradients", "hessian_rows",
-           "hessian_roots"]
+__all__ = ["PackedLayout", "NuisanceFactors", "exact_d_squared", "exact_solution", "ridged_parts", "gradients",
+           "HessianFactors"]
 
 PIVOT_FLOOR = 1e-8  # a smaller pivot of the unit-diagonal nuisance block: eigen-decomposition with a cut-off
 
@@ -192,20 +192,27 @@ def gradients(layout, blocks, x, centres=None):
     return out
 
 
-def hessian_rows(layout, blocks, x, centres=None):
-    """R (n_blocks, n_c, n): the nuisance rows of B_i(c) u_c = b_Ns,i(c) - B_NN,i x_c."""
-    rows = layout.rows(blocks)
-    rows = rows if centres is None else rows[:, centres]
-    m, n = rows.shape[0], layout.n_nuisance
-    # one matrix product (n_blocks n, n) x (n, n_c) instead of a three-index einsum
-    nn_x = (layout.nuisance(blocks).reshape(m * n, n) @ x.T).reshape(m, n, -1)
-    return rows[:, :, 1:] - nn_x.transpose(0, 2, 1)
+@dataclass(frozen=True, eq=False)
+class HessianFactors:
+    """Packed ``blocks`` (m, P) laid out for the Hessian of the ridged d^2, formed once for many points.
 
+    ``rows`` (n, n_centres, m) holds b_Ns,i(c) and ``nuisance`` (n, n, m) B_NN,i, both with the block
+    index last, so that the nuisance rows R_c = b_Ns,i(c) - B_NN,i x_c of every centre come out of one
+    batched product in the layout of the roots (no transposed copy per point).
+    """
 
-def hessian_roots(rows, chol):
-    """Y (n_c, n, n_blocks) with d^2 d^2_c / dw_i dw_j = -2 (Y_c^T Y_c)_ij, from :func:`hessian_rows` and
-    the Cholesky factor of :func:`ridged_parts`.  Y is a transposed view of a C-contiguous
-    (n, n_c, n_blocks) array, so ``Y.transpose(1, 0, 2)`` stacks the Y_c without a copy."""
-    m, n_c, n = rows.shape
-    inverse = scipy.linalg.solve_triangular(chol, np.eye(n), lower=True)
-    return (inverse @ rows.transpose(2, 1, 0).reshape(n, n_c * m)).reshape(n, n_c, m).transpose(1, 0, 2)
+    rows: np.ndarray
+    nuisance: np.ndarray
+
+    @classmethod
+    def of(cls, layout, blocks):
+        return cls(np.ascontiguousarray(layout.rows(blocks)[..., 1:].transpose(2, 1, 0)),
+                   np.ascontiguousarray(layout.nuisance(blocks).transpose(1, 2, 0)))
+
+    def roots(self, x, chol):
+        """Y (n, n_c, m) with d^2 d^2_c / dw_i dw_j = -2 sum_a Y[a, c, i] Y[a, c, j], at the nuisance
+        coefficients ``x`` (n_c, n) and the Cholesky factor of :func:`ridged_parts`; C-contiguous."""
+        n = x.shape[1]
+        r = self.rows - np.matmul(x[None], self.nuisance)  # (n, n_c, m): the transposed nuisance rows
+        inverse = scipy.linalg.solve_triangular(chol, np.eye(n), lower=True)
+        return (inverse @ r.reshape(n, -1)).reshape(r.shape)

@@ -26,7 +26,7 @@ from functools import partial
 import numpy as np
 
 from ..criteria.detect import ALL_CENTRES_UP_TO, certificate
-from ..criteria.detect_algebra import PackedLayout, gradients, hessian_roots, hessian_rows, ridged_parts
+from ..criteria.detect_algebra import HessianFactors, PackedLayout, gradients, ridged_parts
 from .base import Relaxation, repair_weights
 from .column_generation import Round, WorkingSet, column_generation, initial_size
 from .interior_point import RestrictedPolytope, boundary_step, solve_kkt
@@ -37,6 +37,7 @@ __all__ = ["solve_detect_epigraph", "epigraph_interior_point", "CentreSet"]
 FIRST_CENTRES = 24  # centres of a first active set: the worst at the uniform and at the start weights
 ADDED_CENTRES = 48  # at most this many centres join the active set per restricted solve
 NEAR = 0.02  # centres within 2 % of the restricted optimum join with the violated ones
+NEIGHBOURHOOD = 0.1  # a step keeps every centre's slack above this / tau (the central path's is >= 1 / tau)
 
 
 class CentreSet:
@@ -161,13 +162,18 @@ class _Barrier:
         f, _, _ = ridged_parts(self.layout, q0 + self.start @ blocks, ridge)
         self.rescale = float(f.min()) if f is not None and f.min() > 0 else 1.0
         self.blocks, self.q0, self.ridge = blocks / self.rescale, q0 / self.rescale, ridge / self.rescale
+        self.factors = HessianFactors.of(self.layout, self.blocks)
 
     def evaluate(self, x):
-        """(d^2 per centre, its gradient (m, n_centres), the nuisance rows R, Cholesky factor), or None."""
+        """(d^2 per centre, the nuisance coefficients x_c, Cholesky factor) at ``x``, or None outside the domain."""
         f, xs, chol = ridged_parts(self.layout, self.q0 + x @ self.blocks, self.ridge)
-        if f is None:
-            return None
-        return (f, gradients(self.layout, self.blocks, xs), hessian_rows(self.layout, self.blocks, xs), chol)
+        return None if f is None else (f, xs, chol)
+
+    def derivatives(self, point):
+        """(d^2 per centre, its gradient (m, n_centres), the Hessian roots (n, n_centres, m)) at a
+        point of :meth:`evaluate` (only at the points a line search accepts)."""
+        f, xs, chol = point
+        return f, gradients(self.layout, self.blocks, xs), self.factors.roots(xs, chol)
 
     @staticmethod
     def phi(f, t, sig, tau):
@@ -179,10 +185,9 @@ class _Barrier:
 
     def newton_step(self, x, t, sig, parts, tau):
         """(dx, dt, nu, decrement) of the Newton step on phi with sum(x) = R, nu its multiplier."""
-        f, g, r, chol = parts
+        f, g, y = parts
         m = x.size
         s = f - t
-        y = hessian_roots(r, chol).transpose(1, 0, 2)  # (n, n_centres, m), contiguous
         z = (y * np.sqrt(2.0 / s)[None, :, None]).reshape(-1, m)
         gs = g / s  # (m, n_centres)
         hxx = self.poly.add_barrier_hessian(z.T @ z + gs @ gs.T, 1.0 / sig**2)
@@ -199,15 +204,22 @@ class _Barrier:
 
     def line_search(self, x, t, sig, f, step_dir, tau, decrement):
         """(step, parts at the new point): 99 % of the way to the boundary, halved until phi decreases
-        by 1 % of the step times the decrement (step <= 1e-14: none does)."""
+        by 1 % of the step times the decrement and no centre's slack d^2_c - t falls below
+        min(NEIGHBOURHOOD / tau, the smallest slack now) (step <= 1e-14: none does).
+
+        On the central path every slack is at least 1 / tau (the centres' multipliers 1 / (tau s_c) sum
+        to 1); a damped step that takes one far below it leaves Newton's method creeping back over
+        many full steps (a slack growing a few per cent a step), which the floor prevents.
+        """
         dx, dt, gdx = step_dir
         step = min(1.0, 0.99 * boundary_step(sig, -gdx, np.inf))
         p0 = self.phi(f, t, sig, tau)
+        floor = min(NEIGHBOURHOOD / tau, float(np.min(f - t)))
         trial = None
         while step > 1e-14:
             trial = self.evaluate(x + step * dx)
-            if trial is not None and self.phi(trial[0], t + step * dt, sig - step * gdx, tau) \
-                    <= p0 - 0.01 * step * decrement:
+            if trial is not None and np.min(trial[0] - (t + step * dt)) >= floor and \
+                    self.phi(trial[0], t + step * dt, sig - step * gdx, tau) <= p0 - 0.01 * step * decrement:
                 break
             step *= 0.5
         return step, trial
@@ -223,7 +235,7 @@ def epigraph_interior_point(problem, idx, centres, scale, w_prev, *, tol, max_it
     """
     barrier = _Barrier(problem, idx, centres, scale, w_prev)
     x = barrier.start
-    parts = barrier.evaluate(x)
+    parts = barrier.derivatives(barrier.evaluate(x))
     f = parts[0]
     t = float(f.min()) - 0.5
     sig = barrier.poly.slack(x)
@@ -241,7 +253,7 @@ def epigraph_interior_point(problem, idx, centres, scale, w_prev, *, tol, max_it
             if step <= 1e-14:
                 break
             x, t, sig = x + step * dx, t + step * dt, sig - step * gdx
-            parts = trial
+            parts = barrier.derivatives(trial)
         if n_con / tau <= tol * max(1.0, abs(t)) or newton >= max_iter:
             break
         tau *= 10.0
