@@ -34,21 +34,28 @@ benchmarks, load average 10-15 throughout, i.e. 5-7 runnable processes per
 core: CPU seconds are inflated by cache and memory-bandwidth contention;
 wall times are meaningless):
 
-* 2026-11-28, session 20 (load 0.7-1.8, the main tree's run alongside):
-  the barrier's line search keeps every centre's slack above 0.1 / tau
-  (the central path's is >= 1 / tau): a damped step that took one slack
-  far below it left Newton's method creeping back over 150-250 full steps
-  per centring (seen on an unseen four-span bridge with vertical springs,
-  load positions every 0.25 m, 2,991 candidates: relaxation 490 s CPU,
-  4,275 Newton steps, working set 843); the gradients and Hessian roots
-  only at accepted points, the roots from the blocks laid out once
-  (HessianFactors).  Five-span target: recommend() 81.4 s (main 6677313)
-  -> 67.6 s CPU, bound 485.36 both, d^2 265.03 -> 266.09.  Four-span:
-  relaxation 490 -> 137 s CPU (3,724 steps, working set 300, the same
-  bound 5.7261293); its whole ``recommend --criterion detect`` through
-  the CLI was 520 s under cProfile before, and is still above 120 s
-  after (build 20 s, relaxation 137 s): NOT within the target on that
-  bridge.
+* 2026-11-28, session 20 (load 0.7-1.8, another single-threaded job
+  alongside in every run).  Seen on an unseen four-span bridge (35 + 45 +
+  45 + 35 m, vertical springs at the piers, load positions every 0.25 m,
+  2,991 candidates, R = 20): ``recommend --criterion detect`` took about
+  520 s CPU (cProfile), 481 s of it the relaxation (4,275 Newton steps,
+  working set 843).  Two causes in the barrier method: (1) a damped step
+  took one centre's slack d^2_c - t far below the central path's 1 / tau
+  (1e-6 against 5e-4), and Newton crept back over 150-250 full steps; the
+  line search now keeps every slack above min(0.1 / tau, the smallest
+  now); (2) the second centring after a tenfold tau moved the weights from
+  near the analytic centre to a sparse optimum in 150-300 damped steps
+  (the steps of a centring grow with n_con (mu - 1 - log mu)); tau now
+  starts at 0.1 n_con and grows threefold up to 3 n_con, tenfold beyond,
+  and a centring that stalls at rounding level ends.  Also the gradients
+  and Hessian roots only at accepted points, and the roots from the blocks
+  laid out once (HessianFactors).  Four-span relaxation (API): 490 -> 82 s
+  CPU, the same bound 5.7261293; its whole CLI run 115 s CPU (relaxation
+  79 s, build 20 s): within 120 s, narrowly.  Five-span target (this
+  benchmark): recommend() 81.4 s (main 6677313, alone) -> 69.4 s (the
+  slack floor alone) -> 80.0 s with the schedule (beside another job;
+  1,756 Newton steps against 2,146), bound 485.36 throughout, d^2 265.03
+  -> 266.09.
 * commit 61fea26 (zone signatures by ZoneChanges: the undamaged diagrams
   once on a mesh holding every zone edge, each zone's exact change by a
   Woodbury update of the force method, no forward solve per centre; the
