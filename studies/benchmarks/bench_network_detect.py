@@ -55,7 +55,11 @@ wall times are meaningless):
   benchmark): recommend() 81.4 s (main 6677313, alone) -> 69.4 s (the
   slack floor alone) -> 80.0 s with the schedule (beside another job;
   1,756 Newton steps against 2,146), bound 485.36 throughout, d^2 265.03
-  -> 266.09.
+  -> 266.09.  Then centres within 10 % (not 2 %) of the restricted optimum
+  join the active set with the violated ones (each centre joining later
+  cost a barrier solve of its own): five-span recommend() 71.0 s CPU
+  (relaxation 46.8 s, gap 3.6e-10, 296 active centres), the four-span CLI
+  run 96 s CPU (relaxation 63 s), both beside another job.
 * commit 61fea26 (zone signatures by ZoneChanges: the undamaged diagrams
   once on a mesh holding every zone edge, each zone's exact change by a
   Woodbury update of the force method, no forward solve per centre; the
