@@ -48,6 +48,11 @@ NEIGHBOURHOOD = 0.1  # a step keeps every centre's slack above this / tau (the c
 # n_con took 150-300 steps for the second centring; this schedule takes at most about 60 (relaxation 131
 # -> 82 s CPU, the same bound), while the later, well-behaved centrings keep the tenfold growth (five-span
 # target: 2,146 -> 1,756 steps).
+# at most this share of the working set's size (or 2 R, or 20) enters per round: with half, the sets grew to
+# 800-1,000 candidates in the early rounds (the Newton step costs n n_active m^2) before shrinking to ~250;
+# relaxation (CPU s, 0.5 -> 0.2 -> 0.1): unseen four-span 65 -> 19 -> 17.5, unseen six-span 154 -> 68 -> 54,
+# five-span target 43.6 -> 23.6 -> 22.8, the same bounds
+ENTER_SHARE = 0.1
 FIRST_TAU = 0.1
 MU = 3.0
 GENTLE_UP_TO = 3.0
@@ -113,7 +118,7 @@ def solve_detect_epigraph(problem, *, tol=1e-7, start_layout=None, max_rounds=50
     score = grad @ (soft[near] / soft.sum())
     first = set(np.argsort(-score, kind="stable")[:initial_size(c, problem.count, 8)].tolist())
     first |= set(np.argmax(grad, axis=0).tolist())  # the best candidate of the nearly worst centres
-    working = WorkingSet(c, first, start_layout=start_layout)
+    working = WorkingSet(c, first, start_layout=start_layout, enter_share=ENTER_SHARE)
     last, rounds, newton = column_generation(problem, working, partial(_solve_round, problem, scale, centres),
                                              tol=tol, max_rounds=max_rounds)
     stats = {"solver": "epigraph-interior-point+column-generation",
