@@ -40,6 +40,11 @@ ADDED_CENTRES = 48  # at most this many centres join the active set per restrict
 # a barrier solve of its own (0.02 -> 0.1: relaxation 82 -> 65 s CPU on an unseen four-span bridge, 52.5 ->
 # 43.6 s on the five-span target, the same bounds; 0.25: 71 s)
 NEAR = 0.1
+# at most this share of the working set's size (or 2 R, or 20) enters per round: with half, the sets grew to
+# 800-1,000 candidates in the early rounds (the Newton step costs n n_active m^2) before shrinking to ~250;
+# relaxation (CPU s, 0.5 -> 0.2 -> 0.1): unseen four-span 65 -> 19 -> 17.5, unseen six-span 154 -> 68 -> 54,
+# five-span target 43.6 -> 23.6 -> 22.8, the same bounds
+ENTER_SHARE = 0.1
 NEIGHBOURHOOD = 0.1  # a step keeps every centre's slack above this / tau (the central path's is >= 1 / tau)
 # The barrier parameter: the first tau is FIRST_TAU n_con; it grows MU-fold per centring up to GENTLE_UP_TO
 # n_con, tenfold beyond.  The damped Newton steps of a centring grow with n_con (mu - 1 - log mu) (Boyd &
@@ -48,11 +53,6 @@ NEIGHBOURHOOD = 0.1  # a step keeps every centre's slack above this / tau (the c
 # n_con took 150-300 steps for the second centring; this schedule takes at most about 60 (relaxation 131
 # -> 82 s CPU, the same bound), while the later, well-behaved centrings keep the tenfold growth (five-span
 # target: 2,146 -> 1,756 steps).
-# at most this share of the working set's size (or 2 R, or 20) enters per round: with half, the sets grew to
-# 800-1,000 candidates in the early rounds (the Newton step costs n n_active m^2) before shrinking to ~250;
-# relaxation (CPU s, 0.5 -> 0.2 -> 0.1): unseen four-span 65 -> 19 -> 17.5, unseen six-span 154 -> 68 -> 54,
-# five-span target 43.6 -> 23.6 -> 22.8, the same bounds
-ENTER_SHARE = 0.1
 FIRST_TAU = 0.1
 MU = 3.0
 GENTLE_UP_TO = 3.0
@@ -236,9 +236,9 @@ class _Barrier:
         floor = min(NEIGHBOURHOOD / tau, float(np.min(f - t)))
         trial = None
         while step > 1e-14:
-            trial = self.evaluate(x + step * dx)
-            if trial is not None and np.min(trial[0] - (t + step * dt)) >= floor and \
-                    self.phi(trial[0], t + step * dt, sig - step * gdx, tau) <= p0 - 0.01 * step * decrement:
+            trial, t_new = self.evaluate(x + step * dx), t + step * dt
+            if trial is not None and np.min(trial[0] - t_new) >= floor and \
+                    self.phi(trial[0], t_new, sig - step * gdx, tau) <= p0 - 0.01 * step * decrement:
                 break
             step *= 0.5
         return step, trial
