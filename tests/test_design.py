@@ -299,7 +299,36 @@ def test_exchange_ends_at_a_local_optimum(count, criterion, seed, coarse):
             if i in layout:
                 continue
             trial = layout[:pos] + [i] + layout[pos + 1:]
-            assert problem.utility_of(trial) <= util + 1e-9 * max(1.0, abs(util))
+            # a swap is taken when it gains more than the criterion's swap_gain share (E: 1e-6)
+            assert problem.utility_of(trial) <= util + max(1e-9 * max(1.0, abs(util)),
+                                                           problem.criterion.swap_gain * abs(util))
+
+
+@pytest.mark.parametrize("criterion", ["E", "A"])
+def test_exchange_takes_only_swaps_that_gain_the_criterions_share(monkeypatch, criterion):
+    # Reference: every single swap of the start, evaluated directly (brute force).
+    case = small_case((14.0, 18.0), 10, rot=(1e9, 0.0, 1e9))
+    problem = build_problem(case, 3, criterion, grid=CandidateGrid(spacing=case.bridge.length / 16))
+    start = [0, 1, 2]
+    u0 = problem.utility_of(start)
+    gains = [(problem.utility_of(start[:pos] + [i] + start[pos + 1:]) - u0) / abs(u0)
+             for pos in range(3) for i in range(problem.n_candidates) if i not in start]
+    best_gain = max(gains)
+    assert best_gain > 1e-3  # the start is far from a local optimum
+    # a share above every swap's gain: the start is a local optimum at that share
+    monkeypatch.setattr(type(problem.criterion), "swap_gain", 1.01 * best_gain)
+    assert exchange(problem, start)[0] == start
+    # a share just below the best swap's gain: that swap (at least) is taken, and the result is a local optimum
+    # at that share
+    share = 0.99 * best_gain
+    monkeypatch.setattr(type(problem.criterion), "swap_gain", share)
+    layout, util = exchange(problem, start)
+    assert util >= u0 + share * abs(u0)
+    for pos in range(3):
+        for i in range(problem.n_candidates):
+            if i not in layout:
+                trial = layout[:pos] + [i] + layout[pos + 1:]
+                assert problem.utility_of(trial) <= util + share * abs(util) + 1e-9 * abs(util)
 
 
 @settings(max_examples=10)

@@ -146,7 +146,7 @@ def test_greedy_and_exchange_with_split_bounds_at_every_step_equal_brute_force(m
         rest = swapped[:pos] + swapped[pos + 1:]
         q = dense.q0 + dense.blocks[rest].sum(axis=0)
         best_swap = max(exact(q + dense.blocks[i]) for i in range(problem.n_candidates) if i not in swapped)
-        assert best_swap <= value + 1e-9 * max(1.0, abs(value))
+        assert best_swap <= value + max(1e-9 * max(1.0, abs(value)), problem.criterion.swap_gain * abs(value))
 
 
 @settings(max_examples=20, deadline=None)

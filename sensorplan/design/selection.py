@@ -150,7 +150,9 @@ def exchange(problem, layout, *, max_sweeps=50, coarse_above=None, polish=True):
     nearest candidates on either side (exact values, a few per sensor) until
     no such move improves, then runs the full search, which certifies
     that no swap with any candidate improves.  The result is a local
-    optimum of the full problem either way, unless ``polish`` is false: then
+    optimum of the full problem either way (a swap improves when it gains
+    more than the criterion's ``swap_gain`` share of the utility, beyond
+    round-off), unless ``polish`` is false: then
     the coarse local optimum is returned (to polish only the best of several
     starts).
     """
@@ -248,11 +250,16 @@ def _best_replacement(problem, rest, q_rest, taken, best, order, ub=None, eig=No
     bound = np.full(problem.n_candidates, np.inf) if ub is None else ub + slack(ub)
     cand, _ = best_candidate(problem, q_rest, [int(i) for i in order], bound,
                              lambda group, above: crit.utilities_above(q_rest, problem.block_list(group), above),
-                             floor=best + 1e-12 * max(1.0, abs(best)),
+                             floor=_to_beat(problem, best),
                              usable=lambda i: i not in taken and problem.partial_ok(rest + [i]), batch=batch,
                              refine=_after_first(problem, split=split) if ub is not None else (),
                              local=_local_levels(problem, split=split), eig=eig)
     return cand
+
+
+def _to_beat(problem, best):
+    """The value a swap must exceed: ``best`` beyond round-off, and by the criterion's ``swap_gain`` share of it."""
+    return best + max(1e-12 * max(1.0, abs(best)), problem.criterion.swap_gain * abs(best))
 
 
 def _exchange(problem, layout, *, max_sweeps=50, split=True):

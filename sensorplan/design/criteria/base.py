@@ -98,6 +98,7 @@ class Criterion(ABC):
     submodular: ClassVar[bool] = False  # gains only shrink as sensors are added: lazy greedy is exact
     relaxation: ClassVar[str] = "interior-point"  # fast solver: "interior-point", "eigen-subspace", ...
     relaxation_tol: ClassVar[float] = 1e-7  # relative duality gap at which the fast relaxation stops by default
+    swap_gain: ClassVar[float] = 0.0  # share of the utility a swap must gain for exchange to take it (0: round-off)
     smallest_eigenvectors_only: ClassVar[bool] = False  # subset_bounds needs Q's k smallest eigenpairs only
     information: ClassVar[str] = "fisher"  # what a sensor adds: Fisher blocks, or "detection" Gram stacks
     params_label: ClassVar[str] = "parameters"  # what n_effective counts, for summaries

@@ -34,7 +34,6 @@ ENTER_MAX = 2  # and at most this many times R (and 20) of them per round: the r
 DROP_WEIGHT = 1e-4  # candidates leave when their weight is below this and their gradient below the threshold
 DROP_SHARE = 1.0  # by more than this share of the gap over R (ten times the entering margin: no cycling) ...
 DROP_FLOOR = 1e-4  # ... and than this share of the threshold (near-ties that leave return the next round)
-WARM_GAP = 1e-3  # the small SDPs start from the last round's solution while the relative gap exceeds this
 WARM_SHIFT_FLOOR = 1e-3  # a warm-started SDP's t starts at least this share of the bound below lambda_min
 
 
@@ -60,7 +59,8 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
     worth the small SDP's m^2 k^2).  While the gap is large the working set
     also holds candidates spread evenly over the grid (without them the
     small SDP's Z favours directions only the missing regions inform).  The
-    small SDPs are solved to a tenth of the last gap.
+    small SDPs are solved to a tenth of the last gap, each from the last
+    round's weights (about a third fewer interior-point steps).
     """
     t0 = time.perf_counter()
     c = problem.n_candidates
@@ -92,10 +92,9 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
         # the margins scale with the small SDP's distance to the best weights (not the certified gap, which
         # stays large while outside candidates are violated, and would keep them out)
         model_gap = max(small_value - best[0], 0.1 * tol * max(1.0, abs(bound)))
-        # while the gap is large the next SDP starts at these weights, t that far below their lambda_min
-        # (floored: a start on the boundary would stall); the last rounds start cold, so that the weights
-        # rounding starts from are those of the cold path (the centre of the small SDP's optimal face)
-        warm = (w, max(small_value - best[0], WARM_SHIFT_FLOOR * max(1.0, abs(bound)))) if gap > WARM_GAP else None
+        # the next SDP starts at these weights, t that far below their lambda_min (floored: a start on the
+        # boundary would stall)
+        warm = (w, max(small_value - best[0], WARM_SHIFT_FLOOR * max(1.0, abs(bound))))
         _grow_working_set(problem, working, idx, (wr, z, nu), model_gap)
         if gap > SPREAD_GAP:
             working |= spread
