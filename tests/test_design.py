@@ -304,6 +304,22 @@ def test_exchange_ends_at_a_local_optimum(count, criterion, seed, coarse):
                                                            problem.criterion.swap_gain * abs(util))
 
 
+@pytest.mark.parametrize("criterion", ["D", "E"])
+def test_two_level_local_moves_of_the_polish_end_at_a_local_optimum(criterion):
+    # 97 candidates with a coarse grid from 10 on: every 19th candidate, local moves first to every 4th of the 19
+    # neighbours on each side, then among the 4 nearest.  Reference: every single swap, evaluated directly.
+    case = small_case((14.0, 18.0), 10, rot=(1e9, 0.0, 1e9))
+    problem = build_problem(case, 3, criterion, grid=CandidateGrid(spacing=case.bridge.length / 96))
+    assert problem.n_candidates // (10 // 2) // 4 > 1  # the two levels are used
+    layout, util = exchange(problem, [0, 1, 2], coarse_above=10)
+    assert util == pytest.approx(problem.utility_of(layout), rel=1e-12)
+    share = max(problem.criterion.swap_gain * abs(util), 1e-9 * max(1.0, abs(util)))
+    for pos in range(3):
+        for i in range(problem.n_candidates):
+            if i not in layout:
+                assert problem.utility_of(layout[:pos] + [i] + layout[pos + 1:]) <= util + share
+
+
 @pytest.mark.parametrize("criterion", ["E", "A"])
 def test_exchange_takes_only_swaps_that_gain_the_criterions_share(monkeypatch, criterion):
     # Reference: every single swap of the start, evaluated directly (brute force).

@@ -137,6 +137,7 @@ def _subproblem(problem, index):
 
 
 COARSE_ABOVE = 300  # candidates above which exchange searches a coarse grid first
+LOCAL_STRIDE = 4  # the polish's local moves try every (k // LOCAL_STRIDE)-th of the k neighbours first, then the nearest
 
 
 def exchange(problem, layout, *, max_sweeps=50, coarse_above=None, polish=True):
@@ -146,9 +147,10 @@ def exchange(problem, layout, *, max_sweeps=50, coarse_above=None, polish=True):
     every k-th candidate (plus the start layout), k = C // (coarse_above / 2),
     then on all candidates from the coarse result: neighbouring candidates
     carry nearly the same information, so most swaps are settled on the
-    coarse grid.  The polish first moves each sensor to the best of its k
-    nearest candidates on either side (exact values, a few per sensor) until
-    no such move improves, then runs the full search, which certifies
+    coarse grid.  The polish first moves each sensor to the best of every
+    s-th of its k nearest candidates on either side (s = k // LOCAL_STRIDE),
+    then of its s nearest (exact values, a few per sensor), until no such
+    move improves, then runs the full search, which certifies
     that no swap with any candidate improves.  The result is a local
     optimum of the full problem either way (a swap improves when it gains
     more than the criterion's ``swap_gain`` share of the utility, beyond
@@ -190,17 +192,21 @@ def _polish(problem, layout, step, converged, max_sweeps):
 
 
 def _local_moves(problem, layout, radius, *, max_sweeps=50):
-    """Move sensors to better candidates among their ``radius`` neighbours on each side (by position)."""
+    """Move sensors to better candidates among their ``radius`` neighbours on each side (by position): first
+    to every s-th of them (s = radius // LOCAL_STRIDE), then among their s neighbours on each side."""
     order = np.argsort(problem.positions, kind="stable")
     rank = np.empty_like(order)
     rank[order] = np.arange(order.size)
+    stride = max(1, radius // LOCAL_STRIDE)
+    for reach, step in ((radius, stride), (stride, 1)) if stride > 1 else ((radius, 1),):
+        def move(layout, pos, rest, best, reach=reach, step=step):
+            r0 = rank[layout[pos]]
+            below = min(reach, r0) // step * step  # the grid of every step-th neighbour holds the sensor
+            return _best_replacement(problem, rest, problem.layout_precision(rest), set(layout), best,
+                                     order[r0 - below: r0 + reach + 1: step])
 
-    def move(layout, pos, rest, best):
-        r0 = rank[layout[pos]]
-        return _best_replacement(problem, rest, problem.layout_precision(rest), set(layout), best,
-                                 order[max(0, r0 - radius): r0 + radius + 1])
-
-    return _until_quiet(problem, layout, move, max_sweeps)[0]
+        layout = _until_quiet(problem, layout, move, max_sweeps)[0]
+    return layout
 
 
 def _until_quiet(problem, layout, replace, max_sweeps):
