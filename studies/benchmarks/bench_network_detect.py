@@ -34,6 +34,13 @@ benchmarks, load average 10-15 throughout, i.e. 5-7 runnable processes per
 core: CPU seconds are inflated by cache and memory-bandwidth contention;
 wall times are meaningless):
 
+* 2026-11-28, session 22 (load 0.9, alone; main 3fa2533 and this tree
+  back to back): recommend() 53.8 -> 50.8 s CPU (build 15.0 -> 13.8 s),
+  the same relaxation (gap 3.6e-8, 287 active centres, working set 224,
+  bound 485.36); d^2 266.09 -> 265.81 after the polish's local moves in two
+  levels (every 5th of the 20 neighbours, then the 5 nearest).  The unseen
+  four-span through the command line (one crossing, 2,991 candidates):
+  52.2 -> 53.8 s CPU, d^2 0.9066 -> 0.9151.
 * 2026-11-28, session 20 (load 0.7-1.8, another single-threaded job
   alongside in every run).  Seen on an unseen four-span bridge (35 + 45 +
   45 + 35 m, vertical springs at the piers, load positions every 0.25 m,
