@@ -137,7 +137,7 @@ def _subproblem(problem, index):
 
 
 COARSE_ABOVE = 300  # candidates above which exchange searches a coarse grid first
-LOCAL_STRIDE = 4  # the polish's local moves try every (k // LOCAL_STRIDE)-th of the k neighbours first, then the nearest
+LOCAL_STRIDE = 4  # the polish's local moves try every (k // LOCAL_STRIDE)-th of k neighbours, then the nearest
 
 
 def exchange(problem, layout, *, max_sweeps=50, coarse_above=None, polish=True):

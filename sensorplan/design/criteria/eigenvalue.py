@@ -26,7 +26,7 @@ class ECriterion(Criterion):
     description = "smallest eigenvalue of the posterior precision"
     relaxation = "eigen-subspace"
     # E's relaxed optimum is flat (lambda_min of multiplicity 3-4, hundreds of fractional weights): the
-    # eigen-subspace method's last digits cost the most rounds, so it stops at the gap the design needs
+    # eigen-subspace method's last digit costs the most rounds, and rounding loses far more than 1e-6
     relaxation_tol = 1e-6
     # swaps along a dense grid raise lambda_min by tiny steps (a sensor moved 6 cm, then the next): the
     # exchange takes a swap only when it gains more than this share of lambda_min
