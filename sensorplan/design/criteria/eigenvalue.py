@@ -4,7 +4,7 @@ Not smooth: its relaxation is the eigen-subspace method
 (:mod:`sensorplan.design.relaxation.eigen_subspace`), certified by trace-one
 dual matrices (:meth:`ECriterion.bound_from_dual`).
 
-Owns: ECriterion, smallest_eigenvalue.  May import: errors, _cache, design.criteria.
+Owns: ECriterion, smallest_eigenvalue, lowest_eigenvalue.  May import: errors, _cache, design.criteria.
 """
 
 import numpy as np
@@ -15,7 +15,7 @@ from .base import Criterion
 from .linalg import eigen_split, symmetrise
 from .registry import register_criterion
 
-__all__ = ["ECriterion", "smallest_eigenvalue"]
+__all__ = ["ECriterion", "smallest_eigenvalue", "lowest_eigenvalue"]
 
 
 @register_criterion
@@ -33,7 +33,7 @@ class ECriterion(Criterion):
     swap_gain = 1e-6
 
     def value(self, q):
-        return float(np.linalg.eigvalsh(symmetrise(q))[0])
+        return lowest_eigenvalue(symmetrise(q))
 
     def utilities_above(self, q, blocks, threshold):
         """utility(Q + I_i) for each block, exact (``value``) where it exceeds ``threshold``; elsewhere
@@ -84,11 +84,12 @@ class ECriterion(Criterion):
         if theta < threshold - CERTIFY_TOL * scale:
             return -np.inf
         if theta <= threshold + NEAR_THRESHOLD * scale:
-            return float(np.linalg.eigvalsh(a)[0])
+            return lowest_eigenvalue(a)
         return theta
 
     def gradient_matrix(self, q):
-        _, vecs = np.linalg.eigh(symmetrise(q))
+        # the eigenvector of the smallest eigenvalue alone (LAPACK's dsyevr: a quarter of the full solve)
+        _, vecs = scipy.linalg.eigh(symmetrise(q), subset_by_index=[0, 0], driver="evr")
         u = vecs[:, 0]
         return np.outer(u, u)
 
@@ -157,7 +158,8 @@ def smallest_eigenvalue(a, factor, shift, work=None):
     never below lambda_min; a factorisation of A - (1 - ``CERTIFY_TOL``)
     theta I certifies that none lies further below (it fails if Lanczos
     missed the smallest eigenvalue), else the eigenvalues are computed.
-    Agrees with ``eigvalsh`` to its round-off (~1e-14 relative).  ``work`` (P, P) is overwritten if given.
+    Agrees with :func:`lowest_eigenvalue` to its round-off (~1e-14 relative).  ``work`` (P, P) is overwritten if
+    given.
     """
     p = a.shape[0]
     solve = scipy.linalg.lapack.dtrtrs
@@ -185,7 +187,13 @@ def smallest_eigenvalue(a, factor, shift, work=None):
         _, info = scipy.linalg.lapack.dpotrf(work.T, lower=1, clean=0, overwrite_a=1)
         if info == 0:
             return theta
-    return float(np.linalg.eigvalsh(a)[0])
+    return lowest_eigenvalue(a)
+
+
+def lowest_eigenvalue(a):
+    """lambda_min of a symmetric ``a`` alone (LAPACK's dsyevr: the same tridiagonal reduction as the full
+    spectrum, then one eigenvalue instead of all; ECriterion's value wherever the criterion decides)."""
+    return float(scipy.linalg.eigh(a, subset_by_index=[0, 0], eigvals_only=True, driver="evr")[0])
 
 
 _STARTS = Cache(maxsize=8)  # the Lanczos start vectors by size
