@@ -62,6 +62,10 @@ side and then the 5 nearest), one BLAS thread, quiet machine (load average
     E N=400 C=3000 R=20              0.6     2.6     3.9    12.9    15.1     2.9     37.9   3.2e-07  0.897   1.30   2.22      59
     mixed D N=400 C=3000 R=20        0.7     3.6     5.2     5.6    28.3     3.4     46.8   2.2e-08  0.989   1.14   2.34      62
 
+After E's smallest eigenpair alone by dsyevr (commit ca00212; 21:40, load
+0.4-1.0): D 33.4 s, A 42.1 s, E 34.8 s (relaxation 12.2, best 14.3, curve
+1.9 s), the same layouts and efficiencies.
+
 E 45.3 -> 37.9 s; its layout is the one it had with a gap of 1e-6 before
 session 19 (efficiency 0.897; 0.909 from the cold 1e-7 relaxation, which
 rounded to a better start here and to worse ones on other bridges, see
@@ -154,8 +158,8 @@ session 22; the 13:15 run of session 19 in brackets):
   (met), peak 1.04 GiB (met).
 * A: 42.3 s (44.0; met; 83.8 s before), gap 1.9e-10 (met), peak 1.06 GiB
   (met).
-* E: 37.9 s (45.3; met; 58.8-60.1 s before), gap 3.2e-7 (met), peak
-  1.30 GiB (met).
+* E: 37.9 s, 34.8 s after commit ca00212 (45.3; met; 58.8-60.1 s before),
+  gap 3.2e-7 (met), peak 1.30 GiB (met).
 * Mixed kinds (rotation + deflection, costs 1 and 3, budget 40): 46.8 s
   (38.3; met: < 120 s), gap 2.2e-8, peak 1.14 GiB.
 
