@@ -22,7 +22,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter, lfiltic
 
 __all__ = ["Gains", "gains", "restricted_loglik"]
 
@@ -105,6 +104,8 @@ def _transient(g, columns, head):
 
 def _group_terms(g, segments):
     """The restricted -2 log-likelihood terms (without 2 pi) of segments sharing one grid step."""
+    from scipy.signal import lfilter, lfiltic  # here: scipy.signal costs 0.4 s to import (scipy.stats)
+
     longest = max(y.size for y in segments)
     if not g.converged and g.s.size < longest:
         raise ValueError("gains computed for fewer steps than the segment has")
