@@ -96,6 +96,33 @@ def test_inexact_small_sdps_still_certify(monkeypatch):
     assert abs(rel.utility - reference.utility) <= 1e-5 * scale and rel.relative_gap <= 1e-6
 
 
+def test_a_stalled_warm_start_makes_the_next_ones_start_further_inside(monkeypatch):
+    # The second small SDP reports more steps than WARM_STALL_STEPS: the warm starts after it begin at least
+    # ten times the floor's share of the bound below lambda_min (the ones before at least the floor), and the
+    # certificate still holds against brute force.
+    problem = build_problem(small_case(16), 2, "E", grid=CandidateGrid(spacing=2.0))
+    monkeypatch.setattr(eigen_subspace, "SPREAD_GAP", 0.0)  # no early exit: enough rounds to see the rule
+    original, shifts = lmi.lmi_interior_point, []
+
+    def counting(*args, **kwargs):
+        value, w, x, nu, status, it = original(*args, **kwargs)
+        shifts.append(None if kwargs.get("start") is None else kwargs["start"][1])
+        stalled = len(shifts) == 2
+        return value, w, x, nu, status, eigen_subspace.WARM_STALL_STEPS + 1 if stalled else it
+
+    monkeypatch.setattr(lmi, "lmi_interior_point", counting)
+    rel = eigen_subspace.solve_eigen_subspace(problem, tol=1e-12, max_rounds=6)
+    assert len(shifts) >= 4 and shifts[0] is None
+    scale = max(1.0, abs(rel.bound))
+    assert shifts[1] >= eigen_subspace.WARM_SHIFT_FLOOR * scale * (1 - 1e-12)
+    # the bound only falls, so the floor's share of it after the stall is at least 10x the floor of the final
+    # bound
+    later = [s for s in shifts[2:] if s is not None]  # (a warm start that fails is retried cold)
+    assert later and all(s >= 10 * eigen_subspace.WARM_SHIFT_FLOOR * scale * (1 - 1e-12) for s in later)
+    best = brute_force_e(problem)
+    assert rel.bound >= best - 1e-9 * max(1.0, abs(best)) and rel.utility <= rel.bound
+
+
 def test_a_large_failed_small_sdp_raises_one_line_error(monkeypatch):
     # No usable iterate and an SDP too large for the generic fallback: a one-line SolverError, no Clarabel.
     problem = build_problem(small_case(16), 2, "E", grid=CandidateGrid(spacing=2.0))

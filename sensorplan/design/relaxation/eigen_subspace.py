@@ -35,7 +35,9 @@ ENTER_MAX = 2  # and at most this many times R (and 20) of them per round: the r
 DROP_WEIGHT = 1e-4  # candidates leave when their weight is below this and their gradient below the threshold
 DROP_SHARE = 1.0  # by more than this share of the gap over R (ten times the entering margin: no cycling) ...
 DROP_FLOOR = 1e-4  # ... and than this share of the threshold (near-ties that leave return the next round)
-WARM_SHIFT_FLOOR = 1e-3  # a warm-started SDP's t starts at least this share of the bound below lambda_min
+WARM_SHIFT_FLOOR = 1e-3  # a warm-started SDP's t starts at least this share of the bound below lambda_min; ...
+WARM_STALL_STEPS = 25  # ... ten times more (up to WARM_SHIFT_MAX) after a warm-started SDP took more steps than
+WARM_SHIFT_MAX = 1e-1  # this: its start's central-path parameter was too small for its primal infeasibility
 
 
 @register_fast_method("eigen-subspace")
@@ -70,12 +72,15 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
     best = (-np.inf, None)
     bound, gap, sdp_time, counts = np.inf, np.inf, 0.0, {"clarabel": 0, "inexact": 0}
     warm = None  # (weights over all candidates, shift): the last round's solution, where the next SDP starts
+    shift_floor = WARM_SHIFT_FLOOR
     for rounds in range(1, max_rounds + 1):
         idx = np.array(sorted(working))
         inner = max(INNER_TOL_SHARE * tol, min(INNER_TOL_MAX, 0.1 * gap))
-        small_value, wr, x, nu, dt, used = _small_e_sdp(problem, idx, basis, agg, cuts, tol=inner,
-                                                        warm=None if warm is None else (warm[0][idx], warm[1]))
+        small_value, wr, x, nu, dt, used, steps = _small_e_sdp(problem, idx, basis, agg, cuts, tol=inner,
+                                                               warm=None if warm is None else (warm[0][idx], warm[1]))
         sdp_time += dt
+        if warm is not None and steps > WARM_STALL_STEPS:
+            shift_floor = min(10.0 * shift_floor, WARM_SHIFT_MAX)
         if used != "interior-point":
             counts[used] += 1
         w = np.zeros(c)
@@ -97,7 +102,7 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
         model_gap = max(small_value - best[0], 0.1 * tol * max(1.0, abs(bound)))
         # the next SDP starts at these weights, t that far below their lambda_min (floored: a start on the
         # boundary would stall)
-        warm = (w, max(small_value - best[0], WARM_SHIFT_FLOOR * max(1.0, abs(bound))))
+        warm = (w, max(small_value - best[0], shift_floor * max(1.0, abs(bound))))
         _grow_working_set(problem, working, idx, (wr, z, nu), model_gap)
         if gap > SPREAD_GAP:
             working |= spread
@@ -234,7 +239,7 @@ def _small_e_sdp(problem, idx, basis, agg, cuts, *, tol, warm=None):
     again from its own start if that does not reach the tolerance; an iterate it could not
     take to the tolerance is still used (the bound is certified from any
     multiplier); if it has none, small SDPs go to cvxpy + Clarabel, large
-    ones raise SolverError.  Returns (value, w, X, nu, time, solver).
+    ones raise SolverError.  Returns (value, w, X, nu, time, solver, interior-point steps).
     """
     start = time.perf_counter()
     m, k = idx.size, basis.shape[1]
@@ -248,22 +253,24 @@ def _small_e_sdp(problem, idx, basis, agg, cuts, *, tol, warm=None):
         b0[k, k], bmat[:, k, k] = agg.q0_dot, agg.dots[idx]
     bmat = 0.5 * (bmat + bmat.transpose(0, 2, 1))
     rows, rhs = _side_rows(problem, idx)
+    steps = 0
     for begin in ((warm, None) if warm is not None else (None,)):
-        value, w, x, nu, status, _ = lmi.lmi_interior_point(0.5 * (b0 + b0.T), bmat, rows, rhs, problem.count,
+        value, w, x, nu, status, it = lmi.lmi_interior_point(0.5 * (b0 + b0.T), bmat, rows, rhs, problem.count,
                                                              cuts=cuts.dots[:, idx], cut_rhs=cuts.q0_dots, tol=tol,
                                                              max_iter=SDP_MAX_ITER, start=begin)
+        steps += it
         if status == "optimal":
             break
     if status == "optimal":
-        return value, np.clip(w, 0.0, 1.0), x, abs(nu), time.perf_counter() - start, "interior-point"
+        return value, np.clip(w, 0.0, 1.0), x, abs(nu), time.perf_counter() - start, "interior-point", steps
     if w is not None and np.all(np.isfinite(w)) and np.all(np.isfinite(x)):
-        return value, np.clip(w, 0.0, 1.0), x, abs(nu), time.perf_counter() - start, "inexact"
+        return value, np.clip(w, 0.0, 1.0), x, abs(nu), time.perf_counter() - start, "inexact", steps
     if m * (k + 1) ** 2 > CLARABEL_MAX_ENTRIES:
         raise SolverError(f"The E relaxation's small SDP ({m} candidates, basis {k}) failed; try --solver cvxpy "
                           f"on a coarser candidate grid.")
     value, w, x, nu = _small_e_sdp_clarabel(b0, bmat, rows, rhs, problem.count, (cuts.dots[:, idx], cuts.q0_dots),
                                             tol=tol)
-    return value, w, x, nu, time.perf_counter() - start, "clarabel"
+    return value, w, x, nu, time.perf_counter() - start, "clarabel", steps
 
 
 def _side_rows(problem, idx):
