@@ -63,7 +63,8 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
     also holds candidates spread evenly over the grid (without them the
     small SDP's Z favours directions only the missing regions inform).  The
     small SDPs are solved to a tenth of the last gap, each from the last
-    round's weights (about a third fewer interior-point steps).
+    round's weights (about a third fewer interior-point steps), further inside
+    after one such start stalled (``WARM_STALL_STEPS``).
     """
     t0 = time.perf_counter()
     c = problem.n_candidates
