@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sensorplan.design.relaxation import eigen_subspace, solve_relaxation
+from sensorplan.design.relaxation import eigen_subspace, lmi, solve_relaxation
 from sensorplan.design.relaxation.lmi import lmi_interior_point
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -30,11 +30,22 @@ def random_lmi(seed, *, k=6, m=25, n_cuts=4):
     return b0, bmat, cuts, cut_rhs
 
 
+@pytest.mark.parametrize("single_gap", [lmi.SINGLE_GAP, 0.0, np.inf])
 @pytest.mark.parametrize("seed", range(4))
-def test_small_lmi_with_cuts_matches_clarabel(seed):
+def test_small_lmi_with_cuts_matches_clarabel(seed, single_gap, monkeypatch):
     # Reference: the same SDP (LMI block, cut rows, box, sum) by cvxpy + Clarabel, an independent conic
     # solver.  Same optimum; the block-diagonal multiplier is PSD with trace one and the cuts' multipliers
-    # match Clarabel's duals; the weights are feasible and meet every cut at the value.
+    # match Clarabel's duals; the weights are feasible and meet every cut at the value.  Whatever the gap
+    # below which the Schur complement is formed in double (0: single precision wherever it stays positive
+    # definite, inf: never), and single precision is used when allowed.
+    monkeypatch.setattr(lmi, "SINGLE_GAP", single_gap)
+    dtypes, schur = [], lmi._Newton._schur
+
+    def spy(self, lzi, xz, dtype):
+        dtypes.append(dtype)
+        return schur(self, lzi, xz, dtype)
+
+    monkeypatch.setattr(lmi._Newton, "_schur", spy)
     b0, bmat, cuts, cut_rhs = random_lmi(seed)
     m, k, _ = bmat.shape
     count = 5
@@ -56,6 +67,7 @@ def test_small_lmi_with_cuts_matches_clarabel(seed):
     s_w = b0 + (w @ bmat.reshape(m, -1)).reshape(k, k)
     assert np.linalg.eigvalsh(s_w)[0] >= value - 1e-7 * scale
     assert np.all(cut_rhs + cuts @ w >= value - 1e-7 * scale)
+    assert (np.float32 in dtypes) == (single_gap < np.inf) and dtypes[-1] == np.float64
 
 
 @settings(max_examples=8, deadline=None)
