@@ -66,6 +66,14 @@ After E's smallest eigenpair alone by dsyevr (commit ca00212; 21:40, load
 0.4-1.0): D 33.4 s, A 42.1 s, E 34.8 s (relaxation 12.2, best 14.3, curve
 1.9 s), the same layouts and efficiencies.
 
+After E's small SDPs formed their Schur complement in single precision far
+from their optimum (commit 744c4dc; 2026-11-28 23:45, back to back with
+29264dc, on a machine running 10-20 % slower than above): E's relaxation
+12.3 -> 11.0 s, E in all 35.8 -> 36.6 s (the rounding-and-exchange stage
+varies with its start), gap 6.4e-7, efficiency 0.897 -> 0.9065.  No small
+SDP here takes more than 25 steps, so the stall rule of 3a3a06a changes
+nothing on this bridge.
+
 E 45.3 -> 37.9 s; its layout is the one it had with a gap of 1e-6 before
 session 19 (efficiency 0.897; 0.909 from the cold 1e-7 relaxation, which
 rounded to a better start here and to worse ones on other bridges, see
