@@ -180,13 +180,12 @@ class _Newton:
         self.zi = zi = 0.5 * (zi + zi.T)
         lzi = scipy.linalg.solve_triangular(self.zc, lmi.eye, lower=True, check_finite=False)
         xz = p.x @ zi
+        self.factor = None
         if res.gap > SINGLE_GAP * res.scale:
             try:
                 self.factor = scipy.linalg.cho_factor(self._schur(lzi, xz, np.float32), check_finite=False)
-            except np.linalg.LinAlgError:
-                self.factor = None
-        else:
-            self.factor = None
+            except np.linalg.LinAlgError:  # too ill-conditioned for single precision
+                pass
         if self.factor is None:
             self.factor = scipy.linalg.cho_factor(self._schur(lzi, xz, np.float64), check_finite=False)
         self.u1 = scipy.linalg.cho_solve(self.factor, lmi.ones, check_finite=False)
