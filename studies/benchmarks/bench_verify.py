@@ -89,6 +89,15 @@ Measured on a quiet machine (2026-11-28 12:35-13:10 UTC, load average 0.6-1.3)
 * Part 3: the design study 1.73 (1.56 before the even chunks); the table
   identical to the in-process run.
 
+Through the command line (2026-11-28 23:10 UTC, main 6789035, user + sys CPU of
+``sensorplan verify --example E --layout ... --scenarios S --seed 1``, best of 2, one BLAS
+thread, against the reference 0e3817a): openlab-like S = 8 3.28 -> 2.31 s (1.42x), S = 60
+12.45 -> 8.05 s (1.55x); three-span (4, 20, 36 m) 4.63 -> 3.05 s (1.52x), 14.07 -> 10.67 s
+(1.32x); simply-supported (4, 16 m) 2.69 -> 2.26 s (1.19x), 8.16 -> 5.14 s (1.59x).  At
+the default S = 8 the imports and the figure are about half of the run; 6789035 stopped
+importing scipy.signal (and with it scipy.stats, 0.4-0.6 s) with the figures.  TARGET OF
+3x NOT MET through the command line either.
+
 Measured on a quiet machine (2026-11-28, commits d95c1d0 and c8451ac, load average 0.4-1.2)
 -----------------------------------------------------------------------------------------
 * Part 1 (03:07, commit c8451ac, load 0.7-0.9, best of 3, interleaved):
