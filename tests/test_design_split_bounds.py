@@ -122,14 +122,25 @@ EXACT = {"D": lambda m: np.linalg.slogdet(m)[1], "A": lambda m: -np.trace(np.lin
 
 
 @pytest.mark.parametrize("name", ["D", "A"])
-@pytest.mark.parametrize("coarse_above", [None, 40])
+@pytest.mark.parametrize("coarse_above, halves_above", [(None, None), (40, None), (None, 1), (40, 1)])
 def test_greedy_and_exchange_with_split_bounds_at_every_step_equal_brute_force(monkeypatch, structured_problem,
-                                                                                coarse_above, name):
+                                                                                coarse_above, halves_above, name):
+    # halves_above 1: every level of split bounds takes each half of two or more survivors (by position) along its
+    # own eigenvectors (the default does so above 200 survivors, more than this problem has)
     from sensorplan.design import screening, selection
 
     monkeypatch.setattr(screening, "LOCAL_COST", 0)  # a level of split bounds whenever anything survives
     monkeypatch.setattr(screening, "LOCAL_K", (4, 8, 16))
     monkeypatch.setattr(selection, "LOCAL_K", (4, 8, 16))
+    calls, along = {"expected": 0, "along": 0, "halved": 0}, screening._split_along
+    if halves_above is not None:
+        monkeypatch.setattr(screening, "HALVES_ABOVE", halves_above)
+
+    def counted(*args, **kwargs):
+        calls["along"] += 1
+        return along(*args, **kwargs)
+
+    monkeypatch.setattr(screening, "_split_along", counted)
     problem = replace(structured_problem, criterion=make_criterion(name, structured_problem.n_params))
     dense = replace(problem, blocks=problem.blocks[np.arange(problem.n_candidates)])
     exact = EXACT[name]
@@ -138,8 +149,18 @@ def test_greedy_and_exchange_with_split_bounds_at_every_step_equal_brute_force(m
         q = dense.q0 + dense.blocks[chosen].sum(axis=0)
         values = [(exact(q + dense.blocks[i]), -i) for i in range(problem.n_candidates) if i not in chosen]
         chosen.append(-max(values)[1])
+    split = screening._split
+
+    def counted_split(problem, q, index, k):
+        calls["expected"] += 2 if len(index) > screening.HALVES_ABOVE else 1
+        calls["halved"] += len(index) > screening.HALVES_ABOVE
+        return split(problem, q, index, k)
+
+    monkeypatch.setattr(screening, "_split", counted_split)
     layout, _ = selection.greedy(problem)
     assert layout == chosen
+    assert calls["expected"] > 0 and calls["along"] == calls["expected"]
+    assert (calls["halved"] > 0) == (halves_above is not None)
     start = np.random.default_rng(5).choice(problem.n_candidates, 5, replace=False).tolist()
     swapped, value = selection.exchange(problem, start, coarse_above=coarse_above)
     for pos in range(len(swapped)):  # a local optimum: no swap with any candidate improves (brute force)
