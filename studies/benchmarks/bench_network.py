@@ -72,7 +72,11 @@ from their optimum (commit 744c4dc; 2026-11-28 23:45, back to back with
 12.3 -> 11.0 s, E in all 35.8 -> 36.6 s (the rounding-and-exchange stage
 varies with its start), gap 6.4e-7, efficiency 0.897 -> 0.9065.  No small
 SDP here takes more than 25 steps, so the stall rule of 3a3a06a changes
-nothing on this bridge.
+nothing on this bridge.  After the split bounds took each half of more than
+200 survivors along its own eigenvectors (commit 1272bfc; 2026-11-29 00:05,
+same machine): A 49.6 -> 45.8 s (greedy 8.2 -> 6.6, best 26.9 -> 26.1),
+efficiency 0.928 unchanged; D 33.1 -> 35.0 s (29264dc back to back; greedy
+3.8 -> 4.0, best 18.9 -> 20.2), efficiency 0.989 unchanged.
 
 E 45.3 -> 37.9 s; its layout is the one it had with a gap of 1e-6 before
 session 19 (efficiency 0.897; 0.909 from the cold 1e-7 relaxation, which
