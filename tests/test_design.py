@@ -421,3 +421,30 @@ def test_design_result_json_values_and_curve():
     assert np.all(np.diff(values) > 0) and np.all(np.array(values) <= np.array(bounds) + 1e-9)
     # diminishing returns of log det (submodularity of the bound curve is not guaranteed, the gains are)
     assert np.all(np.diff(np.diff(bounds)) <= 1e-9)
+
+
+@pytest.mark.parametrize("criterion", ["D", "A", "E"])
+def test_the_polish_returns_to_the_local_moves_after_a_swap_of_the_full_search(criterion, monkeypatch):
+    # Local moves of one neighbour from the three leftmost candidates leave swaps to the full search; after each,
+    # the local moves run again, and the last full search finds none.  Reference: every single swap, evaluated
+    # directly (brute force).
+    from sensorplan.design import selection
+
+    case = small_case((14.0, 18.0), 10, rot=(1e9, 0.0, 1e9))
+    problem = build_problem(case, 3, criterion, grid=CandidateGrid(spacing=case.bridge.length / 48))
+    converged, full = [], selection._exchange
+
+    def spy(*args, **kwargs):
+        out = full(*args, **kwargs)
+        converged.append(out[2])
+        return out
+
+    monkeypatch.setattr(selection, "_exchange", spy)
+    layout, util = selection._polish(problem, [0, 1, 2], 1, True, 50)
+    assert False in converged and converged[-1]  # a swap sent it back to the local moves; the last search certified
+    assert util == pytest.approx(problem.utility_of(layout), rel=1e-12)
+    share = max(problem.criterion.swap_gain * abs(util), 1e-9 * max(1.0, abs(util)))
+    for pos in range(3):
+        for i in range(problem.n_candidates):
+            if i not in layout:
+                assert problem.utility_of(layout[:pos] + [i] + layout[pos + 1:]) <= util + share

@@ -150,8 +150,10 @@ def exchange(problem, layout, *, max_sweeps=50, coarse_above=None, polish=True):
     coarse grid.  The polish first moves each sensor to the best of every
     s-th of its k nearest candidates on either side (s = k // LOCAL_STRIDE),
     then of its s nearest (exact values, a few per sensor), until no such
-    move improves, then runs the full search, which certifies
-    that no swap with any candidate improves.  The result is a local
+    move improves, then runs the full search.  After each swap the full
+    search finds (a sensor moved far, whose neighbours then need small
+    moves), the local moves run again; the full search that finds no swap
+    certifies that no swap with any candidate improves.  The result is a local
     optimum of the full problem either way (a swap improves when it gains
     more than the criterion's ``swap_gain`` share of the utility, beyond
     round-off), unless ``polish`` is false: then
@@ -188,7 +190,12 @@ def _polish(problem, layout, step, converged, max_sweeps):
     if not converged:
         layout, _, converged, step = _coarse(problem, layout, None, max_sweeps)
     layout = _local_moves(problem, layout, step, max_sweeps=max_sweeps)
-    return _exchange(problem, layout, max_sweeps=max_sweeps)[:2]
+    for _ in range(max_sweeps):  # a swap of the full search is followed by the local moves its neighbours need
+        layout, util, converged = _exchange(problem, layout, max_sweeps=max_sweeps, first_swap=True)
+        if converged:
+            return layout, util
+        layout = _local_moves(problem, layout, step, max_sweeps=max_sweeps)
+    return layout, problem.utility_of(layout)
 
 
 def _local_moves(problem, layout, radius, *, max_sweeps=50):
@@ -209,11 +216,12 @@ def _local_moves(problem, layout, radius, *, max_sweeps=50):
     return layout
 
 
-def _until_quiet(problem, layout, replace, max_sweeps):
+def _until_quiet(problem, layout, replace, max_sweeps, *, first_swap=False):
     """(layout, utility, converged): the sensors in turn get ``replace(layout, pos, rest, best)`` (a better
     candidate for the sensor at ``pos``, or None) until n sensors in a row get none (converged) or after
-    ``max_sweeps`` rounds.  Stopping there is where sweeps until one without a change would stop too: the rest
-    of that sweep could only repeat the searches of an unchanged layout."""
+    ``max_sweeps`` rounds, or (``first_swap``) after the first improvement.  Stopping there is where sweeps
+    until one without a change would stop too: the rest of that sweep could only repeat the searches of an
+    unchanged layout."""
     layout = list(layout)
     _hold(problem, layout)
     best = problem.utility_of(layout)
@@ -226,6 +234,8 @@ def _until_quiet(problem, layout, replace, max_sweeps):
             layout = rest[:pos] + [int(cand)] + rest[pos:]
             best = problem.utility_of(layout)
             quiet = 0
+            if first_swap:
+                break
         else:
             quiet += 1
         pos = (pos + 1) % n
@@ -268,7 +278,7 @@ def _to_beat(problem, best):
     return best + max(1e-12 * max(1.0, abs(best)), problem.criterion.swap_gain * abs(best))
 
 
-def _exchange(problem, layout, *, max_sweeps=50, split=True):
+def _exchange(problem, layout, *, max_sweeps=50, split=True, first_swap=False):
     """(layout, utility, converged): swap local search from ``layout``, best improving swap per removed sensor,
     until none (converged) or ``max_sweeps`` rounds.
 
@@ -287,7 +297,7 @@ def _exchange(problem, layout, *, max_sweeps=50, split=True):
         return _best_replacement(problem, rest, q_rest, set(layout), best, np.argsort(-ub, kind="stable"), ub, eig,
                                  split=split)
 
-    return _until_quiet(problem, layout, swap, max_sweeps)
+    return _until_quiet(problem, layout, swap, max_sweeps, first_swap=first_swap)
 
 
 def round_weights(problem, weights):
