@@ -150,10 +150,10 @@ def exchange(problem, layout, *, max_sweeps=50, coarse_above=None, polish=True):
     coarse grid.  The polish first moves each sensor to the best of every
     s-th of its k nearest candidates on either side (s = k // LOCAL_STRIDE),
     then of its s nearest (exact values, a few per sensor), until no such
-    move improves, then runs the full search.  After each swap the full
-    search finds (a sensor moved far, whose neighbours then need small
-    moves), the local moves run again; the full search that finds no swap
-    certifies that no swap with any candidate improves.  The result is a local
+    move improves, then runs the full search.  After a swap the full search
+    finds that moves a sensor beyond those k neighbours (its neighbours then
+    often need small moves), the local moves run again; the full search that
+    finds no swap certifies that no swap with any candidate improves.  The result is a local
     optimum of the full problem either way (a swap improves when it gains
     more than the criterion's ``swap_gain`` share of the utility, beyond
     round-off), unless ``polish`` is false: then
@@ -190,11 +190,18 @@ def _polish(problem, layout, step, converged, max_sweeps):
     if not converged:
         layout, _, converged, step = _coarse(problem, layout, None, max_sweeps)
     layout = _local_moves(problem, layout, step, max_sweeps=max_sweeps)
-    for _ in range(max_sweeps):  # a swap of the full search is followed by the local moves its neighbours need
-        layout, util, converged = _exchange(problem, layout, max_sweeps=max_sweeps, first_swap=True)
+    rank = np.empty(problem.n_candidates, dtype=int)
+    rank[np.argsort(problem.positions, kind="stable")] = np.arange(problem.n_candidates)
+    start = 0
+    for _ in range(max_sweeps):  # a far swap of the full search is followed by the local moves its neighbours need
+        swapped, util, converged = _exchange(problem, layout, max_sweeps=max_sweeps, first_swap=True, start=start)
         if converged:
-            return layout, util
-        layout = _local_moves(problem, layout, step, max_sweeps=max_sweeps)
+            return swapped, util
+        pos = next(n for n, (a, b) in enumerate(zip(layout, swapped)) if a != b)  # the sensor that moved
+        far = abs(rank[swapped[pos]] - rank[layout[pos]]) > step
+        layout = _local_moves(problem, swapped, step, max_sweeps=max_sweeps) if far else swapped
+        # the full search resumes after that sensor unless the local moves changed the layout
+        start = (pos + 1) % len(layout) if layout == swapped else 0
     return layout, problem.utility_of(layout)
 
 
@@ -216,17 +223,17 @@ def _local_moves(problem, layout, radius, *, max_sweeps=50):
     return layout
 
 
-def _until_quiet(problem, layout, replace, max_sweeps, *, first_swap=False):
+def _until_quiet(problem, layout, replace, max_sweeps, *, first_swap=False, start=0):
     """(layout, utility, converged): the sensors in turn get ``replace(layout, pos, rest, best)`` (a better
     candidate for the sensor at ``pos``, or None) until n sensors in a row get none (converged) or after
-    ``max_sweeps`` rounds, or (``first_swap``) after the first improvement.  Stopping there is where sweeps
-    until one without a change would stop too: the rest of that sweep could only repeat the searches of an
-    unchanged layout."""
+    ``max_sweeps`` rounds, or (``first_swap``) after the first improvement, starting at ``start``.  Stopping
+    there is where sweeps until one without a change would stop too: the rest of that sweep could only repeat
+    the searches of an unchanged layout."""
     layout = list(layout)
     _hold(problem, layout)
     best = problem.utility_of(layout)
     n = len(layout)
-    quiet, pos, visited = 0, 0, 0  # positions in a row without an improvement
+    quiet, pos, visited = 0, start, 0  # positions in a row without an improvement
     while quiet < n and visited < max_sweeps * n:
         rest = layout[:pos] + layout[pos + 1:]
         cand = replace(layout, pos, rest, best)
@@ -278,7 +285,7 @@ def _to_beat(problem, best):
     return best + max(1e-12 * max(1.0, abs(best)), problem.criterion.swap_gain * abs(best))
 
 
-def _exchange(problem, layout, *, max_sweeps=50, split=True, first_swap=False):
+def _exchange(problem, layout, *, max_sweeps=50, split=True, first_swap=False, start=0):
     """(layout, utility, converged): swap local search from ``layout``, best improving swap per removed sensor,
     until none (converged) or ``max_sweeps`` rounds.
 
@@ -297,7 +304,7 @@ def _exchange(problem, layout, *, max_sweeps=50, split=True, first_swap=False):
         return _best_replacement(problem, rest, q_rest, set(layout), best, np.argsort(-ub, kind="stable"), ub, eig,
                                  split=split)
 
-    return _until_quiet(problem, layout, swap, max_sweeps, first_swap=first_swap)
+    return _until_quiet(problem, layout, swap, max_sweeps, first_swap=first_swap, start=start)
 
 
 def round_weights(problem, weights):
