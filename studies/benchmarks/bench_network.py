@@ -76,7 +76,10 @@ nothing on this bridge.  After the split bounds took each half of more than
 200 survivors along its own eigenvectors (commit 1272bfc; 2026-11-29 00:05,
 same machine): A 49.6 -> 45.8 s (greedy 8.2 -> 6.6, best 26.9 -> 26.1),
 efficiency 0.928 unchanged; D 33.1 -> 35.0 s (29264dc back to back; greedy
-3.8 -> 4.0, best 18.9 -> 20.2), efficiency 0.989 unchanged.
+3.8 -> 4.0, best 18.9 -> 20.2), efficiency 0.989 unchanged.  After a far
+swap of the polish's full search sent it back to the local moves (commit
+b1ab5f5; 00:30, another job on the second core): A 42.9 s (greedy 6.4, best
+24.4), D 36.2 s (best 21.6), E 35.5 s, the same efficiencies.
 
 E 45.3 -> 37.9 s; its layout is the one it had with a gap of 1e-6 before
 session 19 (efficiency 0.897; 0.909 from the cold 1e-7 relaxation, which
