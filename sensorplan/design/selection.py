@@ -193,11 +193,14 @@ def _polish(problem, layout, step, converged, max_sweeps):
     rank = np.empty(problem.n_candidates, dtype=int)
     rank[np.argsort(problem.positions, kind="stable")] = np.arange(problem.n_candidates)
     start = 0
-    for _ in range(max_sweeps):  # a far swap of the full search is followed by the local moves its neighbours need
+    # a far swap of the full search is followed by the local moves its neighbours need (as many swaps at most as
+    # the full search alone could make)
+    for _ in range(max_sweeps * len(layout)):
         swapped, util, converged = _exchange(problem, layout, max_sweeps=max_sweeps, first_swap=True, start=start)
-        if converged:
+        moved = [n for n, (a, b) in enumerate(zip(layout, swapped)) if a != b]  # the sensor that moved
+        if converged or not moved:  # (no swap and not converged: out of sweeps)
             return swapped, util
-        pos = next(n for n, (a, b) in enumerate(zip(layout, swapped)) if a != b)  # the sensor that moved
+        pos = moved[0]
         far = abs(rank[swapped[pos]] - rank[layout[pos]]) > step
         layout = _local_moves(problem, swapped, step, max_sweeps=max_sweeps) if far else swapped
         # the full search resumes after that sensor unless the local moves changed the layout
