@@ -35,7 +35,7 @@ LOCAL_K = (32, 64, 128)
 LOCAL_COST = 60  # one level: the survivors' sum, its whitening and eigenvectors, congruences, inner products
 FORM_COST = 2  # forming a candidate's dense block (when not held) on top of its factorisation
 # candidates above which a level of split bounds takes each half (by position) along its own eigenvectors (on a
-# six-span viaduct with stiff end springs A's greedy took 11.9 s instead of 19.3 s; within the noise elsewhere)
+# six-span viaduct with stiff end springs A's greedy took 10.9 s instead of 19.3 s; within the noise elsewhere)
 HALVES_ABOVE = 200
 BOUND_BYTES = 2**28  # size of one (n, k, k) array of eigen-split blocks computed at a time
 # candidates without a bound whose dense blocks are formed together when the next one to evaluate is not held (the
