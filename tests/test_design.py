@@ -304,6 +304,16 @@ def test_exchange_ends_at_a_local_optimum(count, criterion, seed, coarse):
                                                            problem.criterion.swap_gain * abs(util))
 
 
+def assert_no_swap_improves(problem, layout, util):
+    """Reference: every single swap of ``layout``, evaluated directly (brute force); a swap is taken when it
+    gains more than the criterion's ``swap_gain`` share (E: 1e-6), beyond round-off."""
+    share = max(problem.criterion.swap_gain * abs(util), 1e-9 * max(1.0, abs(util)))
+    for pos in range(len(layout)):
+        for i in range(problem.n_candidates):
+            if i not in layout:
+                assert problem.utility_of(layout[:pos] + [i] + layout[pos + 1:]) <= util + share
+
+
 @pytest.mark.parametrize("criterion", ["D", "E"])
 def test_two_level_local_moves_of_the_polish_end_at_a_local_optimum(criterion):
     # 97 candidates with a coarse grid from 10 on: every 19th candidate, local moves first to every 4th of the 19
@@ -313,11 +323,7 @@ def test_two_level_local_moves_of_the_polish_end_at_a_local_optimum(criterion):
     assert problem.n_candidates // (10 // 2) // 4 > 1  # the two levels are used
     layout, util = exchange(problem, [0, 1, 2], coarse_above=10)
     assert util == pytest.approx(problem.utility_of(layout), rel=1e-12)
-    share = max(problem.criterion.swap_gain * abs(util), 1e-9 * max(1.0, abs(util)))
-    for pos in range(3):
-        for i in range(problem.n_candidates):
-            if i not in layout:
-                assert problem.utility_of(layout[:pos] + [i] + layout[pos + 1:]) <= util + share
+    assert_no_swap_improves(problem, layout, util)
 
 
 @pytest.mark.parametrize("criterion", ["E", "A"])
@@ -443,8 +449,4 @@ def test_the_polish_returns_to_the_local_moves_after_a_swap_of_the_full_search(c
     layout, util = selection._polish(problem, [0, 1, 2], 1, True, 50)
     assert False in converged and converged[-1]  # a swap sent it back to the local moves; the last search certified
     assert util == pytest.approx(problem.utility_of(layout), rel=1e-12)
-    share = max(problem.criterion.swap_gain * abs(util), 1e-9 * max(1.0, abs(util)))
-    for pos in range(3):
-        for i in range(problem.n_candidates):
-            if i not in layout:
-                assert problem.utility_of(layout[:pos] + [i] + layout[pos + 1:]) <= util + share
+    assert_no_swap_improves(problem, layout, util)

@@ -190,8 +190,7 @@ def _polish(problem, layout, step, converged, max_sweeps):
     if not converged:
         layout, _, converged, step = _coarse(problem, layout, None, max_sweeps)
     layout = _local_moves(problem, layout, step, max_sweeps=max_sweeps)
-    rank = np.empty(problem.n_candidates, dtype=int)
-    rank[np.argsort(problem.positions, kind="stable")] = np.arange(problem.n_candidates)
+    _, rank = _by_position(problem)
     start = 0
     # a far swap of the full search is followed by the local moves its neighbours need (as many swaps at most as
     # the full search alone could make)
@@ -211,9 +210,7 @@ def _polish(problem, layout, step, converged, max_sweeps):
 def _local_moves(problem, layout, radius, *, max_sweeps=50):
     """Move sensors to better candidates among their ``radius`` neighbours on each side (by position): first
     to every s-th of them (s = radius // LOCAL_STRIDE), then among their s neighbours on each side."""
-    order = np.argsort(problem.positions, kind="stable")
-    rank = np.empty_like(order)
-    rank[order] = np.arange(order.size)
+    order, rank = _by_position(problem)
     stride = max(1, radius // LOCAL_STRIDE)
     for reach, step in ((radius, stride), (stride, 1)) if stride > 1 else ((radius, 1),):
         def move(layout, pos, rest, best, reach=reach, step=step):
@@ -224,6 +221,14 @@ def _local_moves(problem, layout, radius, *, max_sweeps=50):
 
         layout = _until_quiet(problem, layout, move, max_sweeps)[0]
     return layout
+
+
+def _by_position(problem):
+    """(order, rank): the candidates by position, and each candidate's place in that order."""
+    order = np.argsort(problem.positions, kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    return order, rank
 
 
 def _until_quiet(problem, layout, replace, max_sweeps, *, first_swap=False, start=0):
