@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
+import scipy.linalg.blas
 
 from .interior_point import boundary_step
 
@@ -192,15 +193,25 @@ class _Newton:
 
     def _schur(self, lzi, xz, dtype):
         """M, its products in ``dtype`` (the sum in double).  M_ij = tr(B_i X B_j Z^-1) = <C_i, C_j> with
-        C_i = L_Z^-1 B_i L_X (X = L_X L_X^T, Z = L_Z L_Z^T): one tall product, k x k products, and a symmetric
-        rank-k update (half the flops of a general one)."""
+        C_i = L_Z^-1 B_i L_X (X = L_X L_X^T, Z = L_Z L_Z^T): triangular products (half the flops of general
+        ones) and a symmetric rank-k update (half those of a general product)."""
         lmi, p = self.lmi, self.p
         m, k = lmi.m, lmi.k
-        tall = (lmi.tall(dtype) @ self.xc.astype(dtype, copy=False)).reshape(m, k, k)
-        cmat = np.matmul(lzi.astype(dtype, copy=False), tall).reshape(m, k * k)
+        trmm = scipy.linalg.blas.dtrmm if dtype == np.float64 else scipy.linalg.blas.strmm
+        # BLAS reads a C-ordered array transposed: the (m k, k) stack [B_1; ...; B_m] is the (k, m k) Fortran
+        # matrix [B_1, ..., B_m] (each B_i symmetric), which L_X^T multiplies from the left in one call (on a
+        # copy), leaving the blocks B_i L_X in C order
+        blocks = trmm(1.0, self.xc.astype(dtype, copy=False), lmi.tall(dtype).T, side=0, lower=1,
+                      trans_a=1).T.reshape(m, k, k)
+        lzi = lzi.astype(dtype, copy=False)
+        for block in blocks:  # C_i^T = (B_i L_X)^T L_Z^-T in place: C_i in C order
+            out = trmm(1.0, lzi, block.T, side=1, lower=1, trans_a=1, overwrite_b=1)
+            if out.ctypes.data != block.ctypes.data:
+                block[...] = out.T
+        cmat = blocks.reshape(m, k * k)
         mmat = np.empty((m + 1, m + 1))
         mmat[:m, :m] = cmat @ cmat.T
-        col = -np.einsum("ij,mji->m", xz, lmi.bmat)
+        col = -(lmi.bflat @ xz.ravel())  # -tr(B_i X Z^-1) (B_i symmetric)
         mmat[:m, m] = mmat[m, :m] = col
         mmat[m, m] = np.trace(xz)
         mmat = 0.5 * (mmat + mmat.T)
@@ -250,7 +261,7 @@ class _Newton:
 def lmi_interior_point(b0, bmat, rows, rhs, count, *, cuts=None, cut_rhs=None, tol=1e-9, max_iter=100,
                        start=None):
     """max t s.t. B0 + sum_i w_i B_i - t I >= 0, t <= cut_rhs + cuts w, 0 <= w <= 1, rows w <= rhs,
-    sum w = count (module docstring).
+    sum w = count (module docstring), the B_i (``bmat``, m x k x k) symmetric.
 
     The cuts are the LMI's 1 x 1 diagonal blocks written as linear rows (a
     rank-one direction u of the caller's certificate: t <= u^T Q(w) u).
