@@ -120,13 +120,18 @@ class ECriterion(Criterion):
     def bound_from_dual(self, problem, z):
         """lambda_min(Q) <= <Z, Q> for every Z >= 0 with trace 1, so
         E* <= <Z, Q_0> + max_s sum_i s_i <Z, I_i> (``z`` is projected onto that set)."""
+        return self.bound_and_maximiser(problem, z)[0]
+
+    def bound_and_maximiser(self, problem, z):
+        """(the bound of :meth:`bound_from_dual`, the weights s that attain its maximum, None if Z is zero):
+        the candidates Z favours under the constraints (those outside a working set enter it)."""
         vals, vecs = np.linalg.eigh(symmetrise(z))
         vals = np.clip(vals, 0.0, None)
         if vals.sum() <= 0:
-            return np.inf
+            return np.inf, None
         z = (vecs * (vals / vals.sum())) @ vecs.T
-        best, _ = problem.linear_max(problem.block_dot(z))
-        return float(np.sum(z * problem.q0)) + best
+        best, s = problem.linear_max(problem.block_dot(z))
+        return float(np.sum(z * problem.q0)) + best, s
 
     def cvxpy_objective(self, cp, q_expr, constraints):
         # maximise t s.t. Q(w) - t I >= 0: the PSD constraint's dual is the Z of the bound

@@ -38,6 +38,7 @@ DROP_FLOOR = 1e-4  # ... and than this share of the threshold (near-ties that le
 WARM_SHIFT_FLOOR = 1e-3  # a warm-started SDP's t starts at least this share of the bound below lambda_min; ...
 WARM_STALL_STEPS = 25  # ... ten times more (up to WARM_SHIFT_MAX) after a warm-started SDP took more steps than
 WARM_SHIFT_MAX = 1e-1  # this: its start's central-path parameter was too small for its primal infeasibility
+MAXIMISER_WEIGHT = 1e-9  # with side constraints, candidates above this weight in the bound's maximiser enter
 
 
 @register_fast_method("eigen-subspace")
@@ -94,7 +95,8 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
             best = (float(lam[0]), w)
         k = basis.shape[1]
         z = basis @ x[:k, :k] @ basis.T + agg.matrix(x[k, k]) + cuts.matrix(np.diag(x)[k + 1:])
-        bound = min(bound, problem.criterion.bound_from_dual(problem, z))
+        bound_z, maximiser = problem.criterion.bound_and_maximiser(problem, z)
+        bound = min(bound, bound_z)
         gap = (bound - best[0]) / max(1.0, abs(bound))
         if gap <= tol:
             break
@@ -104,7 +106,7 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
         # the next SDP starts at these weights, t that far below their lambda_min (floored: a start on the
         # boundary would stall)
         warm = (w, max(small_value - best[0], shift_floor * max(1.0, abs(bound))))
-        _grow_working_set(problem, working, idx, (wr, z, nu), model_gap)
+        _grow_working_set(problem, working, idx, (wr, z, nu), model_gap, maximiser)
         if gap > SPREAD_GAP:
             working |= spread
         basis, agg, cuts = _next_basis(problem, basis, x, agg, cuts, vec, lam, small_value)
@@ -212,14 +214,19 @@ def _next_basis(problem, basis, x, agg, cuts, vec, lam, small_value):
     return np.hstack([kept, q[:, np.abs(np.diag(rr)) > 1e-6]]), agg, cuts
 
 
-def _grow_working_set(problem, working, idx, sdp, gap):
+def _grow_working_set(problem, working, idx, sdp, gap, maximiser=None):
     """Add the candidates that would enter while the working set limits the small SDP by more than
     ``ENTER_SHARE`` of the absolute gap ``gap`` over R (those below it move the bound by less than that
     share of the gap), the best max(ENTER_MAX R, 20, a quarter of the set); drop those with little weight
     and a gradient below the threshold by more than ``DROP_SHARE`` of the gap over R and ``DROP_FLOOR``
-    of the threshold (in place; the SDP is solved afresh each round, so a smaller set only saves time)."""
+    of the threshold (in place; the SDP is solved afresh each round, so a smaller set only saves time).
+    With side constraints the threshold differs between candidates (their rows' multipliers: a span short
+    of its minimum count prices its candidates higher), so the candidates with weight in the certificate's
+    maximiser (``maximiser``, the weights that attain the bound) enter too."""
     wr, z, nu = sdp
     c, r = problem.n_candidates, problem.count
+    if maximiser is not None and problem.inequalities[0].shape[0]:
+        working |= set(np.flatnonzero(maximiser > MAXIMISER_WEIGHT).tolist())
     trace = max(float(np.trace(z)), 1e-300)
     gz = problem.block_dot(z / trace)
     threshold = nu / trace
