@@ -429,6 +429,22 @@ def test_design_result_json_values_and_curve():
     assert np.all(np.diff(np.diff(bounds)) <= 1e-9)
 
 
+def test_the_curve_reports_counts_below_the_span_minimums_as_one_run():
+    # Per-span minimum counts of 2 and 1 on two spans: no layout of fewer than 3 sensors meets them (every
+    # such layout checked by enumeration), so R = 1-2 fail with that reason and R = 3-4 get values; the
+    # summary names the failed counts once, as a run.
+    case = example_case("openlab-like")
+    result = recommend(case, 3, "D", n_random=5, curve_max=4, grid=CandidateGrid(spacing=1.0),
+                       constraints=Constraints(span_min=(2, 1)))
+    problem = build_problem(case, 3, "D", grid=CandidateGrid(spacing=1.0), constraints=Constraints(span_min=(2, 1)))
+    for r in (1, 2):
+        assert not any(problem.feasible(s) for s in itertools.combinations(range(problem.n_candidates), r))
+    assert [c.count for c in result.curve if c.failed] == [1, 2]
+    assert all("at least 3 sensors" in c.reason for c in result.curve if c.failed)
+    assert all(c.value is not None for c in result.curve if c.count >= 3)
+    assert "criterion vs R failed for R = 1-2 (the per-span minimum counts need at least 3 sensors)" in result.summary()
+
+
 @pytest.mark.parametrize("criterion", ["D", "A", "E"])
 def test_the_polish_returns_to_the_local_moves_after_a_swap_of_the_full_search(criterion, monkeypatch):
     # Local moves of one neighbour from the three leftmost candidates leave swaps to the full search; after each,

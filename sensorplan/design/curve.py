@@ -118,7 +118,11 @@ def _curve_layouts(problem, count, r_max, greedy_layout=None):
         except SensorplanError as exc:
             reason = " ".join(str(exc).split())
             failures.update({r: reason for r in range(len(layouts) + 1, nested_to + 1)})
+    need = 0 if problem.span_min is None else int(np.sum(problem.span_min))
     for r in range(nested_to + 1, r_max + 1):
+        if r < need:  # no layout of r sensors meets the per-span minimum counts
+            failures[r] = f"the per-span minimum counts need at least {need} sensors"
+            continue
         try:
             layouts[r] = greedy(replace(problem, count=r))[0]
         except SensorplanError as exc:

@@ -236,7 +236,7 @@ class DesignResult:
                          + self._positions(b.layout_m, b.layout_kind))
         failed = [p for p in self.curve if p.failed]
         if failed:
-            lines.append("  criterion vs R failed for R = " + ", ".join(f"{p.count} ({p.reason})" for p in failed))
+            lines.append("  criterion vs R failed for R = " + ", ".join(_runs(failed)))
         return "\n".join(lines)
 
     def best_baseline(self):
@@ -269,3 +269,14 @@ class DesignResult:
             **self.details,
             **({"support_margin_m": self.support_margin_m} if self.support_margin_m > 0 else {}),
         }
+
+
+def _runs(points):
+    """'a-b (reason)' for each run of consecutive counts that failed for the same reason ('a (reason)' alone)."""
+    runs = []
+    for p in points:
+        if runs and runs[-1][2] == p.reason and runs[-1][1] == p.count - 1:
+            runs[-1][1] = p.count
+        else:
+            runs.append([p.count, p.count, p.reason])
+    return [(f"{a}" if a == b else f"{a}-{b}") + f" ({reason})" for a, b, reason in runs]
