@@ -118,10 +118,17 @@ def test_split_bounds_on_structured_blocks_hold_and_are_exact_with_every_directi
     assert b == pytest.approx(exact, rel=1e-11)
 
 
-EXACT = {"D": lambda m: np.linalg.slogdet(m)[1], "A": lambda m: -np.trace(np.linalg.inv(m))}
+EXACT = {"D": lambda m: np.linalg.slogdet(m)[1], "A": lambda m: -np.trace(np.linalg.inv(m)),
+         "A region": lambda m: -np.trace(np.linalg.inv(m)[: m.shape[0] // 2, : m.shape[0] // 2])}
 
 
-@pytest.mark.parametrize("name", ["D", "A"])
+def _criterion(name, p):
+    from sensorplan.design.criteria.covariance import ACriterion
+
+    return ACriterion(p, targets=np.eye(p)[: p // 2]) if name == "A region" else make_criterion(name, p)
+
+
+@pytest.mark.parametrize("name", ["D", "A", "A region"])
 @pytest.mark.parametrize("coarse_above, halves_above", [(None, None), (40, None), (None, 1), (40, 1)])
 def test_greedy_and_exchange_with_split_bounds_at_every_step_equal_brute_force(monkeypatch, structured_problem,
                                                                                 coarse_above, halves_above, name):
@@ -141,7 +148,7 @@ def test_greedy_and_exchange_with_split_bounds_at_every_step_equal_brute_force(m
         return along(*args, **kwargs)
 
     monkeypatch.setattr(screening, "_split_along", counted)
-    problem = replace(structured_problem, criterion=make_criterion(name, structured_problem.n_params))
+    problem = replace(structured_problem, criterion=_criterion(name, structured_problem.n_params))
     dense = replace(problem, blocks=problem.blocks[np.arange(problem.n_candidates)])
     exact = EXACT[name]
     chosen = []  # brute-force greedy
@@ -170,14 +177,31 @@ def test_greedy_and_exchange_with_split_bounds_at_every_step_equal_brute_force(m
         assert best_swap <= value + max(1e-9 * max(1.0, abs(value)), problem.criterion.swap_gain * abs(value))
 
 
+def _a_criterion(seed, kind):
+    """A on all parameters, on a region (the first four), or on random functionals."""
+    from sensorplan.design.criteria.covariance import ACriterion
+
+    if kind == "all":
+        return ACriterion(10)
+    if kind == "region":
+        return ACriterion(10, targets=np.eye(10)[:4])
+    return ACriterion(10, targets=np.random.default_rng(seed + 7).standard_normal((3, 10)))
+
+
+def _exact_a(criterion, q, blocks):
+    """-trace(C (Q + I_i)^-1 C^T) with numpy's inverse."""
+    c = criterion.targets
+    return np.array([-np.trace(c @ np.linalg.inv(q + b) @ c.T) for b in blocks])
+
+
 @settings(max_examples=20, deadline=None)
-@given(seed=st.integers(0, 10_000), k=st.integers(0, 10))
-def test_a_split_bounds_hold_for_any_basis_and_are_exact_for_a_full_one(seed, k):
-    # reference: -trace of numpy's inverse of Q + I_i
-    problem = replace(_random_problem(seed), criterion=make_criterion("A", 10))
+@given(seed=st.integers(0, 10_000), k=st.integers(0, 10), kind=st.sampled_from(["all", "region", "functionals"]))
+def test_a_split_bounds_hold_for_any_basis_and_are_exact_for_a_full_one(seed, k, kind):
+    # reference: -trace of C times numpy's inverse of Q + I_i times C^T
+    problem = replace(_random_problem(seed), criterion=_a_criterion(seed, kind))
     rng = np.random.default_rng(seed + 3)
     q = problem.layout_precision(rng.choice(problem.n_candidates, 2, replace=False))
-    exact = np.array([-np.trace(np.linalg.inv(q + b)) for b in problem.blocks])
+    exact = _exact_a(problem.criterion, q, problem.blocks)
     basis = np.linalg.qr(rng.standard_normal((problem.n_params, problem.n_params)))[0][:, :k]
     b = problem.criterion.split_bounds(problem, q, np.arange(problem.n_candidates), basis=basis,
                                        chol=np.linalg.cholesky(q))
@@ -186,18 +210,15 @@ def test_a_split_bounds_hold_for_any_basis_and_are_exact_for_a_full_one(seed, k)
         assert b == pytest.approx(exact, rel=1e-9)
 
 
-def test_a_split_bounds_are_exact_when_the_basis_spans_the_whitened_block_and_none_for_a_region():
-    problem = replace(_random_problem(4), criterion=make_criterion("A", 10))
+@pytest.mark.parametrize("kind", ["all", "region", "functionals"])
+def test_a_split_bounds_are_exact_when_the_basis_spans_the_whitened_block(kind):
+    problem = replace(_random_problem(4), criterion=_a_criterion(4, kind))
     q = problem.layout_precision([1, 2])
     chol = np.linalg.cholesky(q)
     l_inv = np.linalg.inv(chol)
     basis = np.linalg.eigh(l_inv @ problem.blocks[9] @ l_inv.T)[1][:, -3:]
     b = problem.criterion.split_bounds(problem, q, [9], basis=basis, chol=chol)
-    assert b[0] == pytest.approx(-np.trace(np.linalg.inv(q + problem.blocks[9])), rel=1e-10)
-    from sensorplan.design.criteria.covariance import ACriterion
-
-    region = replace(problem, criterion=ACriterion(10, targets=np.eye(10)[:4]))
-    assert region.criterion.split_bounds(region, q, [9], basis=basis, chol=chol) is None
+    assert b[0] == pytest.approx(_exact_a(problem.criterion, q, problem.blocks[9:10])[0], rel=1e-10)
 
 
 def test_search_utilities_equal_numpy_values():
@@ -205,5 +226,5 @@ def test_search_utilities_equal_numpy_values():
     problem = _random_problem(8)
     q = problem.layout_precision([0, 3])
     for name, exact in EXACT.items():
-        crit = make_criterion(name, problem.n_params)
+        crit = _criterion(name, problem.n_params)
         assert crit.utilities(q, problem.blocks) == pytest.approx([exact(q + b) for b in problem.blocks], rel=1e-12)

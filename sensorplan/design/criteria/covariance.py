@@ -6,6 +6,8 @@ of interest, or given linear functionals of log EI.
 Owns: ACriterion.  May import: errors, design.criteria.
 """
 
+from functools import cached_property
+
 import numpy as np
 import scipy.linalg
 
@@ -177,25 +179,33 @@ class ACriterion(Criterion):
         return -(trace + float(np.sum(1.0 / lam[k:])) - first)
 
     def split_bounds(self, problem, q, index, *, basis, chol):
-        """b_i >= utility(Q + I_i) from the whitened split (None unless C is the identity): with B_i =
-        L^-1 I_i L^-T and H = L^-1 L^-T, utility(Q + I_i) = -tr H + f(B_i), f(B) = tr H - tr (I + B)^-1 H concave,
+        """b_i >= utility(Q + I_i) from the whitened split: with B_i = L^-1 I_i L^-T and H = L^-1 C^T C L^-T,
+        utility(Q + I_i) = -tr H + f(B_i), f(B) = tr H - tr (I + B)^-1 H concave (the inverse is operator convex),
         bounded by its tangent at U C_i U^T (U = ``basis``, C_i = U^T B_i U):
         f(U C U^T) = tr D S with D = C (I + C)^-1, S = U^T H U, and the gradient there
         (I - U D U^T) H (I - U D U^T).  Exact when U spans B_i."""
-        if not self.all_parameters:
-            return None
         k = basis.shape[1]
         y = scipy.linalg.solve_triangular(chol, basis, lower=True, trans="T", check_finite=False)  # L^-T U
         q_inv = factor_inverse(chol)
-        both = problem.congruence(np.hstack([q_inv @ y, y]), index)
+        if self.all_parameters:  # C^T C = I
+            my, n = y, q_inv
+        else:
+            my, n = self._gram @ y, q_inv @ self.targets.T
+        both = problem.congruence(np.hstack([q_inv @ my, y]), index)
         cross, small = both[:, :k, k:], both[:, k:, k:]  # U^T H B_i U and C_i
-        s = y.T @ y
+        s = y.T @ my
         d = np.eye(k) - np.linalg.inv(np.eye(k)[None] + small)
         ds = d @ s
-        linear = problem.block_dot(q_inv @ q_inv.T, index)  # tr H B_i (Q^-2, a symmetric product)
+        linear = problem.block_dot(n @ n.T, index)  # tr H B_i (Q^-1 C^T C Q^-1, a symmetric product)
         tangent = (np.trace(ds, axis1=1, axis2=2) - 2.0 * np.einsum("cij,cji->c", d, cross)
                    - np.einsum("ij,cji->c", s, small) + 2.0 * np.einsum("cij,cji->c", ds, small))
-        return -float(np.trace(q_inv)) + linear + tangent
+        trace = np.trace(q_inv) if self.all_parameters else np.einsum("ij,ji->", self.targets, n)  # tr(C Q^-1 C^T)
+        return -float(trace) + linear + tangent
+
+    @cached_property
+    def _gram(self):
+        """C^T C."""
+        return self.targets.T @ self.targets
 
     def cvxpy_objective(self, cp, q_expr, constraints):
         return cp.Minimize(cp.matrix_frac(self.targets.T, q_expr)), None
