@@ -211,7 +211,7 @@ def test_small_lmi_interior_point_matches_clarabel(seed, side, warm):
         rows = np.vstack([rng.uniform(0.5, 2.0, m), (np.arange(m) < 12) * 1.0, -1.0 * (np.arange(m) >= 24)])
         rhs = np.array([1.3 * count, 2.0, -1.0])
     start = (rng.uniform(0.0, 1.0, m), 0.1) if warm else None
-    value, w, x, nu, status, _ = lmi_interior_point(b0, bmat, rows, rhs, count, tol=1e-9, start=start)
+    value, w, x, nu, status, _, mult = lmi_interior_point(b0, bmat, rows, rhs, count, tol=1e-9, start=start)
     wv, t = cp.Variable(m), cp.Variable()
     mat = b0 + cp.reshape(bmat.reshape(m, -1).T @ wv, (k, k), order="C")
     cons = [wv >= 0, wv <= 1, cp.sum(wv) == count, 0.5 * (mat + mat.T) - t * np.eye(k) >> 0]
@@ -226,8 +226,10 @@ def test_small_lmi_interior_point_matches_clarabel(seed, side, warm):
     assert abs(nu - cons[2].dual_value) <= 1e-5 * max(1.0, abs(nu))
     assert np.linalg.eigvalsh(x)[0] >= -1e-9 and abs(np.trace(x) - 1.0) <= 1e-8
     assert w.min() >= -1e-9 and w.max() <= 1 + 1e-9 and abs(w.sum() - count) <= 1e-8
-    if side:
+    if side:  # the rows hold, and their multipliers are Clarabel's duals (the candidates' prices)
         assert np.all(rows @ w <= rhs + 1e-8)
+        assert mult.shape == (3,) and np.all(mult >= 0)
+        np.testing.assert_allclose(mult, cons[4].dual_value, atol=1e-5 * max(1.0, abs(nu)))
     # the multiplier certifies: lambda_min(S(w')) <= <X, S(w')> for every w', so
     # the LP over the feasible set with X's gradient bounds the optimum
     s_w = b0 + (w @ bmat.reshape(m, -1)).reshape(k, k)
@@ -243,7 +245,7 @@ def test_small_e_sdp_falls_back_to_clarabel(monkeypatch):
     assert reference.stats["clarabel_fallbacks"] == 0
 
     def failing(*args, **kwargs):
-        return 0.0, None, None, 0.0, "numerical problems", 1
+        return 0.0, None, None, 0.0, "numerical problems", 1, None
 
     monkeypatch.setattr(lmi, "lmi_interior_point", failing)
     fallback = solve_relaxation(problem, "fast")

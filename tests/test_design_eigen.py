@@ -84,8 +84,8 @@ def test_inexact_small_sdps_still_certify(monkeypatch):
     original = lmi.lmi_interior_point
 
     def inexact(*args, **kwargs):
-        value, w, x, nu, _, it = original(*args, **kwargs)
-        return value, w, x, nu, "numerical problems", it
+        value, w, x, nu, _, it, mult = original(*args, **kwargs)
+        return value, w, x, nu, "numerical problems", it, mult
 
     monkeypatch.setattr(lmi, "lmi_interior_point", inexact)
     rel = solve_relaxation(problem, "fast")
@@ -105,10 +105,10 @@ def test_a_stalled_warm_start_makes_the_next_ones_start_further_inside(monkeypat
     original, shifts = lmi.lmi_interior_point, []
 
     def counting(*args, **kwargs):
-        value, w, x, nu, status, it = original(*args, **kwargs)
+        value, w, x, nu, status, it, mult = original(*args, **kwargs)
         shifts.append(None if kwargs.get("start") is None else kwargs["start"][1])
         stalled = len(shifts) == 2
-        return value, w, x, nu, status, eigen_subspace.WARM_STALL_STEPS + 1 if stalled else it
+        return value, w, x, nu, status, eigen_subspace.WARM_STALL_STEPS + 1 if stalled else it, mult
 
     monkeypatch.setattr(lmi, "lmi_interior_point", counting)
     rel = eigen_subspace.solve_eigen_subspace(problem, tol=1e-12, max_rounds=6)
@@ -123,15 +123,17 @@ def test_a_stalled_warm_start_makes_the_next_ones_start_further_inside(monkeypat
     assert rel.bound >= best - 1e-9 * max(1.0, abs(best)) and rel.utility <= rel.bound
 
 
-@pytest.mark.parametrize("span_min", [(0, 3), (1, 3)])
-def test_a_minimum_count_per_span_is_priced_into_the_working_set(span_min):
-    # Reference: the same relaxation by cvxpy + Clarabel (an independent conic solver).  A span held to a
-    # minimum count prices its candidates above the count's multiplier, so candidates the working set lacks
-    # there must enter through the certificate's maximiser: the method then reaches the reference optimum
-    # with a gap below tolerance (it had stalled 0.4-3 % below it, its working set short of that span's
-    # best candidates).
-    problem = build_problem(small_case(16), 4, "E", grid=CandidateGrid(spacing=0.1),
-                            constraints=sp.Constraints(span_min=span_min))
+@pytest.mark.parametrize("spacing, count, constraints", [
+    (0.1, 4, {"span_min": (0, 3)}), (0.1, 4, {"span_min": (1, 3)}), (0.1, 4, {"span_max": (3, 1)}),
+    (0.05, 5, {"span_max": (1, 4), "min_spacing": 1.0})])
+def test_side_constraints_are_priced_into_the_working_set(spacing, count, constraints):
+    # Reference: the same relaxation by cvxpy + Clarabel (an independent conic solver).  The side rows'
+    # multipliers shift each candidate's threshold to enter (a span held to a minimum count lowers it, a full
+    # span or a neighbour's spacing row raises it), and the certificate's maximiser enters too: the method
+    # reaches the reference optimum with a gap below tolerance.  Before, it stalled 0.5-3 % below it (its working
+    # set short of a constrained span's best candidates, or filled with candidates of a full span).
+    problem = build_problem(small_case(16), count, "E", grid=CandidateGrid(spacing=spacing),
+                            constraints=sp.Constraints(**constraints))
     assert problem.n_candidates > 200  # the first working set is a small part of the candidates
     rel = eigen_subspace.solve_eigen_subspace(problem, tol=1e-7, max_rounds=40)
     reference = solve_relaxation(problem, "cvxpy")
@@ -144,7 +146,8 @@ def test_a_minimum_count_per_span_is_priced_into_the_working_set(span_min):
 def test_a_large_failed_small_sdp_raises_one_line_error(monkeypatch):
     # No usable iterate and an SDP too large for the generic fallback: a one-line SolverError, no Clarabel.
     problem = build_problem(small_case(16), 2, "E", grid=CandidateGrid(spacing=2.0))
-    monkeypatch.setattr(lmi, "lmi_interior_point", lambda *a, **k: (0.0, None, None, 0.0, "numerical problems", 1))
+    monkeypatch.setattr(lmi, "lmi_interior_point", lambda *a, **k: (0.0, None, None, 0.0, "numerical problems", 1,
+                                                                     None))
     monkeypatch.setattr(eigen_subspace, "CLARABEL_MAX_ENTRIES", 10)
     with pytest.raises(SolverError) as err:
         solve_relaxation(problem, "fast")

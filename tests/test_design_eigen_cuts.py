@@ -49,7 +49,7 @@ def test_small_lmi_with_cuts_matches_clarabel(seed, single_gap, monkeypatch):
     b0, bmat, cuts, cut_rhs = random_lmi(seed)
     m, k, _ = bmat.shape
     count = 5
-    value, w, x, nu, status, _ = lmi_interior_point(b0, bmat, np.zeros((0, m)), np.zeros(0), count, cuts=cuts,
+    value, w, x, nu, status, _, _ = lmi_interior_point(b0, bmat, np.zeros((0, m)), np.zeros(0), count, cuts=cuts,
                                                     cut_rhs=cut_rhs, tol=1e-9)
     wv, t = cp.Variable(m), cp.Variable()
     mat = b0 + cp.reshape(bmat.reshape(m, -1).T @ wv, (k, k), order="C")

@@ -78,8 +78,8 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
     for rounds in range(1, max_rounds + 1):
         idx = np.array(sorted(working))
         inner = max(INNER_TOL_SHARE * tol, min(INNER_TOL_MAX, 0.1 * gap))
-        small_value, wr, x, nu, dt, used, steps = _small_e_sdp(problem, idx, basis, agg, cuts, tol=inner,
-                                                               warm=None if warm is None else (warm[0][idx], warm[1]))
+        small_value, wr, x, nu, price, dt, used, steps = _small_e_sdp(
+            problem, idx, basis, agg, cuts, tol=inner, warm=None if warm is None else (warm[0][idx], warm[1]))
         sdp_time += dt
         if warm is not None and steps > WARM_STALL_STEPS:
             shift_floor = min(10.0 * shift_floor, WARM_SHIFT_MAX)
@@ -106,7 +106,7 @@ def solve_eigen_subspace(problem, *, tol, start_layout=None, max_rounds=50, k0=1
         # the next SDP starts at these weights, t that far below their lambda_min (floored: a start on the
         # boundary would stall)
         warm = (w, max(small_value - best[0], shift_floor * max(1.0, abs(bound))))
-        _grow_working_set(problem, working, idx, (wr, z, nu), model_gap, maximiser)
+        _grow_working_set(problem, working, idx, (wr, z, nu, price), model_gap, maximiser)
         if gap > SPREAD_GAP:
             working |= spread
         basis, agg, cuts = _next_basis(problem, basis, x, agg, cuts, vec, lam, small_value)
@@ -218,25 +218,28 @@ def _grow_working_set(problem, working, idx, sdp, gap, maximiser=None):
     """Add the candidates that would enter while the working set limits the small SDP by more than
     ``ENTER_SHARE`` of the absolute gap ``gap`` over R (those below it move the bound by less than that
     share of the gap), the best max(ENTER_MAX R, 20, a quarter of the set); drop those with little weight
-    and a gradient below the threshold by more than ``DROP_SHARE`` of the gap over R and ``DROP_FLOOR``
-    of the threshold (in place; the SDP is solved afresh each round, so a smaller set only saves time).
-    With side constraints the threshold differs between candidates (their rows' multipliers: a span short
-    of its minimum count prices its candidates higher), so the candidates with weight in the certificate's
-    maximiser (``maximiser``, the weights that attain the bound) enter too."""
-    wr, z, nu = sdp
+    and a gradient below the count's multiplier by more than ``DROP_SHARE`` of the gap over R and
+    ``DROP_FLOOR`` of the multiplier (in place; the SDP is solved afresh each round, so a smaller set only
+    saves time).  The threshold to enter is the count's multiplier plus the candidate's side rows'
+    (``price``, from the small SDP's multipliers of the rows with a member: a full span or a neighbour's
+    spacing row raises it, a span held to a minimum count lowers it), and the candidates with weight in the
+    certificate's maximiser (``maximiser``, the weights that attain the bound over all candidates) enter too.
+    (Dropping by the priced threshold as well made the small SDPs of constrained spans take up to 160 steps.)"""
+    wr, z, nu, price = sdp
     c, r = problem.n_candidates, problem.count
-    if maximiser is not None and problem.inequalities[0].shape[0]:
-        working |= set(np.flatnonzero(maximiser > MAXIMISER_WEIGHT).tolist())
     trace = max(float(np.trace(z)), 1e-300)
     gz = problem.block_dot(z / trace)
-    threshold = nu / trace
+    threshold = (nu + price) / trace
     if len(working) < c:
         outside = np.setdiff1d(np.arange(c), idx)
-        enter = outside[gz[outside] > threshold + ENTER_SHARE * gap / r]
-        enter = enter[np.argsort(-gz[enter], kind="stable")][: max(ENTER_MAX * r, 20, len(working) // 4)]
+        enter = outside[gz[outside] > threshold[outside] + ENTER_SHARE * gap / r]
+        enter = enter[np.argsort(-(gz - threshold)[enter], kind="stable")][: max(ENTER_MAX * r, 20, len(working) // 4)]
         working |= set(enter.tolist())
-    drop = min(max(DROP_SHARE * gap / r, DROP_FLOOR * abs(threshold)), 0.05 * abs(threshold))
-    working -= set(idx[(wr < DROP_WEIGHT) & (gz[idx] < threshold - drop)].tolist())
+    if maximiser is not None and problem.inequalities[0].shape[0]:
+        working |= set(np.flatnonzero(maximiser > MAXIMISER_WEIGHT).tolist())
+    scale = abs(nu / trace)
+    drop = min(max(DROP_SHARE * gap / r, DROP_FLOOR * scale), 0.05 * scale)
+    working -= set(idx[(wr < DROP_WEIGHT) & (gz[idx] < nu / trace - drop)].tolist())
 
 
 def _small_e_sdp(problem, idx, basis, agg, cuts, *, tol, warm=None):
@@ -247,7 +250,8 @@ def _small_e_sdp(problem, idx, basis, agg, cuts, *, tol, warm=None):
     again from its own start if that does not reach the tolerance; an iterate it could not
     take to the tolerance is still used (the bound is certified from any
     multiplier); if it has none, small SDPs go to cvxpy + Clarabel, large
-    ones raise SolverError.  Returns (value, w, X, nu, time, solver, interior-point steps).
+    ones raise SolverError.  Returns (value, w, X, nu, price, time, solver, interior-point steps), price (C,)
+    the side rows' multipliers summed over each candidate's rows (sum_r mult_r a_ri, zero without rows).
     """
     start = time.perf_counter()
     m, k = idx.size, basis.shape[1]
@@ -260,41 +264,49 @@ def _small_e_sdp(problem, idx, basis, agg, cuts, *, tol, warm=None):
     else:
         b0[k, k], bmat[:, k, k] = agg.q0_dot, agg.dots[idx]
     bmat = 0.5 * (bmat + bmat.transpose(0, 2, 1))
-    rows, rhs = _side_rows(problem, idx)
+    rows, rhs, kept = _side_rows(problem, idx)
     steps = 0
     for begin in ((warm, None) if warm is not None else (None,)):
-        value, w, x, nu, status, it = lmi.lmi_interior_point(0.5 * (b0 + b0.T), bmat, rows, rhs, problem.count,
-                                                             cuts=cuts.dots[:, idx], cut_rhs=cuts.q0_dots, tol=tol,
-                                                             max_iter=SDP_MAX_ITER, start=begin)
+        value, w, x, nu, status, it, mult = lmi.lmi_interior_point(
+            0.5 * (b0 + b0.T), bmat, rows, rhs, problem.count, cuts=cuts.dots[:, idx], cut_rhs=cuts.q0_dots, tol=tol,
+            max_iter=SDP_MAX_ITER, start=begin)
         steps += it
         if status == "optimal":
             break
-    if status == "optimal":
-        return value, np.clip(w, 0.0, 1.0), x, abs(nu), time.perf_counter() - start, "interior-point", steps
-    if w is not None and np.all(np.isfinite(w)) and np.all(np.isfinite(x)):
-        return value, np.clip(w, 0.0, 1.0), x, abs(nu), time.perf_counter() - start, "inexact", steps
+    if status == "optimal" or w is not None and np.all(np.isfinite(w)) and np.all(np.isfinite(x)):
+        return (value, np.clip(w, 0.0, 1.0), x, abs(nu), _price(problem, kept, mult), time.perf_counter() - start,
+                "interior-point" if status == "optimal" else "inexact", steps)
     if m * (k + 1) ** 2 > CLARABEL_MAX_ENTRIES:
         raise SolverError(f"The E relaxation's small SDP ({m} candidates, basis {k}) failed; try --solver cvxpy "
                           f"on a coarser candidate grid.")
-    value, w, x, nu = _small_e_sdp_clarabel(b0, bmat, rows, rhs, problem.count, (cuts.dots[:, idx], cuts.q0_dots),
-                                            tol=tol)
-    return value, w, x, nu, time.perf_counter() - start, "clarabel", steps
+    value, w, x, nu, mult = _small_e_sdp_clarabel(b0, bmat, rows, rhs, problem.count,
+                                                  (cuts.dots[:, idx], cuts.q0_dots), tol=tol)
+    return value, w, x, nu, _price(problem, kept, mult), time.perf_counter() - start, "clarabel", steps
+
+
+def _price(problem, kept, mult):
+    """sum_r mult_r a_ri over the side rows ``kept`` (indices into the problem's rows) for every candidate."""
+    if not kept.size or mult is None or not np.all(np.isfinite(mult)):
+        return np.zeros(problem.n_candidates)
+    return np.clip(mult, 0.0, None) @ problem.inequalities[0][kept]
 
 
 def _side_rows(problem, idx):
-    """The side constraints restricted to the candidates ``idx`` (rows that do not involve them dropped)."""
+    """The side constraints restricted to the candidates ``idx`` (rows that do not involve them dropped), and
+    the kept rows' indices."""
     a_ub, b_ub = problem.inequalities
     if not a_ub.shape[0]:
-        return np.zeros((0, idx.size)), np.zeros(0)
+        return np.zeros((0, idx.size)), np.zeros(0), np.zeros(0, dtype=int)
     rows = a_ub[:, idx]
     keep = np.any(rows != 0, axis=1)
     if np.any(~keep & (b_ub < 0)):
         raise SolverError("The working set cannot satisfy the span minimum counts.")
-    return rows[keep], b_ub[keep]
+    return rows[keep], b_ub[keep], np.flatnonzero(keep)
 
 
 def _small_e_sdp_clarabel(b0, bmat, rows, rhs, count, cuts, *, tol):
-    """The small SDP by cvxpy + Clarabel: (value, w, blockdiag(X, the cuts' multipliers), nu)."""
+    """The small SDP by cvxpy + Clarabel: (value, w, blockdiag(X, the cuts' multipliers), nu, the rows'
+    multipliers)."""
     import cvxpy as cp
 
     m, k, _ = bmat.shape
@@ -304,8 +316,9 @@ def _small_e_sdp_clarabel(b0, bmat, rows, rhs, count, cuts, *, tol):
     lmi_constraint = 0.5 * (mat + mat.T) - t * np.eye(k) >> 0
     count_eq = cp.sum(w) == count
     constraints = [w >= 0, w <= 1, count_eq, lmi_constraint]
-    if rows.shape[0]:
-        constraints.append(rows @ w <= rhs)
+    row_constraint = rows @ w <= rhs if rows.shape[0] else None
+    if row_constraint is not None:
+        constraints.append(row_constraint)
     n = cuts[0].shape[0]
     if n:
         cut_constraint = t - cuts[0] @ w <= cuts[1]
@@ -317,4 +330,5 @@ def _small_e_sdp_clarabel(b0, bmat, rows, rhs, count, cuts, *, tol):
     if n:
         x[np.arange(k, k + n), np.arange(k, k + n)] = np.clip(cut_constraint.dual_value, 0.0, None)
     nu = abs(float(count_eq.dual_value)) if count_eq.dual_value is not None else 0.0
-    return float(prob.value), np.clip(w.value, 0.0, 1.0), x, nu
+    mult = None if row_constraint is None else np.atleast_1d(row_constraint.dual_value)
+    return float(prob.value), np.clip(w.value, 0.0, 1.0), x, nu, mult

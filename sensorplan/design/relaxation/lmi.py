@@ -265,9 +265,11 @@ def lmi_interior_point(b0, bmat, rows, rhs, count, *, cuts=None, cut_rhs=None, t
 
     The cuts are the LMI's 1 x 1 diagonal blocks written as linear rows (a
     rank-one direction u of the caller's certificate: t <= u^T Q(w) u).
-    Returns (t, w, X, nu, status, iterations), X the multiplier of the
-    block-diagonal LMI (the k x k block, then the cuts' multipliers on the
-    diagonal; trace one), nu the multiplier of sum w = count.  ``status``
+    Returns (t, w, X, nu, status, iterations, row multipliers), X the
+    multiplier of the block-diagonal LMI (the k x k block, then the cuts'
+    multipliers on the diagonal; trace one), nu the multiplier of sum w =
+    count, the row multipliers those of ``rows`` (>= 0): at the optimum
+    <X, B_i> = nu + sum_r mult_r rows_ri for 0 < w_i < 1.  ``status``
     is "optimal" when the relative gap, the dual residuals and the sum
     constraint are within ``tol`` and the primal residual (the multiplier
     equations, which only affect the quality of X as a certificate, checked
@@ -290,7 +292,7 @@ def lmi_interior_point(b0, bmat, rows, rhs, count, *, cuts=None, cut_rhs=None, t
     for it in range(1, max_iter + 1):
         res = lmi.residuals(p)
         if lmi.converged(res, p, tol):
-            best = (float(p.y[m]), p.y[:m].copy(), lmi.full_multiplier(p), float(p.nu))
+            best = (float(p.y[m]), p.y[:m].copy(), lmi.full_multiplier(p), float(p.nu), p.lam[:rows.shape[0]].copy())
             extra += 1  # a few more steps to tighten the primal residual
             if extra > EXTRA_STEPS or res.gap <= 0.1 * tol * res.scale and np.linalg.norm(res.r_p) <= tol:
                 break
@@ -301,5 +303,5 @@ def lmi_interior_point(b0, bmat, rows, rhs, count, *, cuts=None, cut_rhs=None, t
         p = newton.predictor_corrector()
     if best is None:
         status = "max iterations" if it == max_iter else "numerical problems"
-        return float(p.y[m]), p.y[:m], lmi.full_multiplier(p), float(p.nu), status, it
-    return (*best, "optimal", it)
+        return float(p.y[m]), p.y[:m], lmi.full_multiplier(p), float(p.nu), status, it, p.lam[:rows.shape[0]]
+    return (*best[:4], "optimal", it, best[4])
