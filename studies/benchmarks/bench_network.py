@@ -49,7 +49,23 @@ timeout of ``TIMEOUT_S``; a child that times out or fails is reported as such.
 
 Last run
 --------
-Target rows, 2026-11-28 21:01-21:04 UTC, this tree (session 22: E's
+Target rows, 2026-11-29 02:37-02:40 UTC, this tree (session 24: the small
+SDPs' Schur complement by triangular products, E's side rows priced; D, A
+and mixed as before), one BLAS thread, load average 1.0-1.2 (nothing else
+running)::
+
+    configuration                  build    base  greedy   relax    best   curve    total       gap    eff   peak    est   est_s
+    D N=400 C=3000 R=20              1.1     1.7     3.6     6.2    20.4     1.4     34.5   1.6e-08  0.989   1.13   2.22      59
+    A N=400 C=3000 R=20              0.5     2.0     6.2     7.5    23.3     2.0     41.5   1.9e-10  0.928   1.09   2.22      59
+    E N=400 C=3000 R=20              0.5     2.0     3.4     8.3    14.4     1.9     30.5   5.0e-07  0.897   1.31   2.22      59
+    mixed D N=400 C=3000 R=20        0.7     3.5     5.4     5.7    29.2     3.4     47.9   2.2e-08  0.989   1.14   2.34      62
+
+E 34.2 s before the triangular products (relaxation 8.9 s, both measured
+the same day; 11.0-12.9 s in the runs below), the same efficiency.  On the
+six-span viaduct with stiff end springs of docs/limitations.md E took
+71.2 s (relaxation 44.7 s; 86.0 and 60.6 s before).
+
+Before: target rows, 2026-11-28 21:01-21:04 UTC (session 22: E's
 relaxation to a gap of 1e-6 with every small SDP warm-started; exchange
 takes E's swaps only when they gain more than 1e-6 of lambda_min; the
 polish's local moves in two levels, every 5th of the 20 neighbours on each
