@@ -188,9 +188,10 @@ class ACriterion(Criterion):
         y = scipy.linalg.solve_triangular(chol, basis, lower=True, trans="T", check_finite=False)  # L^-T U
         q_inv = factor_inverse(chol)
         if self.all_parameters:  # C^T C = I
-            my, n = y, q_inv
+            my, n, trace = y, q_inv, np.trace(q_inv)
         else:
-            my, n = self._gram @ y, q_inv @ self.targets.T
+            n = q_inv @ self.targets.T
+            my, trace = self._gram @ y, np.einsum("ij,ji->", self.targets, n)  # tr(C Q^-1 C^T)
         both = problem.congruence(np.hstack([q_inv @ my, y]), index)
         cross, small = both[:, :k, k:], both[:, k:, k:]  # U^T H B_i U and C_i
         s = y.T @ my
@@ -199,7 +200,6 @@ class ACriterion(Criterion):
         linear = problem.block_dot(n @ n.T, index)  # tr H B_i (Q^-1 C^T C Q^-1, a symmetric product)
         tangent = (np.trace(ds, axis1=1, axis2=2) - 2.0 * np.einsum("cij,cji->c", d, cross)
                    - np.einsum("ij,cji->c", s, small) + 2.0 * np.einsum("cij,cji->c", ds, small))
-        trace = np.trace(q_inv) if self.all_parameters else np.einsum("ij,ji->", self.targets, n)  # tr(C Q^-1 C^T)
         return -float(trace) + linear + tangent
 
     @cached_property

@@ -286,9 +286,11 @@ def _small_e_sdp(problem, idx, basis, agg, cuts, *, tol, warm=None):
 
 def _price(problem, kept, mult):
     """sum_r mult_r a_ri over the side rows ``kept`` (indices into the problem's rows) for every candidate."""
-    if not kept.size or mult is None or not np.all(np.isfinite(mult)):
-        return np.zeros(problem.n_candidates)
-    return np.clip(mult, 0.0, None) @ problem.inequalities[0][kept]
+    a_ub = problem.inequalities[0]
+    full = np.zeros(a_ub.shape[0])
+    if kept.size and mult is not None and np.all(np.isfinite(mult)):
+        full[kept] = np.clip(mult, 0.0, None)
+    return full @ a_ub  # (the rows without a member have no multiplier; no copy of the kept rows)
 
 
 def _side_rows(problem, idx):
